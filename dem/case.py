@@ -1,0 +1,316 @@
+"""Case files: the validated description of one simulation.
+
+Units: SI everywhere (m, kg, s, N, Pa), except angles, which are in degrees (as in
+``../shared/DESIGN.md``).  The base is the table plane z = 0 with z up; positions are in the
+table's frame.  Unknown keys are rejected everywhere.
+
+The minimal schema of DESIGN.md is accepted exactly as written there::
+
+    name: block-on-tilt
+    scene:
+      blocks:
+        - {size: [0.2, 0.2, 0.1], position: [0.0, 0.0, 0.05], mass: 4.0}
+    material: {friction: 0.5}
+    loading: {type: tilt, axis: x, rate: 2.0, max_angle: 40.0}
+    run: {duration: 25.0, output_interval: 0.01}
+
+Loading functions (gravity and base acceleration versus time) live in :mod:`dem.loading`.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Annotated, Literal, Union
+
+import yaml
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    field_validator,
+    model_validator,
+)
+
+Vec3 = Annotated[list[float], Field(min_length=3, max_length=3)]
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", validate_assignment=True)
+
+
+# --------------------------------------------------------------------------------------------
+# scene
+# --------------------------------------------------------------------------------------------
+class BlockSpec(_Strict):
+    """One rigid box given explicitly."""
+
+    size: Vec3 = Field(description="full edge lengths [lx, ly, lz] in the block's own axes, m")
+    position: Vec3 = Field(description="centre [x, y, z] in the table frame, m")
+    rotation: Vec3 = Field(
+        default=[0.0, 0.0, 0.0],
+        description="XYZ Euler angles, degrees (intrinsic x, then y, then z: R = Rx Ry Rz)",
+    )
+    mass: float | None = Field(default=None, description="kg (give mass or density)")
+    density: float | None = Field(default=None, description="kg/m3 (give mass or density)")
+    velocity: Vec3 = Field(default=[0.0, 0.0, 0.0], description="initial velocity, m/s")
+    angular_velocity: Vec3 = Field(
+        default=[0.0, 0.0, 0.0], description="initial angular velocity (table frame), rad/s"
+    )
+    fixed: bool = Field(default=False, description="a fixed support box (does not move)")
+    group: str = Field(default="blocks", description="label used in the output (wall, roof ...)")
+
+    @field_validator("size")
+    @classmethod
+    def _positive_size(cls, v: list[float]) -> list[float]:
+        if any(not (x > 0) or not math.isfinite(x) for x in v):
+            raise ValueError(f"every edge length must be > 0 m, got {v}")
+        return v
+
+    @field_validator("position", "rotation", "velocity", "angular_velocity")
+    @classmethod
+    def _finite(cls, v: list[float]) -> list[float]:
+        if any(not math.isfinite(x) for x in v):
+            raise ValueError(f"must be finite, got {v}")
+        return v
+
+    @model_validator(mode="after")
+    def _mass_or_density(self) -> "BlockSpec":
+        if (self.mass is None) == (self.density is None):
+            raise ValueError("give exactly one of mass (kg) or density (kg/m3)")
+        value = self.mass if self.mass is not None else self.density
+        if not (value > 0) or not math.isfinite(value):
+            which = "mass" if self.mass is not None else "density"
+            raise ValueError(f"{which} must be > 0, got {value}")
+        return self
+
+    def block_mass(self) -> float:
+        if self.mass is not None:
+            return float(self.mass)
+        return float(self.density) * self.size[0] * self.size[1] * self.size[2]
+
+
+class SceneSpec(_Strict):
+    """The blocks of a scene.  Explicit blocks come first in every output array."""
+
+    blocks: list[BlockSpec] = Field(default_factory=list)
+
+    @model_validator(mode="after")
+    def _not_empty(self) -> "SceneSpec":
+        if not self.blocks:
+            raise ValueError("the scene has no blocks")
+        return self
+
+
+# --------------------------------------------------------------------------------------------
+# material
+# --------------------------------------------------------------------------------------------
+class Material(_Strict):
+    """Joint properties, given the way masonry engineers give them (3DEC style).
+
+    Joint stiffness is per unit area of joint (Pa/m = N/m^3): a contact patch of area A closed by
+    a gap d pushes back with kn * A * d.  It is converted to point springs by tributary area
+    (see ``dem.engine.laws``).
+    """
+
+    friction: float = Field(ge=0.0, description="Coulomb friction coefficient mu, -")
+    normal_stiffness: float = Field(default=5.0e9, gt=0.0, description="kn, Pa/m")
+    shear_stiffness: float | None = Field(
+        default=None, gt=0.0, description="ks, Pa/m (default 0.4 kn)"
+    )
+    damping: float = Field(
+        default=0.1, ge=0.0, lt=1.0, description="viscous contact damping, fraction of critical"
+    )
+    base_friction: float | None = Field(
+        default=None, ge=0.0, description="friction against the table (default: friction)"
+    )
+
+    @property
+    def ks(self) -> float:
+        return self.shear_stiffness if self.shear_stiffness is not None else 0.4 * self.normal_stiffness
+
+    @property
+    def mu_base(self) -> float:
+        return self.base_friction if self.base_friction is not None else self.friction
+
+
+# --------------------------------------------------------------------------------------------
+# loading
+# --------------------------------------------------------------------------------------------
+class TiltLoading(_Strict):
+    """The table turns about a horizontal axis at a constant rate (pseudo-static collapse).
+
+    Modelled in the table's frame: gravity turns, the table stays.  With the right-hand rule about
+    ``axis`` a positive angle theta gives gravity g_t = -g cos(theta) z + g sin(theta) (axis x z),
+    so about +x blocks are pushed towards -y, about +y towards +x.  Fictitious forces of the
+    rotation (of order rate^2 * size) are neglected.
+    """
+
+    type: Literal["tilt"]
+    axis: Union[Literal["x", "y", "-x", "-y"], Vec3] = Field(
+        description="table rotation axis (horizontal): x, y, -x, -y or a vector"
+    )
+    rate: float = Field(gt=0.0, description="tilt rate, degrees per second")
+    max_angle: float = Field(default=60.0, gt=0.0, le=90.0, description="degrees")
+    start_angle: float = Field(default=0.0, ge=0.0, le=90.0, description="degrees at t = 0")
+
+    @field_validator("axis")
+    @classmethod
+    def _horizontal(cls, v):
+        if isinstance(v, list):
+            if abs(v[2]) > 1e-12 or math.hypot(v[0], v[1]) == 0.0:
+                raise ValueError(f"axis must be a non-zero horizontal vector, got {v}")
+        return v
+
+    @model_validator(mode="after")
+    def _start_below_max(self) -> "TiltLoading":
+        if self.start_angle > self.max_angle:
+            raise ValueError("start_angle must not exceed max_angle")
+        return self
+
+
+class ShakeLoading(_Strict):
+    """Sinusoidal table displacement u(t) = A * direction * sin(2 pi f t) for ``cycles`` cycles.
+
+    ``direction`` is used as given (not normalised): [1, 1, 0] moves x and y each by the amplitude
+    (the thesis' diagonal tests).  Give the amplitude A (m) or the peak acceleration
+    a_p = A (2 pi f)^2 (m/s2).  After the last cycle the table acceleration is zero.
+    """
+
+    type: Literal["shake"]
+    direction: Vec3 = Field(description="displacement direction, multiplied by the amplitude")
+    frequency: float = Field(gt=0.0, description="Hz")
+    amplitude: float | None = Field(default=None, gt=0.0, description="displacement amplitude, m")
+    peak_acceleration: float | None = Field(default=None, gt=0.0, description="m/s2")
+    cycles: float = Field(default=50.0, gt=0.0, description="number of cycles")
+
+    @field_validator("direction")
+    @classmethod
+    def _nonzero(cls, v):
+        if math.sqrt(sum(x * x for x in v)) == 0.0 or any(not math.isfinite(x) for x in v):
+            raise ValueError(f"direction must be a finite non-zero vector, got {v}")
+        return v
+
+    @model_validator(mode="after")
+    def _one_of(self) -> "ShakeLoading":
+        if (self.amplitude is None) == (self.peak_acceleration is None):
+            raise ValueError("give exactly one of amplitude (m) or peak_acceleration (m/s2)")
+        return self
+
+    @property
+    def displacement_amplitude(self) -> float:
+        if self.amplitude is not None:
+            return self.amplitude
+        return self.peak_acceleration / (2.0 * math.pi * self.frequency) ** 2
+
+
+class NoLoading(_Strict):
+    """Free motion from the initial state under gravity (e.g. a block released tilted)."""
+
+    type: Literal["none"]
+
+
+Loading = Annotated[Union[TiltLoading, ShakeLoading, NoLoading], Field(discriminator="type")]
+
+
+# --------------------------------------------------------------------------------------------
+# run and solver
+# --------------------------------------------------------------------------------------------
+class RunSpec(_Strict):
+    duration: float = Field(gt=0.0, description="simulated time, s")
+    output_interval: float = Field(default=0.01, gt=0.0, description="time between frames, s")
+
+
+class SolverSpec(_Strict):
+    """Numerical knobs.  Every default is justified by a measurement in benchmarks/RESULTS.md."""
+
+    dt: float | None = Field(default=None, gt=0.0, description="time step, s (default: automatic)")
+    safety: float = Field(
+        default=0.2, gt=0.0, le=1.0, description="automatic dt = safety * critical dt"
+    )
+    skin: float | None = Field(
+        default=None, gt=0.0, description="neighbour-list skin, m (default 0.05 * smallest block edge)"
+    )
+    max_pairs_per_block: int = Field(
+        default=16, ge=2, description="neighbour-list capacity per block (overflow stops the run)"
+    )
+    overlap_tolerance: float = Field(
+        default=1e-4, gt=0.0, description="largest initial overlap accepted, m"
+    )
+    max_speed: float = Field(
+        default=50.0, gt=0.0, description="a block faster than this stops the run (runaway), m/s"
+    )
+    local_damping: float = Field(
+        default=0.0, ge=0.0, lt=1.0, description="Cundall local (non-viscous) damping, -"
+    )
+    mode: Literal["auto", "serial", "parallel"] = Field(
+        default="auto", description="serial multi-step kernel or one parallel kernel per step"
+    )
+    threads: int | None = Field(default=None, ge=1, description="CPU threads (default: all)")
+
+
+class Case(_Strict):
+    name: str = Field(min_length=1)
+    description: str = ""
+    scene: SceneSpec
+    material: Material
+    loading: Loading = Field(default_factory=lambda: NoLoading(type="none"))
+    run: RunSpec
+    solver: SolverSpec = Field(default_factory=SolverSpec)
+    gravity: Union[float, Vec3] = Field(
+        default=9.81,
+        description="m/s2: a magnitude (pointing -z) or a vector in the table frame",
+    )
+
+    @field_validator("gravity")
+    @classmethod
+    def _gravity(cls, v):
+        if isinstance(v, (int, float)):
+            if v < 0 or not math.isfinite(v):
+                raise ValueError(f"gravity magnitude must be >= 0, got {v}")
+        return v
+
+    def gravity_vector(self) -> list[float]:
+        if isinstance(self.gravity, (int, float)):
+            return [0.0, 0.0, -float(self.gravity)]
+        return [float(x) for x in self.gravity]
+
+
+# --------------------------------------------------------------------------------------------
+# loading from files, with errors that name the field
+# --------------------------------------------------------------------------------------------
+class CaseError(Exception):
+    """A case that cannot be used; the message names the bad field(s)."""
+
+
+def format_validation_error(err: ValidationError) -> str:
+    lines = []
+    for e in err.errors():
+        loc = ".".join(str(p) for p in e["loc"] if not str(p).startswith("function-after"))
+        # drop the discriminator tag pydantic inserts for tagged unions (e.g. loading.shake.x)
+        msg = e["msg"].removeprefix("Value error, ")
+        lines.append(f"{loc or '<case>'}: {msg}")
+    return "\n".join(lines)
+
+
+def parse_case(data: dict) -> Case:
+    try:
+        return Case.model_validate(data)
+    except ValidationError as err:
+        raise CaseError(format_validation_error(err)) from None
+
+
+def load_case(path: str | Path) -> Case:
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as err:
+        raise CaseError(f"{path}: cannot read: {err.strerror}") from None
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as err:
+        raise CaseError(f"{path}: not valid YAML: {err}") from None
+    if not isinstance(data, dict):
+        raise CaseError(f"{path}: the case must be a YAML mapping, got {type(data).__name__}")
+    return parse_case(data)

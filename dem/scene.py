@@ -1,0 +1,133 @@
+"""Scene: the blocks of a simulation as plain numpy arrays (what builders produce).
+
+A Scene is the hand-over point between case files / builders and the engine.  All arrays have
+length N (blocks, in case order: explicit blocks first, then builder blocks).
+
+| field            | shape  | unit   | meaning                                               |
+|------------------|--------|--------|-------------------------------------------------------|
+| size             | [N,3]  | m      | full edge lengths along the block's own axes           |
+| position         | [N,3]  | m      | centre, table frame                                   |
+| quat             | [N,4]  | -      | orientation, unit quaternion (w, x, y, z), body->table |
+| mass             | [N]    | kg     |                                                       |
+| fixed            | [N]    | bool   | support boxes that never move                          |
+| velocity         | [N,3]  | m/s    | initial                                               |
+| angular_velocity | [N,3]  | rad/s  | initial, table frame                                  |
+| group            | [N]    | int    | index into ``group_names``                             |
+| course           | [N]    | int    | course (row) index, -1 where it does not apply         |
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from dem.case import Case
+
+
+@dataclass
+class Scene:
+    size: np.ndarray
+    position: np.ndarray
+    quat: np.ndarray
+    mass: np.ndarray
+    fixed: np.ndarray
+    velocity: np.ndarray
+    angular_velocity: np.ndarray
+    group: np.ndarray
+    course: np.ndarray
+    group_names: list[str] = field(default_factory=lambda: ["blocks"])
+
+    def __post_init__(self) -> None:
+        n = len(self.size)
+        for name in ("position", "velocity", "angular_velocity"):
+            arr = np.asarray(getattr(self, name), dtype=np.float64).reshape(n, 3)
+            setattr(self, name, arr)
+        self.size = np.asarray(self.size, dtype=np.float64).reshape(n, 3)
+        self.quat = np.asarray(self.quat, dtype=np.float64).reshape(n, 4)
+        self.quat /= np.linalg.norm(self.quat, axis=1, keepdims=True)
+        self.mass = np.asarray(self.mass, dtype=np.float64).reshape(n)
+        self.fixed = np.asarray(self.fixed, dtype=bool).reshape(n)
+        self.group = np.asarray(self.group, dtype=np.int32).reshape(n)
+        self.course = np.asarray(self.course, dtype=np.int32).reshape(n)
+        bad = np.flatnonzero(~(self.size > 0).all(axis=1))
+        if bad.size:
+            raise ValueError(f"block {bad[0]}: every edge length must be > 0, got {self.size[bad[0]]}")
+        bad = np.flatnonzero(~(self.mass > 0) & ~self.fixed)
+        if bad.size:
+            raise ValueError(f"block {bad[0]}: mass must be > 0, got {self.mass[bad[0]]}")
+
+    @property
+    def n_blocks(self) -> int:
+        return len(self.size)
+
+    def inertia(self) -> np.ndarray:
+        """Principal moments of inertia of solid boxes [N,3], kg m^2: m (b^2 + c^2) / 12."""
+        s2 = self.size**2
+        return self.mass[:, None] / 12.0 * np.stack(
+            [s2[:, 1] + s2[:, 2], s2[:, 0] + s2[:, 2], s2[:, 0] + s2[:, 1]], axis=1
+        )
+
+    def rotation_matrices(self) -> np.ndarray:
+        """Body-to-table rotation matrices [N,3,3]."""
+        q = self.quat
+        return Rotation.from_quat(np.column_stack([q[:, 1:], q[:, :1]])).as_matrix()
+
+    def bounding_box(self) -> tuple[np.ndarray, np.ndarray]:
+        """Axis-aligned bounds (lo, hi) of all blocks, m."""
+        corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
+        r = self.rotation_matrices()
+        pts = self.position[:, None, :] + np.einsum(
+            "nij,kj->nki", r, corners[None, :, :] * 0.5 * self.size[:, None, :]
+        )
+        return pts.reshape(-1, 3).min(axis=0), pts.reshape(-1, 3).max(axis=0)
+
+    @staticmethod
+    def concatenate(scenes: list["Scene"]) -> "Scene":
+        names: list[str] = []
+        groups = []
+        for s in scenes:
+            remap = []
+            for g in s.group_names:
+                if g not in names:
+                    names.append(g)
+                remap.append(names.index(g))
+            groups.append(np.asarray(remap, dtype=np.int32)[s.group])
+        cat = lambda attr: np.concatenate([getattr(s, attr) for s in scenes])  # noqa: E731
+        return Scene(
+            size=cat("size"), position=cat("position"), quat=cat("quat"), mass=cat("mass"),
+            fixed=cat("fixed"), velocity=cat("velocity"), angular_velocity=cat("angular_velocity"),
+            group=np.concatenate(groups), course=cat("course"), group_names=names,
+        )
+
+
+def euler_xyz_to_quat(angles_deg) -> np.ndarray:
+    """Intrinsic XYZ Euler angles (degrees) -> quaternions (w, x, y, z)."""
+    q = Rotation.from_euler("XYZ", np.atleast_2d(angles_deg), degrees=True).as_quat()
+    return np.column_stack([q[:, 3], q[:, :3]])
+
+
+def blocks_to_scene(blocks) -> Scene:
+    """Scene from a list of :class:`dem.case.BlockSpec`."""
+    names: list[str] = []
+    for b in blocks:
+        if b.group not in names:
+            names.append(b.group)
+    return Scene(
+        size=np.array([b.size for b in blocks], dtype=np.float64),
+        position=np.array([b.position for b in blocks], dtype=np.float64),
+        quat=euler_xyz_to_quat([b.rotation for b in blocks]),
+        mass=np.array([b.block_mass() for b in blocks]),
+        fixed=np.array([b.fixed for b in blocks]),
+        velocity=np.array([b.velocity for b in blocks], dtype=np.float64),
+        angular_velocity=np.array([b.angular_velocity for b in blocks], dtype=np.float64),
+        group=np.array([names.index(b.group) for b in blocks]),
+        course=np.full(len(blocks), -1),
+        group_names=names,
+    )
+
+
+def scene_from_case(case: Case) -> Scene:
+    """Build the scene of a case: explicit blocks first, then builder blocks."""
+    return blocks_to_scene(case.scene.blocks)

@@ -1,0 +1,55 @@
+"""The one place where Taichi is initialised.
+
+Every module that needs Taichi calls :func:`init` (idempotent) before allocating arrays or calling
+kernels.  Defaults: CPU, ``default_fp=ti.f64``, offline cache on (Taichi's default), all cores.
+The first call decides the settings for the whole process; a later call that asks for different
+settings raises instead of silently keeping the old ones.
+"""
+
+from __future__ import annotations
+
+import os
+
+import taichi as ti
+
+_settings: dict | None = None
+
+
+def init(threads: int | None = None, precision: str = "f64", debug: bool = False) -> dict:
+    """Initialise Taichi once per process.
+
+    threads   : CPU threads for parallel loops (None: the ``DEM_THREADS`` environment variable,
+                else all cores).
+    precision : "f64" (default) or "f32", used as ``default_fp``.
+    """
+    global _settings
+    if threads is None and os.environ.get("DEM_THREADS"):
+        threads = int(os.environ["DEM_THREADS"])
+    wanted = {"threads": threads, "precision": precision, "debug": debug}
+    if _settings is not None:
+        for key, value in wanted.items():
+            if key == "threads" and value is None:
+                continue
+            if _settings[key] != value:
+                raise RuntimeError(
+                    f"Taichi is already initialised with {key}={_settings[key]!r}; "
+                    f"cannot switch to {value!r} in the same process"
+                )
+        return _settings
+    kwargs = dict(
+        arch=ti.cpu,
+        default_fp=ti.f64 if precision == "f64" else ti.f32,
+        default_ip=ti.i32,
+        debug=debug,
+        log_level=ti.WARN,
+    )
+    if threads is not None:
+        kwargs["cpu_max_num_threads"] = int(threads)
+    ti.init(**kwargs)
+    _settings = wanted
+    return _settings
+
+
+def settings() -> dict | None:
+    """The settings of the current Taichi runtime, or None before :func:`init`."""
+    return _settings
