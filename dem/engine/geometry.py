@@ -1,0 +1,366 @@
+"""Box-box contact geometry (pure ``@ti.func``): one normal per pair, several points per patch.
+
+Why this design (see ../shared/DESIGN.md, "Contact geometry: what goes wrong with bricks"):
+
+1. **One normal per block pair** from the separating-axis test over the 15 axes of two boxes
+   (3 + 3 face normals, 9 edge-edge cross products).  The axis of least overlap is the contact
+   normal.  The choice is *sticky*: the axis used at the previous step is kept unless another is
+   better by ``margin`` (1e-3 of the smallest half extent of the pair), because flipping between
+   nearly equal faces of flush bricks measures the gap from a slightly different plane and jumps.
+   Face axes are preferred over edge axes by the same margin.
+
+2. **Face contact: a clipped polygon, continuous in the poses.**  The incident face (the face of
+   the other box most anti-parallel to the normal) is projected on the reference face plane and
+   clipped (Sutherland-Hodgman, in 2-D) against the reference face rectangle and against the
+   half-plane where the incident face is below the reference plane (gap d(x, y) >= 0; d is affine
+   on the plane).  The polygon's vertices move continuously as the blocks move, and every vertex
+   on the clip line d = 0 carries zero force, so forces never switch on or off abruptly.
+
+3. **Points and weights: a quadrature of the pressure kn * d(x, y) over the polygon.**  Each
+   polygon vertex p_k gets a tributary area w_k (median-dual: half of the two centroid-fan
+   triangles next to it; sum w_k = polygon area A).  The points are pulled towards the area
+   centroid c, p'_k = c + s (p_k - c), with s chosen so that sum w_k |p'_k - c|^2 equals the
+   polygon's polar second moment of area J.  For rectangles and triangles (all flush brick
+   joints, rocking strips) this is exact: force, centroid and second moments of the linear
+   pressure are reproduced, so the joint's rotational (rocking) and torsional stiffness are
+   kn * I and ks * J exactly; plain corner points would overestimate the rocking stiffness 3x.
+
+4. **Edge-edge contact** (skewed blocks, when an edge-cross axis has the least overlap): one
+   point midway between the closest points of the two edges, with weight ``edge_area``
+   (see ``dem.engine.model``), depth = overlap along the axis.
+
+Conventions: the normal ``n`` points from block A to block B; ``depth`` > 0 is penetration (m);
+weights are areas (m^2).  Codes: 0-2 face k of A, 3-5 face k of B, 6-14 edge pair
+(k, m) = divmod(code - 6, 3) of A's axis k and B's axis m, -1 no contact.
+"""
+
+import taichi as ti
+
+from dem.engine.mathutil import col, vec3
+
+MAXP = 9  # face polygon: 4 corners, clipped by 4 sides (<= 8) then by d >= 0 (<= 9)
+VP = ti.types.vector(MAXP + 1, ti.f64)  # one spare slot for the clipping passes
+
+NO_CONTACT = -1
+
+
+@ti.func
+def sat_overlaps(pA, RA, hA, pB, RB, hB):
+    """Overlap (m) of the projections of boxes A and B on each of the 15 candidate axes.
+
+    Returns a 15-vector; entries of degenerate edge axes (parallel edges) are +inf-like (1e30).
+    Negative overlap on any axis means the boxes are separated.
+    """
+    ov = ti.Vector([0.0] * 15, dt=ti.f64)
+    d = pB - pA
+    C = RA.transpose() @ RB  # C[k, m] = a_k . b_m
+    absC = ti.abs(C) + 1e-14
+    for k in ti.static(range(3)):
+        ra = hA[k]
+        rb = hB[0] * absC[k, 0] + hB[1] * absC[k, 1] + hB[2] * absC[k, 2]
+        ov[k] = ra + rb - ti.abs(d.dot(col(RA, k)))
+    for m in ti.static(range(3)):
+        ra = hA[0] * absC[0, m] + hA[1] * absC[1, m] + hA[2] * absC[2, m]
+        rb = hB[m]
+        ov[3 + m] = ra + rb - ti.abs(d.dot(col(RB, m)))
+    for k in ti.static(range(3)):
+        for m in ti.static(range(3)):
+            L = col(RA, k).cross(col(RB, m))
+            l2 = L.norm_sqr()
+            if l2 < 1e-6:
+                ov[6 + 3 * k + m] = 1e30
+            else:
+                L = L / ti.sqrt(l2)
+                ra = (
+                    hA[0] * ti.abs(col(RA, 0).dot(L))
+                    + hA[1] * ti.abs(col(RA, 1).dot(L))
+                    + hA[2] * ti.abs(col(RA, 2).dot(L))
+                )
+                rb = (
+                    hB[0] * ti.abs(col(RB, 0).dot(L))
+                    + hB[1] * ti.abs(col(RB, 1).dot(L))
+                    + hB[2] * ti.abs(col(RB, 2).dot(L))
+                )
+                ov[6 + 3 * k + m] = ra + rb - ti.abs(d.dot(L))
+    return ov
+
+
+@ti.func
+def choose_axis(ov, prev_code, margin):
+    """Sticky least-overlap axis.  Returns (code, overlap) or (NO_CONTACT, min overlap)."""
+    best_face = 0
+    for a in ti.static(range(1, 6)):
+        if ov[a] < ov[best_face]:
+            best_face = a
+    best_edge = 6
+    for a in ti.static(range(7, 15)):
+        if ov[a] < ov[best_edge]:
+            best_edge = a
+    best = best_face
+    if ov[best_edge] + margin < ov[best_face]:
+        best = best_edge
+    smallest = ti.min(ov[best_face], ov[best_edge])
+    code = NO_CONTACT
+    if smallest >= 0.0:
+        code = best
+        if prev_code >= 0:
+            if ov[prev_code] <= ov[best] + margin:
+                code = prev_code
+    return code, smallest
+
+
+@ti.func
+def clip_halfplane(xs, ys, n, ax, ay, off):
+    """Keep the part of a convex polygon (xs, ys, n vertices) where ax*x + ay*y <= off."""
+    ox = VP(0.0)
+    oy = VP(0.0)
+    m = 0
+    if n > 0:
+        px = xs[n - 1]
+        py = ys[n - 1]
+        fp = ax * px + ay * py - off
+        for k in range(n):
+            cx = xs[k]
+            cy = ys[k]
+            fc = ax * cx + ay * cy - off
+            if fc <= 0.0:
+                if fp > 0.0 and m < MAXP + 1:
+                    t = fp / (fp - fc)
+                    ox[m] = px + t * (cx - px)
+                    oy[m] = py + t * (cy - py)
+                    m += 1
+                if m < MAXP + 1:
+                    ox[m] = cx
+                    oy[m] = cy
+                    m += 1
+            elif fp <= 0.0 and m < MAXP + 1:
+                t = fp / (fp - fc)
+                ox[m] = px + t * (cx - px)
+                oy[m] = py + t * (cy - py)
+                m += 1
+            px = cx
+            py = cy
+            fp = fc
+    return ox, oy, m
+
+
+@ti.func
+def polygon_quadrature(xs, ys, n):
+    """Quadrature points (x', y') and weights (m^2) of a convex polygon, see module docstring.
+
+    Returns (qx, qy, w, area).  Exact for linear pressure on rectangles and triangles.
+    """
+    qx = VP(0.0)
+    qy = VP(0.0)
+    w = VP(0.0)
+    area = 0.0
+    if n >= 3:
+        # work relative to the vertex mean to limit cancellation
+        mx = 0.0
+        my = 0.0
+        for k in range(n):
+            mx += xs[k]
+            my += ys[k]
+        mx /= n
+        my /= n
+        a2 = 0.0  # twice the signed area
+        cx = 0.0
+        cy = 0.0
+        j0 = 0.0  # polar second moment about the vertex mean, times 12 * sign
+        for k in range(n):
+            k1 = (k + 1) % n
+            x0 = xs[k] - mx
+            y0 = ys[k] - my
+            x1 = xs[k1] - mx
+            y1 = ys[k1] - my
+            cr = x0 * y1 - x1 * y0
+            a2 += cr
+            cx += (x0 + x1) * cr
+            cy += (y0 + y1) * cr
+            j0 += cr * (x0 * x0 + x0 * x1 + x1 * x1 + y0 * y0 + y0 * y1 + y1 * y1)
+        if ti.abs(a2) > 1e-24:
+            cx /= 3.0 * a2
+            cy /= 3.0 * a2
+            area = 0.5 * ti.abs(a2)
+            J = ti.abs(j0) / 12.0 - area * (cx * cx + cy * cy)  # about the centroid
+            # median-dual weights from the centroid fan
+            kl = n - 1
+            tri_prev = 0.5 * ti.abs((xs[kl] - mx - cx) * (ys[0] - my - cy) - (xs[0] - mx - cx) * (ys[kl] - my - cy))
+            jp = 0.0
+            for k in range(n):
+                k1 = (k + 1) % n
+                tri = 0.5 * ti.abs(
+                    (xs[k] - mx - cx) * (ys[k1] - my - cy) - (xs[k1] - mx - cx) * (ys[k] - my - cy)
+                )
+                w[k] = 0.5 * (tri_prev + tri)
+                tri_prev = tri
+                rx = xs[k] - mx - cx
+                ry = ys[k] - my - cy
+                jp += w[k] * (rx * rx + ry * ry)
+            s = 1.0
+            if jp > 0.0 and J > 0.0:
+                s = ti.sqrt(J / jp)
+            s = ti.min(ti.max(s, 0.3), 1.0)
+            for k in range(n):
+                qx[k] = mx + cx + s * (xs[k] - mx - cx)
+                qy[k] = my + cy + s * (ys[k] - my - cy)
+    return qx, qy, w, area
+
+
+@ti.func
+def face_contact(pR, RR, hR, k, sgn, pI, RI, hI):
+    """Contact patch of reference face k of box R (outward normal sgn * R e_k) with box I.
+
+    Returns (n, npts, px, py, pz, depth, weight): n points from R to I; points are in world
+    coordinates, midway through the overlap; depth (m) and weight (m^2) per point.
+    """
+    k1 = (k + 1) % 3
+    k2 = (k + 2) % 3
+    n = sgn * vec3(RR[0, k], RR[1, k], RR[2, k])
+    u1 = vec3(RR[0, k1], RR[1, k1], RR[2, k1])
+    u2 = vec3(RR[0, k2], RR[1, k2], RR[2, k2])
+    e1 = hR[k1]
+    e2 = hR[k2]
+    c = pR + n * hR[k]
+    # incident face of I: most anti-parallel to n
+    dots = RI.transpose() @ n
+    m = 0
+    if ti.abs(dots[1]) > ti.abs(dots[m]):
+        m = 1
+    if ti.abs(dots[2]) > ti.abs(dots[m]):
+        m = 2
+    bm = vec3(RI[0, m], RI[1, m], RI[2, m])
+    sm = 1.0
+    if dots[m] > 0.0:
+        sm = -1.0
+    nI = sm * bm  # incident face outward normal (towards R)
+    m1 = (m + 1) % 3
+    m2 = (m + 2) % 3
+    b1 = vec3(RI[0, m1], RI[1, m1], RI[2, m1]) * hI[m1]
+    b2 = vec3(RI[0, m2], RI[1, m2], RI[2, m2]) * hI[m2]
+    ci = pI + nI * hI[m]
+    xs = VP(0.0)
+    ys = VP(0.0)
+    for q in ti.static(range(4)):
+        s1 = 1.0 if q == 0 or q == 3 else -1.0
+        s2 = 1.0 if q < 2 else -1.0
+        v = ci + s1 * b1 + s2 * b2 - c
+        xs[q] = v.dot(u1)
+        ys[q] = v.dot(u2)
+    npoly = 4
+    xs, ys, npoly = clip_halfplane(xs, ys, npoly, 1.0, 0.0, e1)
+    xs, ys, npoly = clip_halfplane(xs, ys, npoly, -1.0, 0.0, e1)
+    xs, ys, npoly = clip_halfplane(xs, ys, npoly, 0.0, 1.0, e2)
+    xs, ys, npoly = clip_halfplane(xs, ys, npoly, 0.0, -1.0, e2)
+    # gap (penetration) d(x, y) = ((c + x u1 + y u2) - ci) . nI / (n . nI), affine in (x, y)
+    den = n.dot(nI)
+    d0 = (c - ci).dot(nI) / den
+    gx = u1.dot(nI) / den
+    gy = u2.dot(nI) / den
+    xs, ys, npoly = clip_halfplane(xs, ys, npoly, -gx, -gy, d0)
+    qx, qy, w, area = polygon_quadrature(xs, ys, npoly)
+    px = VP(0.0)
+    py = VP(0.0)
+    pz = VP(0.0)
+    dep = VP(0.0)
+    npts = 0
+    if area > 0.0:
+        npts = ti.min(npoly, MAXP)
+        for q in range(npts):
+            dq = ti.max(d0 + gx * qx[q] + gy * qy[q], 0.0)
+            p = c + qx[q] * u1 + qy[q] * u2 - 0.5 * dq * n
+            px[q] = p[0]
+            py[q] = p[1]
+            pz[q] = p[2]
+            dep[q] = dq
+    return n, npts, px, py, pz, dep, w
+
+
+@ti.func
+def edge_contact(pA, RA, hA, pB, RB, hB, k, m, overlap, edge_area):
+    """Edge k of A against edge m of B: one point, normal from A to B."""
+    ak = vec3(RA[0, k], RA[1, k], RA[2, k])
+    bm = vec3(RB[0, m], RB[1, m], RB[2, m])
+    n = ak.cross(bm).normalized()
+    if (pB - pA).dot(n) < 0.0:
+        n = -n
+    # support edge of A in direction +n, of B in direction -n
+    ca = pA
+    cb = pB
+    for q in ti.static(range(3)):
+        aq = vec3(RA[0, q], RA[1, q], RA[2, q])
+        bq = vec3(RB[0, q], RB[1, q], RB[2, q])
+        if q != k:
+            sa = 1.0 if aq.dot(n) > 0.0 else -1.0
+            ca += sa * hA[q] * aq
+        if q != m:
+            sb = 1.0 if bq.dot(n) < 0.0 else -1.0
+            cb += sb * hB[q] * bq
+    # closest points of the two segments ca + s ak (|s| <= hA[k]), cb + t bm (|t| <= hB[m])
+    r = ca - cb
+    b = ak.dot(bm)
+    dd = ak.dot(r)
+    e = bm.dot(r)
+    den = 1.0 - b * b
+    s = 0.0
+    if den > 1e-12:
+        s = (b * e - dd) / den
+    s = ti.min(ti.max(s, -hA[k]), hA[k])
+    t = ti.min(ti.max(b * s + e, -hB[m]), hB[m])
+    s = ti.min(ti.max(b * t - dd, -hA[k]), hA[k])
+    p = 0.5 * ((ca + s * ak) + (cb + t * bm))
+    px = VP(0.0)
+    py = VP(0.0)
+    pz = VP(0.0)
+    dep = VP(0.0)
+    w = VP(0.0)
+    px[0] = p[0]
+    py[0] = p[1]
+    pz[0] = p[2]
+    dep[0] = overlap
+    w[0] = edge_area
+    return n, 1, px, py, pz, dep, w
+
+
+@ti.func
+def box_contact(pA, RA, hA, pB, RB, hB, prev_code, margin, edge_area):
+    """Full narrow phase for one pair.  Returns (code, n, npts, px, py, pz, depth, weight).
+
+    n points from A to B whatever the reference face.
+    """
+    ov = sat_overlaps(pA, RA, hA, pB, RB, hB)
+    code, smallest = choose_axis(ov, prev_code, margin)
+    n = vec3(0.0, 0.0, 1.0)
+    npts = 0
+    px = VP(0.0)
+    py = VP(0.0)
+    pz = VP(0.0)
+    dep = VP(0.0)
+    w = VP(0.0)
+    if code >= 0 and code < 6:
+        # reference box R (owner of the face), incident box I
+        pR = pA
+        RR = RA
+        hR = hA
+        pI = pB
+        RI = RB
+        hI = hB
+        if code >= 3:
+            pR = pB
+            RR = RB
+            hR = hB
+            pI = pA
+            RI = RA
+            hI = hA
+        k = code % 3
+        sg = 1.0
+        if (pI - pR).dot(vec3(RR[0, k], RR[1, k], RR[2, k])) < 0.0:
+            sg = -1.0
+        n, npts, px, py, pz, dep, w = face_contact(pR, RR, hR, k, sg, pI, RI, hI)
+        if code >= 3:
+            n = -n
+    elif code >= 6:
+        n, npts, px, py, pz, dep, w = edge_contact(
+            pA, RA, hA, pB, RB, hB, (code - 6) // 3, (code - 6) % 3, ov[code], edge_area
+        )
+    return code, n, npts, px, py, pz, dep, w

@@ -1,0 +1,280 @@
+"""Simulation: owns Model / State / Contacts and drives the stepping kernels.
+
+Typical use::
+
+    sim = Simulation(scene, material, solver)            # checks, dt, neighbour list
+    sim.advance(n_steps, loads)                          # loads(t) -> (gravity [K,3], a_base [K,3])
+    sim.state.pos.to_numpy()[:sim.n_blocks]
+
+Time is kept as an integer step count (t = step * dt) so that long runs do not accumulate
+rounding in t.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Callable
+
+import numpy as np
+
+from dem import ti_runtime
+from dem.engine import step as stepk
+from dem.engine.broadphase import candidate_pairs
+from dem.engine.containers import Contacts, Model, State
+from dem.engine.errors import CapacityError, InputError, InstabilityError
+from dem.engine.timestep import critical_time_step
+from dem.scene import Scene
+
+# loads(t [K]) -> (gravity [K,3], base acceleration [K,3]), both in the table frame, m/s^2
+LoadFn = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
+
+SERIAL_CHUNK = 2000  # steps per launch of the serial kernel (launch cost ~0.3 ms)
+PARALLEL_MIN_BODIES = 1500  # auto mode: below this the serial kernel is faster (measured)
+
+
+class Simulation:
+    def __init__(self, scene: Scene, material, solver, gravity=(0.0, 0.0, -9.81)):
+        ti_runtime.init(threads=solver.threads)
+        self.scene = scene
+        self.solver = solver
+        self.n_blocks = scene.n_blocks
+        self.gravity0 = np.asarray(gravity, dtype=float)
+        self.model = Model.from_scene(scene, material)
+        self.state = State.from_scene(scene, self.model)
+        # capacity: max_pairs_per_block counts each pair for both blocks, plus one table pair each
+        capacity = int(np.ceil(0.5 * solver.max_pairs_per_block * self.model.n_bodies)) + \
+            self.model.n_bodies + 8
+        self.contacts = Contacts(self.model.n_bodies, capacity)
+        movable = ~self.model.fixed_np
+        movable[self.model.table] = False
+        self.dt_crit = critical_time_step(
+            2 * self.model.half_np, self.model.mass_np, self.model.inertia_np, movable,
+            material.normal_stiffness, material.ks, material.damping)
+        if solver.dt is not None:
+            if solver.dt > self.dt_crit:
+                raise InputError(
+                    f"solver.dt = {solver.dt:.3g} s is above the critical time step "
+                    f"{self.dt_crit:.3g} s of this scene (stiffest block, kn = "
+                    f"{material.normal_stiffness:.3g} Pa/m); use solver.dt <= "
+                    f"{solver.safety * self.dt_crit:.3g} s or leave it out")
+            self.dt = float(solver.dt)
+        else:
+            self.dt = float(solver.safety * self.dt_crit) if np.isfinite(self.dt_crit) else 1e-4
+        hmin = float(self.model.half_np[: self.n_blocks].min())
+        self.skin = float(solver.skin) if solver.skin is not None else 0.1 * hmin
+        self.step_count = 0
+        self.n_rebuilds = 0
+        self.mode = solver.mode
+        if self.mode == "auto":
+            self.mode = "parallel" if self.model.n_bodies >= PARALLEL_MIN_BODIES else "serial"
+        self.flags = ti_nd_i32(4)
+        self.energy = ti_nd_f64(stepk.N_ENERGY)
+        self.energy.from_numpy(np.zeros(stepk.N_ENERGY))
+        self.params = ti_nd_f64(stepk.N_PARAMS)
+        params = np.zeros(stepk.N_PARAMS)
+        params[stepk.P_SKIN] = self.skin
+        params[stepk.P_MAX_SPEED] = solver.max_speed
+        params[stepk.P_LOCAL_DAMPING] = solver.local_damping
+        self.params.from_numpy(params)
+        t0 = time.perf_counter()
+        self._warm_up()
+        self.compile_seconds = time.perf_counter() - t0
+        self.rebuild()
+        self.check_initial_overlaps(solver.overlap_tolerance)
+        self.energy_initial = self.mechanical_energy()
+
+    # ------------------------------------------------------------------------------------
+    @property
+    def t(self) -> float:
+        return self.step_count * self.dt
+
+    def rebuild(self) -> None:
+        """Broad phase: new neighbour list, history carried over for pairs that stay."""
+        st = self.state
+        pos = st.pos.to_numpy()
+        quat = st.quat.to_numpy()
+        rot = st.rot.to_numpy()
+        m = self.model
+        pairs = candidate_pairs(pos, rot, m.half_np, m.radius_np, m.fixed_np, m.table, self.skin)
+        c = self.contacts
+        if len(pairs) > c.capacity:
+            counts = np.bincount(pairs.ravel(), minlength=m.n_bodies)[: self.n_blocks]
+            worst = int(np.argmax(counts))
+            raise CapacityError(
+                f"neighbour list overflow at step {self.step_count} (t = {self.t:.4f} s): "
+                f"{len(pairs)} candidate pairs > capacity {c.capacity} (block {worst} has "
+                f"{counts[worst]} neighbours); raise solver.max_pairs_per_block "
+                f"(now {self.solver.max_pairs_per_block}) or lower solver.skin ({self.skin:.3g} m)")
+        old_pairs = c.pairs.to_numpy()[: c.n_pairs] if c.n_pairs else None
+        history = c.read_history() if c.n_pairs else None
+        c.write_pairs(pairs, m.n_bodies, history, old_pairs)
+        c.ref_pos.from_numpy(pos)
+        c.ref_quat.from_numpy(quat)
+        self.n_rebuilds += 1
+
+    def check_initial_overlaps(self, tolerance: float) -> None:
+        c = self.contacts
+        if c.n_pairs == 0:
+            return
+        depth = ti_nd_f64(c.capacity)
+        stepk.probe_contacts(c.n_pairs, depth, self.model.half, self.state.pos, self.state.rot,
+                             c.pairs)
+        d = depth.to_numpy()[: c.n_pairs]
+        worst = int(np.argmax(d))
+        if d[worst] > tolerance:
+            i, j = c.pairs.to_numpy()[worst]
+            name = lambda b: "the table" if b == self.model.table else f"block {b}"  # noqa: E731
+            raise InputError(
+                f"{name(i)} and {name(j)} overlap by {d[worst] * 1e3:.3f} mm at the start "
+                f"(tolerance solver.overlap_tolerance = {tolerance * 1e3:.3f} mm); "
+                f"{int((d > tolerance).sum())} pair(s) overlap in all")
+
+    # ------------------------------------------------------------------------------------
+    def advance(self, n_steps: int, loads: LoadFn, on_chunk: Callable[[int], None] | None = None
+                ) -> None:
+        """Advance n_steps steps.  Raises InstabilityError / CapacityError on failure (the state
+        is then that of the failing step)."""
+        done_total = 0
+        while done_total < n_steps:
+            k = min(n_steps - done_total, SERIAL_CHUNK if self.mode == "serial" else 1)
+            done = self._launch(k, loads)
+            done_total += done
+            flags = self.flags.to_numpy()
+            if flags[0] & stepk.STOP:
+                self._raise_instability(flags)
+            if flags[0] & stepk.REBUILD:
+                self.rebuild()
+            if on_chunk is not None:
+                on_chunk(done)
+
+    def _launch(self, k: int, loads: LoadFn) -> int:
+        t = (self.step_count + np.arange(k)) * self.dt
+        g, a = loads(t)
+        arr = np.stack([np.asarray(g, float).reshape(k, 3), np.asarray(a, float).reshape(k, 3)],
+                       axis=1)
+        self._loads_np[:k] = arr
+        self._loads.from_numpy(self._loads_np)
+        self.flags.from_numpy(np.zeros(4, dtype=np.int32))
+        m, st, c = self.model, self.state, self.contacts
+        if self.mode == "serial":
+            stepk.advance_serial(
+                k, c.n_pairs, self.dt, self._loads, self.params, self.flags, self.energy,
+                m.half, m.mass, m.inv_mass, m.inv_inertia, m.radius, m.material, m.mat_pair,
+                st.pos, st.quat, st.vel, st.angmom, st.omega, st.rot, st.force, st.torque,
+                c.pairs, c.adj_ptr, c.adj, c.ref_pos, c.ref_quat, c.code, c.npts, c.normal,
+                c.loc, c.shear, c.point, c.depth, c.area, c.fn, c.ft, c.wrench)
+            done = int(self.flags.to_numpy()[2])
+        else:
+            stepk.contact_parallel(
+                c.n_pairs, self.dt, self.energy, m.half, m.inv_mass, m.material, m.mat_pair,
+                st.pos, st.vel, st.omega, st.rot, c.pairs, c.code, c.npts, c.normal, c.loc,
+                c.shear, c.point, c.depth, c.area, c.fn, c.ft, c.wrench)
+            stepk.integrate_parallel(
+                m.n_bodies, self.dt, arr[0, 0], arr[0, 1], self.params, self.flags, self.energy, m.mass,
+                m.inv_mass, m.inv_inertia, m.radius, st.pos, st.quat, st.vel, st.angmom,
+                st.omega, st.rot, st.force, st.torque, c.wrench, c.adj_ptr, c.adj, c.ref_pos,
+                c.ref_quat)
+            done = 1
+        self.step_count += done
+        return done
+
+    def _warm_up(self) -> None:
+        """Compile every kernel (or load it from Taichi's offline cache) with zero work."""
+        m, st, c = self.model, self.state, self.contacts
+        self._loads = ti_nd_vec3((SERIAL_CHUNK, 2))
+        self._loads_np = np.zeros((SERIAL_CHUNK, 2, 3))
+        if self.mode == "serial":
+            stepk.advance_serial(
+                0, 0, self.dt, self._loads, self.params, self.flags, self.energy,
+                m.half, m.mass, m.inv_mass, m.inv_inertia, m.radius, m.material, m.mat_pair,
+                st.pos, st.quat, st.vel, st.angmom, st.omega, st.rot, st.force, st.torque,
+                c.pairs, c.adj_ptr, c.adj, c.ref_pos, c.ref_quat, c.code, c.npts, c.normal,
+                c.loc, c.shear, c.point, c.depth, c.area, c.fn, c.ft, c.wrench)
+        else:
+            stepk.contact_parallel(
+                0, self.dt, self.energy, m.half, m.inv_mass, m.material, m.mat_pair,
+                st.pos, st.vel, st.omega, st.rot, c.pairs, c.code, c.npts, c.normal, c.loc,
+                c.shear, c.point, c.depth, c.area, c.fn, c.ft, c.wrench)
+            stepk.integrate_parallel(
+                0, self.dt, np.zeros(3), np.zeros(3), self.params, self.flags, self.energy,
+                m.mass, m.inv_mass, m.inv_inertia, m.radius, st.pos, st.quat, st.vel,
+                st.angmom, st.omega, st.rot, st.force, st.torque, c.wrench, c.adj_ptr, c.adj,
+                c.ref_pos, c.ref_quat)
+        depth = ti_nd_f64(1)
+        stepk.probe_contacts(0, depth, m.half, st.pos, st.rot, c.pairs)
+        stepk.elastic_energy(0, m.material, m.mat_pair, c.pairs, c.npts, c.depth, c.area,
+                             c.shear)
+
+    def _raise_instability(self, flags) -> None:
+        b = int(flags[1])
+        st = self.state
+        v = st.vel.to_numpy()[b]
+        x = st.pos.to_numpy()[b]
+        what = "became NaN/inf" if flags[0] & stepk.NONFINITE else (
+            f"moves faster than solver.max_speed = {self.solver.max_speed} m/s")
+        raise InstabilityError(
+            f"block {b} {what} at step {self.step_count} (t = {self.t:.5f} s): position "
+            f"{np.array2string(x, precision=4)} m, velocity {np.array2string(v, precision=3)} m/s;"
+            f" dt = {self.dt:.3g} s (critical {self.dt_crit:.3g} s)", self.step_count, b)
+
+    # ------------------------------------------------------------------------------------
+    def kinetic_energy(self) -> float:
+        st, m = self.state, self.model
+        v = st.vel.to_numpy()
+        w = st.omega.to_numpy()
+        L = st.angmom.to_numpy()
+        movable = ~m.fixed_np
+        return float(0.5 * (m.mass_np[movable] * (v[movable] ** 2).sum(1)).sum()
+                     + 0.5 * (w[movable] * L[movable]).sum())
+
+    def elastic_energy(self) -> float:
+        c, m = self.contacts, self.model
+        if c.n_pairs == 0:
+            return 0.0
+        return float(stepk.elastic_energy(c.n_pairs, m.material, m.mat_pair, c.pairs, c.npts,
+                                          c.depth, c.area, c.shear))
+
+    def mechanical_energy(self) -> float:
+        return self.kinetic_energy() + self.elastic_energy()
+
+    def energy_report(self) -> dict[str, float]:
+        """Energy balance since t = 0 (J).
+
+        kinetic + elastic - initial = work_gravity + work_base - dissipation - residual, where
+        ``residual`` is what the explicit scheme created (> 0) or lost beyond the modelled
+        dissipation (< 0); it is the number to watch.
+        """
+        e = self.energy.to_numpy()
+        kin = self.kinetic_energy()
+        el = self.elastic_energy()
+        diss = e[stepk.E_DAMP_NORMAL] + e[stepk.E_DAMP_SHEAR] + e[stepk.E_FRICTION] + \
+            e[stepk.E_LOCAL_DAMPING]
+        supplied = e[stepk.E_WORK_GRAVITY] + e[stepk.E_WORK_BASE]
+        residual = kin + el - self.energy_initial - supplied + diss
+        return {
+            "kinetic": kin,
+            "elastic": el,
+            "initial": self.energy_initial,
+            "work_gravity": float(e[stepk.E_WORK_GRAVITY]),
+            "work_base": float(e[stepk.E_WORK_BASE]),
+            "dissipated_normal_damping": float(e[stepk.E_DAMP_NORMAL]),
+            "dissipated_shear_damping": float(e[stepk.E_DAMP_SHEAR]),
+            "dissipated_friction": float(e[stepk.E_FRICTION]),
+            "dissipated_local_damping": float(e[stepk.E_LOCAL_DAMPING]),
+            "residual": float(residual),
+        }
+
+
+def ti_nd_i32(n):
+    import taichi as ti
+    return ti.ndarray(dtype=ti.i32, shape=n)
+
+
+def ti_nd_f64(n):
+    import taichi as ti
+    return ti.ndarray(dtype=ti.f64, shape=n)
+
+
+def ti_nd_vec3(shape):
+    import taichi as ti
+    return ti.ndarray(dtype=ti.math.vec3, shape=shape)

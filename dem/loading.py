@@ -1,0 +1,121 @@
+"""Loads versus time, in the table's frame (pure numpy; the kernels receive sampled values).
+
+Every loading gives, for an array of times t (s):
+    gravity(t)       [K,3]  m/s^2  gravity as seen in the table frame
+    base_accel(t)    [K,3]  m/s^2  acceleration of the table; each block feels -m a_base
+    base_disp(t)     [K,3]  m      displacement of the table (reported with the frames)
+
+Tilt (DESIGN.md "Model only what a scene needs"): the table turns by theta(t) about a
+horizontal axis; instead of moving the table, gravity turns the other way:
+g_table = R(axis, theta)^T g.  theta(t) = min(start + rate t, max_angle).
+Shake: u(t) = A d sin(2 pi f t) for t <= T = cycles / f, with a(t) = u''(t); after T the table
+acceleration is zero (the table keeps the velocity it had, so u continues linearly).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from dem.case import Case, NoLoading, ShakeLoading, TiltLoading
+
+AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "-x": (-1.0, 0.0, 0.0), "-y": (0.0, -1.0, 0.0)}
+
+
+class Loading:
+    kind = "none"
+
+    def __init__(self, g0):
+        self.g0 = np.asarray(g0, dtype=float)
+
+    def gravity(self, t: np.ndarray) -> np.ndarray:
+        return np.tile(self.g0, (len(np.atleast_1d(t)), 1))
+
+    def base_accel(self, t: np.ndarray) -> np.ndarray:
+        return np.zeros((len(np.atleast_1d(t)), 3))
+
+    def base_disp(self, t: np.ndarray) -> np.ndarray:
+        return np.zeros((len(np.atleast_1d(t)), 3))
+
+    def __call__(self, t: np.ndarray):
+        """(gravity [K,3], base acceleration [K,3]) at times t: the engine's load callback."""
+        return self.gravity(t), self.base_accel(t)
+
+    def describe(self) -> dict:
+        return {"type": self.kind}
+
+
+class Tilt(Loading):
+    kind = "tilt"
+
+    def __init__(self, g0, axis, rate_deg: float, max_angle_deg: float, start_angle_deg=0.0):
+        super().__init__(g0)
+        a = np.asarray(AXES[axis] if isinstance(axis, str) else axis, dtype=float)
+        self.axis = a / np.linalg.norm(a)
+        self.rate = float(rate_deg)
+        self.max_angle = float(max_angle_deg)
+        self.start_angle = float(start_angle_deg)
+
+    def angle(self, t) -> np.ndarray:
+        """Tilt angle (degrees) at times t."""
+        return np.minimum(self.start_angle + self.rate * np.atleast_1d(t), self.max_angle)
+
+    def gravity(self, t):
+        theta = np.radians(self.angle(t))
+        rot = Rotation.from_rotvec(-theta[:, None] * self.axis[None, :])
+        return rot.apply(self.g0)
+
+    def time_at_angle(self, angle_deg: float) -> float:
+        return (angle_deg - self.start_angle) / self.rate
+
+    def describe(self):
+        return {"type": "tilt", "axis": self.axis.tolist(), "rate_deg_per_s": self.rate,
+                "max_angle_deg": self.max_angle, "start_angle_deg": self.start_angle}
+
+
+class Shake(Loading):
+    kind = "shake"
+
+    def __init__(self, g0, direction, frequency: float, amplitude: float, cycles: float):
+        super().__init__(g0)
+        self.direction = np.asarray(direction, dtype=float)
+        self.f = float(frequency)
+        self.A = float(amplitude)
+        self.cycles = float(cycles)
+        self.t_end = self.cycles / self.f
+        self.omega = 2.0 * np.pi * self.f
+
+    def _u(self, t):
+        """Scalar displacement history (m) before the direction is applied."""
+        t = np.atleast_1d(t)
+        te = np.minimum(t, self.t_end)
+        u = self.A * np.sin(self.omega * te)
+        after = t > self.t_end
+        u = u + np.where(after, self.A * self.omega * np.cos(self.omega * self.t_end)
+                         * (t - self.t_end), 0.0)
+        return u
+
+    def base_disp(self, t):
+        return self._u(t)[:, None] * self.direction[None, :]
+
+    def base_accel(self, t):
+        t = np.atleast_1d(t)
+        a = -self.A * self.omega**2 * np.sin(self.omega * t) * (t < self.t_end)
+        return a[:, None] * self.direction[None, :]
+
+    def describe(self):
+        return {"type": "shake", "direction": self.direction.tolist(), "frequency_hz": self.f,
+                "amplitude_m": self.A, "peak_acceleration_m_s2": self.A * self.omega**2,
+                "cycles": self.cycles, "end_time_s": self.t_end}
+
+
+def loading_from_case(case: Case) -> Loading:
+    g0 = case.gravity_vector()
+    ld = case.loading
+    if isinstance(ld, TiltLoading):
+        return Tilt(g0, ld.axis, ld.rate, ld.max_angle, ld.start_angle)
+    if isinstance(ld, ShakeLoading):
+        return Shake(g0, ld.direction, ld.frequency, ld.displacement_amplitude, ld.cycles)
+    if isinstance(ld, NoLoading):
+        return Loading(g0)
+    raise TypeError(f"unknown loading {type(ld).__name__}")

@@ -1,0 +1,241 @@
+"""Run one case: build the scene, step it, record frames, write the output directory.
+
+Output directory (contract of ../shared/DESIGN.md):
+    summary.json   name, n_blocks, dt, steps, sim_time (s), wall_seconds, compile_seconds,
+                   status ("ok" | "failed" | "interrupted"), error, energy balance, loading ...
+    frames.npz     t [T] (s), pos [T,N,3] (m, table frame), quat [T,N,4] (w,x,y,z),
+                   base_disp [T,3] (m), vel [T,N,3] (m/s); tilt runs add tilt_angle [T] (deg)
+
+Nothing is lost on failure: frames.npz and summary.json are written (atomically, temp file +
+rename) when the run ends for any reason, and every ``CHECKPOINT_SECONDS`` of wall-clock time.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from dem.case import Case, CaseError, load_case
+from dem.loading import Loading, Tilt, loading_from_case
+from dem.scene import Scene, scene_from_case
+
+CHECKPOINT_SECONDS = 30.0
+
+
+@dataclass
+class RunResult:
+    t: np.ndarray
+    pos: np.ndarray
+    quat: np.ndarray
+    vel: np.ndarray
+    base_disp: np.ndarray
+    summary: dict
+    extra: dict = field(default_factory=dict)
+    scene: Scene | None = None
+
+
+class FrameRecorder:
+    """Frames in memory, flushed to ``frames.npz`` atomically."""
+
+    def __init__(self, out_dir: Path | None):
+        self.out_dir = out_dir
+        self.cols: dict[str, list] = {k: [] for k in ("t", "pos", "quat", "vel", "base_disp")}
+        self.extra: dict[str, list] = {}
+
+    def add(self, t, pos, quat, vel, base_disp, **extra) -> None:
+        self.cols["t"].append(float(t))
+        self.cols["pos"].append(np.array(pos))
+        self.cols["quat"].append(np.array(quat))
+        self.cols["vel"].append(np.array(vel))
+        self.cols["base_disp"].append(np.array(base_disp, dtype=float).reshape(3))
+        for k, v in extra.items():
+            self.extra.setdefault(k, []).append(v)
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        out = {k: np.asarray(v) for k, v in self.cols.items()}
+        out.update({k: np.asarray(v) for k, v in self.extra.items()})
+        return out
+
+    def write(self) -> None:
+        if self.out_dir is None or not self.cols["t"]:
+            return
+        tmp = self.out_dir / "frames.tmp.npz"
+        np.savez_compressed(tmp, **self.arrays())
+        os.replace(tmp, self.out_dir / "frames.npz")
+
+
+def _write_json(path: Path, data: dict) -> None:
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(json.dumps(data, indent=2, default=_json_default))
+    os.replace(tmp, path)
+
+
+def _json_default(o):
+    if isinstance(o, (np.floating, np.integer)):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    raise TypeError(type(o).__name__)
+
+
+class _Progress:
+    """A rich progress bar over simulated time (steps/s and ETA), or nothing."""
+
+    def __init__(self, enabled: bool, duration: float, name: str):
+        self.bar = None
+        if not enabled:
+            return
+        from rich.progress import (BarColumn, Progress, TextColumn, TimeElapsedColumn,
+                                   TimeRemainingColumn)
+        self.bar = Progress(
+            TextColumn("[bold]{task.description}"), BarColumn(),
+            TextColumn("t = {task.completed:.3f} / {task.total:.3f} s"),
+            TextColumn("{task.fields[rate]:>10} steps/s"), TimeElapsedColumn(),
+            TextColumn("ETA"), TimeRemainingColumn(), transient=False)
+        self.task = self.bar.add_task(name, total=duration, rate="-")
+        self.bar.start()
+
+    def update(self, t: float, steps_per_s: float) -> None:
+        if self.bar is not None:
+            self.bar.update(self.task, completed=t, rate=f"{steps_per_s:,.0f}")
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.stop()
+
+
+def simulate(case: Case, out_dir: str | Path | None = None, progress: bool = False,
+             max_steps: int | None = None) -> RunResult:
+    """Run a validated case.  Writes ``summary.json`` and ``frames.npz`` into out_dir if given.
+
+    Raises dem.engine.InputError (bad scene/settings) before stepping, SimulationError when the
+    run fails; in both the frames recorded so far are written first.
+    """
+    from dem.engine import Simulation, SimulationError
+
+    wall0 = time.perf_counter()
+    out = Path(out_dir) if out_dir is not None else None
+    if out is not None:
+        out.mkdir(parents=True, exist_ok=True)
+    scene = scene_from_case(case)
+    loading = loading_from_case(case)
+    sim = Simulation(scene, case.material, case.solver, gravity=loading.g0)
+    n = scene.n_blocks
+    dt = sim.dt
+    n_total = int(math.ceil(case.run.duration / dt - 1e-9))
+    if max_steps is not None:
+        n_total = min(n_total, int(max_steps))
+    k_out = max(1, int(round(case.run.output_interval / dt)))
+    rec = FrameRecorder(out)
+    summary = {
+        "name": case.name,
+        "n_blocks": n,
+        "dt": dt,
+        "dt_critical": sim.dt_crit,
+        "steps": 0,
+        "sim_time": 0.0,
+        "wall_seconds": 0.0,
+        "compile_seconds": sim.compile_seconds,
+        "status": "running",
+        "error": None,
+        "mode": sim.mode,
+        "skin": sim.skin,
+        "loading": loading.describe(),
+        "material": case.material.model_dump(),
+        "output_interval_steps": k_out,
+    }
+
+    def record():
+        st = sim.state
+        t = sim.t
+        extra = {}
+        if isinstance(loading, Tilt):
+            extra["tilt_angle"] = float(loading.angle(t)[0])
+        rec.add(t, st.pos.to_numpy()[:n], st.quat.to_numpy()[:n], st.vel.to_numpy()[:n],
+                loading.base_disp(np.array([t]))[0], **extra)
+
+    def finish(status: str, error: str | None = None):
+        summary["status"] = status
+        summary["error"] = error
+        summary["steps"] = sim.step_count
+        summary["sim_time"] = sim.t
+        summary["wall_seconds"] = time.perf_counter() - wall0
+        run_s = summary["wall_seconds"] - summary["compile_seconds"]
+        summary["brick_steps_per_second"] = n * sim.step_count / run_s if run_s > 0 else None
+        summary["neighbour_rebuilds"] = sim.n_rebuilds
+        summary["n_pairs"] = sim.contacts.n_pairs
+        summary["n_contact_points"] = int(sim.contacts.npts.to_numpy()[: sim.contacts.n_pairs].sum())
+        summary["energy"] = sim.energy_report()
+        if out is not None:
+            rec.write()
+            _write_json(out / "summary.json", summary)
+
+    bar = _Progress(progress, n_total * dt, case.name)
+    last_flush = time.perf_counter()
+    run0 = time.perf_counter()
+    try:
+        record()
+        while sim.step_count < n_total:
+            k = min(k_out - sim.step_count % k_out, n_total - sim.step_count)
+            sim.advance(k, loading)
+            if sim.step_count % k_out == 0 or sim.step_count == n_total:
+                record()
+            now = time.perf_counter()
+            bar.update(sim.t, sim.step_count / max(now - run0, 1e-9))
+            if out is not None and now - last_flush > CHECKPOINT_SECONDS:
+                summary["steps"], summary["sim_time"] = sim.step_count, sim.t
+                rec.write()
+                _write_json(out / "summary.json", summary)
+                last_flush = now
+    except SimulationError as err:
+        record()
+        finish("failed", str(err))
+        bar.close()
+        raise
+    except KeyboardInterrupt:
+        finish("interrupted", "interrupted by the user")
+        bar.close()
+        raise
+    bar.close()
+    finish("ok")
+    arrays = rec.arrays()
+    extra = {k: v for k, v in arrays.items() if k not in ("t", "pos", "quat", "vel", "base_disp")}
+    return RunResult(arrays["t"], arrays["pos"], arrays["quat"], arrays["vel"],
+                     arrays["base_disp"], summary, extra, scene)
+
+
+def run_case_file(path: str | Path, out: str | Path, progress: bool = True) -> int:
+    """CLI body of ``dem run``: returns the exit code (0 ok, 1 run failed, 2 bad input)."""
+    import typer
+
+    from dem.engine import InputError, SimulationError
+
+    try:
+        case = load_case(path)
+    except CaseError as err:
+        typer.echo(f"error: {path}:\n{err}", err=True)
+        return 2
+    try:
+        res = simulate(case, out, progress=progress)
+    except (InputError, ValueError) as err:
+        typer.echo(f"error: {path}: {err}", err=True)
+        return 2
+    except SimulationError as err:
+        typer.echo(f"run failed: {err}\nframes written so far are in {out}/frames.npz", err=True)
+        return 1
+    except KeyboardInterrupt:
+        typer.echo(f"interrupted; frames written so far are in {out}/frames.npz", err=True)
+        return 1
+    s = res.summary
+    typer.echo(
+        f"{s['name']}: {s['n_blocks']} blocks, {s['steps']} steps of {s['dt']:.3g} s, "
+        f"t = {s['sim_time']:.3f} s in {s['wall_seconds']:.1f} s wall "
+        f"({s['compile_seconds']:.1f} s compile, {s['brick_steps_per_second']:.3g} brick-steps/s); "
+        f"output in {out}")
+    return 0
