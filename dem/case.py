@@ -33,6 +33,8 @@ from pydantic import (
     model_validator,
 )
 
+from dem.builders.spec import BoxModelSpec, FacadeSpec, WallSpec
+
 Vec3 = Annotated[list[float], Field(min_length=3, max_length=3)]
 
 
@@ -92,14 +94,27 @@ class BlockSpec(_Strict):
 
 
 class SceneSpec(_Strict):
-    """The blocks of a scene.  Explicit blocks come first in every output array."""
+    """The blocks of a scene: explicit ``blocks`` and/or builder entries (``wall``, ``facade``,
+    ``box_model``; see :mod:`dem.builders`).  Order in every output array: explicit blocks first,
+    then wall, facade, box_model."""
 
-    blocks: list[BlockSpec] = Field(default_factory=list)
+    blocks: list[BlockSpec] = Field(default_factory=list, description="explicit blocks")
+    wall: WallSpec | None = Field(default=None, description="a single wall (in-plane specimens)")
+    facade: FacadeSpec | None = Field(
+        default=None, description="a facade with side walls (out-of-plane specimens)"
+    )
+    box_model: BoxModelSpec | None = Field(
+        default=None, description="a one-storey box model (shaking-table Models I, II, III)"
+    )
+    allow_floating: bool = Field(
+        default=False,
+        description="accept blocks that start in the air (else dem check rejects them)",
+    )
 
     @model_validator(mode="after")
     def _not_empty(self) -> "SceneSpec":
-        if not self.blocks:
-            raise ValueError("the scene has no blocks")
+        if not (self.blocks or self.wall or self.facade or self.box_model):
+            raise ValueError("the scene has no blocks (give blocks, wall, facade or box_model)")
         return self
 
 
@@ -284,33 +299,58 @@ class CaseError(Exception):
     """A case that cannot be used; the message names the bad field(s)."""
 
 
-def format_validation_error(err: ValidationError) -> str:
-    lines = []
-    for e in err.errors():
-        loc = ".".join(str(p) for p in e["loc"] if not str(p).startswith("function-after"))
-        # drop the discriminator tag pydantic inserts for tagged unions (e.g. loading.shake.x)
-        msg = e["msg"].removeprefix("Value error, ")
-        lines.append(f"{loc or '<case>'}: {msg}")
-    return "\n".join(lines)
+def format_validation_error(
+    err: ValidationError, data=None, node=None, source: str | None = None
+) -> str:
+    """One line per problem naming the field path (and ``source:line`` when the YAML node tree is
+    given), e.g. ``case.yaml:12: loading.frequency: Input should be greater than 0``.  The union
+    tags pydantic inserts (``loading.shake.frequency``) are dropped; see :mod:`dem.case_errors`."""
+    from dem.case_errors import format_errors
+
+    return format_errors(err, Case, data=data, node=node, source=source)
 
 
-def parse_case(data: dict) -> Case:
+def parse_case(data: dict, node=None, source: str | None = None) -> Case:
     try:
         return Case.model_validate(data)
     except ValidationError as err:
-        raise CaseError(format_validation_error(err)) from None
+        raise CaseError(format_validation_error(err, data=data, node=node, source=source)) from None
 
 
 def load_case(path: str | Path) -> Case:
+    from dem.case_errors import DuplicateKeyError, compose
+
     path = Path(path)
     try:
         text = path.read_text()
-    except OSError as err:
-        raise CaseError(f"{path}: cannot read: {err.strerror}") from None
+    except (OSError, UnicodeDecodeError) as err:
+        raise CaseError(f"{path}: cannot read: {getattr(err, 'strerror', None) or err}") from None
     try:
+        node = compose(text)
         data = yaml.safe_load(text)
     except yaml.YAMLError as err:
-        raise CaseError(f"{path}: not valid YAML: {err}") from None
+        mark = getattr(err, "problem_mark", None)
+        where = f"{path}:{mark.line + 1}" if mark is not None else f"{path}"
+        raise CaseError(f"{where}: not valid YAML: {err}") from None
+    except DuplicateKeyError as err:
+        raise CaseError(f"{path}: {err}") from None
     if not isinstance(data, dict):
         raise CaseError(f"{path}: the case must be a YAML mapping, got {type(data).__name__}")
-    return parse_case(data)
+    return parse_case(data, node=node, source=str(path))
+
+
+def case_json_schema() -> str:
+    """JSON schema of case files (``dem schema``; committed as ``cases/case.schema.json``).
+
+    Editors with a YAML language server pick it up from a first line
+    ``# yaml-language-server: $schema=<relative path>/case.schema.json``.
+    """
+    import json
+
+    schema = Case.model_json_schema()
+    schema = {
+        "$schema": "https://json-schema.org/draft/2020-12/schema",
+        **schema,
+        "title": "dem-masonry case file",
+    }
+    return json.dumps(schema, indent=2) + "\n"

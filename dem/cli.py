@@ -25,22 +25,44 @@ def _err(msg: str) -> None:
 
 @app.command()
 def check(case: Path = typer.Argument(..., help="case YAML file")) -> None:
-    """Validate a case file (and build its scene) without running it."""
+    """Validate a case file and build and check its scene (overlaps, floating blocks) without
+    running it; print block count, mass and bounding box.  Exit 0 ok, 2 bad input."""
+    from dem.builders import check_scene
     from dem.case import CaseError, load_case
     from dem.scene import scene_from_case
 
     try:
         c = load_case(case)
-        scene = scene_from_case(c)
+        scene = scene_from_case(c, check=False)
     except (CaseError, ValueError) as err:
-        _err(f"error: {case}:\n{err}")
+        _err(f"error: {err}" if str(err).startswith(str(case)) else f"error: {case}: {err}")
         raise typer.Exit(EXIT_BAD_INPUT)
-    lo, hi = scene.bounding_box()
-    typer.echo(
-        f"{case}: ok: '{c.name}', {scene.n_blocks} blocks, "
-        f"{scene.mass[~scene.fixed].sum():.3f} kg, bounding box {lo.round(4).tolist()} .. "
-        f"{hi.round(4).tolist()} m, loading {c.loading.type}"
+    report = check_scene(
+        scene,
+        overlap_tolerance=c.solver.overlap_tolerance,
+        allow_floating=c.scene.allow_floating,
     )
+    if not report.ok:
+        _err(f"error: {case}: the scene cannot be run:\n{report.format()}")
+        raise typer.Exit(EXIT_BAD_INPUT)
+    typer.echo(f"{case}: ok: '{c.name}', loading {c.loading.type}\n{report.format()}")
+
+
+@app.command()
+def schema(
+    out: Path = typer.Option(
+        None, "--out", "-o", help="write the JSON schema here (default: print it)"
+    ),
+) -> None:
+    """Export the JSON schema of case files (for editor completion and validation)."""
+    from dem.case import case_json_schema
+
+    text = case_json_schema()
+    if out is None:
+        typer.echo(text)
+    else:
+        out.write_text(text)
+        typer.echo(f"wrote {out}")
 
 
 @app.command()

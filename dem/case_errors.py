@@ -1,0 +1,148 @@
+"""Error messages for case files that name the field path and the YAML line.
+
+pydantic reports a location such as ``('loading', 'shake', 'frequency')``: the field path plus the
+tags it inserts for unions (``shake``, ``float``, ``BrickSpec`` ...).  The YAML node tree (from
+``yaml.compose``, whose nodes carry start marks) is walked along that location to find the line;
+the tags are dropped from the printed path because they are not keys of the file.  For a value
+given as text where a number is expected ("20 mm"), the field's description (which states the
+unit) is added, since case files take plain numbers in SI units.
+
+Output, one line per problem::
+
+    case.yaml:12: loading.frequency: Input should be greater than 0
+"""
+
+from __future__ import annotations
+
+import types
+import typing
+from typing import Any
+
+import yaml
+from pydantic import BaseModel, ValidationError
+
+_NUMBER_ERRORS = {"float_parsing", "float_type", "int_parsing", "int_type", "int_from_float"}
+
+
+class DuplicateKeyError(ValueError):
+    pass
+
+
+def compose(text: str) -> yaml.Node | None:
+    """The YAML node tree of ``text`` (safe loader); raises DuplicateKeyError for a key given twice
+    in one mapping (yaml.safe_load would silently keep the last one)."""
+    node = yaml.compose(text, Loader=yaml.SafeLoader)
+    _no_duplicates(node)
+    return node
+
+
+def _no_duplicates(node) -> None:
+    if isinstance(node, yaml.MappingNode):
+        seen: dict[str, int] = {}
+        for k, v in node.value:
+            key = getattr(k, "value", None)
+            if isinstance(key, str):
+                if key in seen:
+                    raise DuplicateKeyError(
+                        f"line {k.start_mark.line + 1}: duplicate key '{key}' (first given on line {seen[key]})"
+                    )
+                seen[key] = k.start_mark.line + 1
+            _no_duplicates(v)
+    elif isinstance(node, yaml.SequenceNode):
+        for v in node.value:
+            _no_duplicates(v)
+
+
+def _walk(node, data, loc) -> tuple[list[str], int | None]:
+    """Follow ``loc`` through the YAML nodes and the loaded data.
+
+    Returns the printable path (keys and list indices that exist, plus a final missing key) and the
+    1-based line of the deepest node reached (the key's line for mapping entries)."""
+    path: list[str] = []
+    line = node.start_mark.line + 1 if node is not None else None
+    for n, part in enumerate(loc):
+        last = n == len(loc) - 1
+        if isinstance(data, dict) and isinstance(part, str) and part in data:
+            data = data[part]
+            path.append(part)
+            if isinstance(node, yaml.MappingNode):
+                for k, v in node.value:
+                    if getattr(k, "value", None) == part:
+                        line, node = k.start_mark.line + 1, v
+                        break
+        elif isinstance(data, list) and isinstance(part, int) and 0 <= part < len(data):
+            data = data[part]
+            path.append(f"[{part}]")
+            if isinstance(node, yaml.SequenceNode) and part < len(node.value):
+                node = node.value[part]
+                line = node.start_mark.line + 1
+        elif last and isinstance(data, dict) and isinstance(part, str) and part.isidentifier():
+            path.append(part)  # a missing (or unknown) key: name it, point at its parent
+        # anything else is a union tag inserted by pydantic: skip it
+    return path, line
+
+
+def _models_in(tp) -> list[type[BaseModel]]:
+    if isinstance(tp, type) and issubclass(tp, BaseModel):
+        return [tp]
+    out: list[type[BaseModel]] = []
+    if typing.get_origin(tp) is not None or isinstance(tp, types.UnionType):
+        for arg in typing.get_args(tp):
+            out += _models_in(arg)
+    return out
+
+
+def field_description(model: type[BaseModel], loc) -> str | None:
+    """Description (with the unit) of the field at a pydantic location, if any."""
+    current: Any = model
+    desc = None
+    for part in loc:
+        if not isinstance(part, str):
+            continue
+        for m in _models_in(current):
+            if part in m.model_fields:
+                info = m.model_fields[part]
+                desc, current = info.description, info.annotation
+                break
+    return desc
+
+
+def _join(path: list[str]) -> str:
+    out = ""
+    for p in path:
+        out += p if p.startswith("[") else (f".{p}" if out else p)
+    return out or "<case>"
+
+
+def format_errors(
+    err: ValidationError,
+    model: type[BaseModel],
+    data: Any = None,
+    node=None,
+    source: str | None = None,
+) -> str:
+    """One line per problem: ``source:line: field.path: message``; messages for the same field
+    (one per union member) are joined with 'or'."""
+    merged: dict[tuple[str, int | None], list[str]] = {}
+    for e in err.errors():
+        loc = tuple(e["loc"])
+        path, line = _walk(node, data, loc) if data is not None else ([str(p) for p in loc], None)
+        msg = e["msg"].removeprefix("Value error, ")
+        if e["type"] in _NUMBER_ERRORS and isinstance(e.get("input"), str):
+            desc = field_description(model, loc)
+            msg += f" (got {e['input']!r}; give a plain number without a unit"
+            msg += f": {desc})" if desc else ")"
+        elif e["type"] == "extra_forbidden":
+            msg = "unknown key (not part of the case schema; check the spelling)"
+        elif e["type"] == "missing":
+            desc = field_description(model, loc)
+            msg = "missing required field" + (f" ({desc})" if desc else "")
+        key = (_join(path), line)
+        if msg not in merged.setdefault(key, []):
+            merged[key].append(msg)
+    lines = []
+    for (path, line), msgs in merged.items():
+        where = f"{source}:{line}: " if source and line else (f"line {line}: " if line else "")
+        where = where if where else (f"{source}: " if source else "")
+        lines.append(f"{where}{path}: {' or '.join(msgs)}")
+    return "\n".join(lines)

@@ -1,0 +1,272 @@
+"""Streaming VTK output for ParaView: one binary ``.vtu`` per frame plus a ``.pvd`` time series.
+
+Layout (contract of ../shared/DESIGN.md)::
+
+    OUT/vtk/blocks_00000.vtu ...   one hexahedron cell per block (zlib-compressed binary XML)
+    OUT/vtk/scene.pvd              collection: the real simulated time of every frame
+    OUT/vtk/contacts_00000.vtp ... (optional) contact points as poly-data vertices
+    OUT/vtk/contacts.pvd
+
+Frame: positions are in the table frame (metres; the base stays at z = 0 and does not move),
+which is what the engine integrates and what ``frames.npz`` holds.  ``frame="lab"`` adds the table
+displacement ``base_disp`` to the points (the blocks then move with the table as seen in the lab);
+cell data stay relative to the table either way.
+
+Cell data per block (cell i = block i, in the order of the scene: explicit blocks first):
+
+    block_id        int32    index of the block
+    group           int32    index into the field-data array ``group_names`` (wall / group label)
+    course          int32    course index (0 = bottom course, -1 where it does not apply)
+    displacement    float32  [3] position minus the initial position, m (table frame)
+    velocity        float32  [3] m/s (table frame)
+    rotation_angle  float32  angle of the rotation from the initial orientation, degrees
+
+Field data per file: ``TimeValue`` and ``time`` (s), ``base_displacement`` [3] (m),
+``group_names`` (uint8: the UTF-8 names joined by newlines, see :func:`decode_names`; VTK string
+arrays would break meshio's reader); ``vtk/groups.json`` lists the same names; contacts carry point data ``normal`` [3], ``fn`` (N, normal force),
+``ft`` [3] (N, shear force) and ``ft_magnitude`` (N).
+
+The ``.pvd`` files are rewritten after every frame through a temporary file and an atomic rename,
+and every ``.vtu`` is written to a temporary name first, so whatever happens to the run, the
+series on disk is valid and lists exactly the frames that are complete.
+
+Size: points and data are float32 and zlib-compressed; a 217-block box model takes about
+23 kB per frame (measured; see README "Output").
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import numpy as np
+import pyvista as pv
+from vtkmodules.util.numpy_support import numpy_to_vtk
+
+from dem.scene import Scene
+
+# VTK_HEXAHEDRON vertex order: bottom face counter-clockwise, then the top face
+HEX_CORNERS = np.array(
+    [[-1, -1, -1], [1, -1, -1], [1, 1, -1], [-1, 1, -1], [-1, -1, 1], [1, -1, 1], [1, 1, 1], [-1, 1, 1]],
+    dtype=np.float64,
+)
+
+
+def quat_to_matrix(q: np.ndarray) -> np.ndarray:
+    """Rotation matrices [N,3,3] (body -> table) of unit quaternions [N,4] (w, x, y, z)."""
+    q = np.asarray(q, dtype=np.float64)
+    q = q / np.linalg.norm(q, axis=1, keepdims=True)
+    w, x, y, z = q.T
+    return np.stack(
+        [
+            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], axis=-1),
+            np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], axis=-1),
+            np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], axis=-1),
+        ],
+        axis=1,
+    )
+
+
+def block_corners(size: np.ndarray, pos: np.ndarray, quat: np.ndarray) -> np.ndarray:
+    """Corners [N,8,3] of boxes (full edge lengths ``size``, centres ``pos``, orientations ``quat``
+    (w, x, y, z)) in VTK hexahedron order, m."""
+    r = quat_to_matrix(quat)
+    local = HEX_CORNERS[None, :, :] * (0.5 * np.asarray(size))[:, None, :]
+    return np.asarray(pos)[:, None, :] + np.einsum("nij,nkj->nki", r, local)
+
+
+def rotation_angle_deg(quat: np.ndarray, quat0: np.ndarray) -> np.ndarray:
+    """Angle of the rotation taking orientation ``quat0`` to ``quat`` (both [N,4], w x y z), deg."""
+    q = quat / np.linalg.norm(quat, axis=1, keepdims=True)
+    q0 = quat0 / np.linalg.norm(quat0, axis=1, keepdims=True)
+    c = np.clip(np.abs(np.sum(q * q0, axis=1)), 0.0, 1.0)
+    return np.degrees(2.0 * np.arccos(c))
+
+
+def blocks_grid(
+    scene: Scene,
+    pos: np.ndarray,
+    quat: np.ndarray,
+    vel: np.ndarray | None = None,
+    t: float | None = None,
+    base_disp=None,
+    shift=None,
+    dtype=np.float32,
+) -> pv.UnstructuredGrid:
+    """An UnstructuredGrid with one hexahedron per block and the cell/field data described in the
+    module docstring.  ``shift`` [3] is added to the points (the lab frame)."""
+    n = scene.n_blocks
+    pos = np.asarray(pos, dtype=np.float64).reshape(n, 3)
+    quat = np.asarray(quat, dtype=np.float64).reshape(n, 4)
+    pts = block_corners(scene.size, pos, quat).reshape(-1, 3)
+    if shift is not None:
+        pts = pts + np.asarray(shift, dtype=np.float64).reshape(1, 3)
+    cells = np.hstack([np.full((n, 1), 8), np.arange(8 * n).reshape(n, 8)]).ravel()
+    grid = pv.UnstructuredGrid(cells, np.full(n, pv.CellType.HEXAHEDRON, dtype=np.uint8), pts.astype(dtype))
+    grid.cell_data["block_id"] = np.arange(n, dtype=np.int32)
+    grid.cell_data["group"] = scene.group.astype(np.int32)
+    grid.cell_data["course"] = scene.course.astype(np.int32)
+    grid.cell_data["displacement"] = (pos - scene.position).astype(dtype)
+    v = np.zeros((n, 3)) if vel is None else np.asarray(vel, dtype=np.float64).reshape(n, 3)
+    grid.cell_data["velocity"] = v.astype(dtype)
+    grid.cell_data["rotation_angle"] = rotation_angle_deg(quat, scene.quat).astype(dtype)
+    if t is not None:
+        grid.field_data["TimeValue"] = np.array([t], dtype=np.float64)
+        grid.field_data["time"] = np.array([t], dtype=np.float64)
+    if base_disp is not None:
+        grid.field_data["base_displacement"] = np.asarray(base_disp, dtype=np.float64).reshape(3)
+    grid.field_data["group_names"] = encode_names(scene.group_names)
+    return grid
+
+
+def encode_names(names: list[str]) -> np.ndarray:
+    """Group names as a uint8 field array (UTF-8, joined by newlines).  VTK string arrays would
+    be simpler, but meshio cannot read them; decode with :func:`decode_names`."""
+    return np.frombuffer("\n".join(names).encode("utf-8"), dtype=np.uint8).copy()
+
+
+def decode_names(arr) -> list[str]:
+    """Inverse of :func:`encode_names`."""
+    return bytes(np.asarray(arr, dtype=np.uint8)).decode("utf-8").split("\n")
+
+
+def _atomic_save(mesh: pv.DataSet, path: Path) -> None:
+    tmp = path.with_name(f".{path.stem}.tmp{path.suffix}")
+    mesh.save(tmp, binary=True, compression="zlib")
+    os.replace(tmp, path)
+
+
+class _Collection:
+    """A ParaView ``.pvd`` collection, rewritten atomically after each added data set."""
+
+    def __init__(self, path: Path):
+        self.path = path
+        self.entries: list[str] = []
+
+    def add(self, t: float, file: str) -> None:
+        el = ET.Element("DataSet", timestep=repr(float(t)), group="", part="0", file=file)
+        self.entries.append("    " + ET.tostring(el, encoding="unicode"))
+        self.write()
+
+    def write(self) -> None:
+        text = "\n".join(
+            [
+                '<?xml version="1.0"?>',
+                '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">',
+                "  <Collection>",
+                *self.entries,
+                "  </Collection>",
+                "</VTKFile>",
+                "",
+            ]
+        )
+        tmp = self.path.with_name(f".{self.path.name}.tmp")
+        tmp.write_text(text)
+        os.replace(tmp, self.path)
+
+
+class VtkSeries:
+    """Streaming writer of the ``vtk/`` directory, called by the run loop once per output frame.
+
+    ``VtkSeries(out_dir, scene, write_contacts=False)``, then ``add_frame(t, pos, quat, vel,
+    base_disp, contacts=None)`` per frame and ``close()`` at the end (also a context manager).
+
+    t          simulated time, s
+    pos        [N,3] block centres, m, table frame
+    quat       [N,4] orientations (w, x, y, z), body -> table
+    vel        [N,3] velocities, m/s, table frame
+    base_disp  [3] table displacement, m
+    contacts   {"point": [M,3] m, "normal": [M,3], "fn": [M] N, "ft": [M,3] N} or None
+    frame      "table" (default: points in the table frame) or "lab" (points + base_disp)
+    """
+
+    def __init__(self, out_dir: Path, scene: Scene, write_contacts: bool = False, frame: str = "table"):
+        if frame not in ("table", "lab"):
+            raise ValueError(f"frame must be 'table' or 'lab', got {frame!r}")
+        self.dir = Path(out_dir) / "vtk"
+        self.dir.mkdir(parents=True, exist_ok=True)
+        self.scene = scene
+        self.write_contacts = write_contacts
+        self.frame = frame
+        self.n_frames = 0
+        self.bytes_written = 0
+        self.closed = False
+        self._blocks = _Collection(self.dir / "scene.pvd")
+        self._contacts = _Collection(self.dir / "contacts.pvd") if write_contacts else None
+        self._blocks.write()  # an empty but valid series from the start
+        (self.dir / "groups.json").write_text(
+            json.dumps({"group_names": list(scene.group_names)}, indent=1) + "\n"
+        )
+        if self._contacts is not None:
+            self._contacts.write()
+
+    def add_frame(self, t: float, pos, quat, vel, base_disp, contacts: dict | None = None) -> Path:
+        """Write one frame; returns the path of its ``.vtu``."""
+        if self.closed:
+            raise RuntimeError("VtkSeries is closed")
+        k = self.n_frames
+        base = np.zeros(3) if base_disp is None else np.asarray(base_disp, dtype=np.float64).reshape(3)
+        grid = blocks_grid(
+            self.scene, pos, quat, vel, t=float(t), base_disp=base,
+            shift=base if self.frame == "lab" else None,
+        )
+        name = f"blocks_{k:05d}.vtu"
+        _atomic_save(grid, self.dir / name)
+        self.bytes_written += (self.dir / name).stat().st_size
+        if self._contacts is not None:
+            cname = f"contacts_{k:05d}.vtp"
+            _atomic_save(self._contact_polydata(float(t), base, contacts), self.dir / cname)
+            self.bytes_written += (self.dir / cname).stat().st_size
+            self._contacts.add(t, cname)
+        self._blocks.add(t, name)
+        self.n_frames += 1
+        return self.dir / name
+
+    def _contact_polydata(self, t: float, base: np.ndarray, contacts: dict | None) -> pv.PolyData:
+        if contacts is None or len(np.asarray(contacts.get("point", []))) == 0:
+            pts = np.zeros((0, 3))
+            normal, fn, ft = np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3))
+        else:
+            pts = np.asarray(contacts["point"], dtype=np.float64).reshape(-1, 3)
+            m = len(pts)
+            normal = np.asarray(contacts["normal"], dtype=np.float64).reshape(m, 3)
+            fn = np.asarray(contacts["fn"], dtype=np.float64).reshape(m)
+            ft = np.asarray(contacts["ft"], dtype=np.float64).reshape(m, 3)
+        if self.frame == "lab":
+            pts = pts + base
+        poly = pv.PolyData(pts.astype(np.float32))
+        if len(pts):
+            poly.verts = np.hstack([np.ones((len(pts), 1), dtype=np.int64), np.arange(len(pts))[:, None]]).ravel()
+        arrays = {
+            "normal": normal,
+            "fn": fn,
+            "ft": ft,
+            "ft_magnitude": np.linalg.norm(ft, axis=1),
+        }
+        for key, arr in arrays.items():
+            # through VTK directly: pyvista refuses empty arrays, and a frame may have no contact
+            vtk_arr = numpy_to_vtk(np.ascontiguousarray(arr, dtype=np.float32), deep=True)
+            vtk_arr.SetName(key)
+            if arr.ndim == 2:
+                vtk_arr.SetNumberOfComponents(3)
+            poly.GetPointData().AddArray(vtk_arr)
+        poly.field_data["TimeValue"] = np.array([t])
+        poly.field_data["time"] = np.array([t])
+        poly.field_data["base_displacement"] = base
+        return poly
+
+    def close(self) -> None:
+        """Finish the series (the .pvd files are already complete after every frame)."""
+        if not self.closed:
+            self._blocks.write()
+            if self._contacts is not None:
+                self._contacts.write()
+            self.closed = True
+
+    def __enter__(self) -> "VtkSeries":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
