@@ -187,6 +187,8 @@ class VtkSeries:
             raise ValueError(f"frame must be 'table' or 'lab', got {frame!r}")
         self.dir = Path(out_dir) / "vtk"
         self.dir.mkdir(parents=True, exist_ok=True)
+        for stale in [*self.dir.glob("blocks_*.vtu"), *self.dir.glob("contacts_*.vtp")]:
+            stale.unlink()  # from an earlier run into the same directory
         self.scene = scene
         self.write_contacts = write_contacts
         self.frame = frame
@@ -270,3 +272,22 @@ class VtkSeries:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+def series_from_frames(
+    out_dir, scene: Scene, frames_path=None, frame: str = "table", every: int = 1
+) -> int:
+    """Write ``out_dir/vtk/`` from a ``frames.npz`` (arrays t, pos, quat, base_disp and, if
+    present, vel) of the same scene: for runs recorded without VTK, or to rebuild it.  ``every``
+    keeps every k-th frame (and the last).  Returns the number of frames written."""
+    out_dir = Path(out_dir)
+    data = np.load(frames_path or out_dir / "frames.npz")
+    t, pos, quat, base = data["t"], data["pos"], data["quat"], data["base_disp"]
+    vel = data["vel"] if "vel" in data.files else np.zeros_like(pos)
+    keep = list(range(0, len(t), max(1, int(every))))
+    if keep and keep[-1] != len(t) - 1:
+        keep.append(len(t) - 1)
+    with VtkSeries(out_dir, scene, frame=frame) as series:
+        for k in keep:
+            series.add_frame(float(t[k]), pos[k], quat[k], vel[k], base[k])
+    return len(keep)

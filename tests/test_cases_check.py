@@ -1,0 +1,47 @@
+"""Every case file in cases/ (except cases/rocking/, run by ``dem rocking``) passes ``dem check``;
+the committed JSON schema is current; cases/README.md lists every file."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from dem.case import case_json_schema
+from dem.cli import app
+
+CASES = Path(__file__).resolve().parents[1] / "cases"
+FILES = sorted(p for p in CASES.rglob("*.yaml") if "rocking" not in p.relative_to(CASES).parts)
+
+
+def test_there_are_cases_for_every_family():
+    rel = {p.relative_to(CASES).as_posix() for p in FILES}
+    for prefix in ("analytic/", "tilt/in-plane/", "tilt/out-of-plane/", "shake/model-i/",
+                   "shake/model-ii/", "shake/model-iii/", "shake/diagonal/"):
+        assert any(r.startswith(prefix) for r in rel), prefix
+    # one file per excitation group of Appendix I (groups 1-9; group 7 is the diagonal one)
+    groups = {int(r.split("group-")[1].split("-")[0]) for r in rel if "group-" in r}
+    assert groups == set(range(1, 10))
+    # each corner connection of the out-of-plane tests (Section 3.3.3) and walls without wings
+    for tag in ("no-wings", "poor-poor", "poor-good", "poor-strong", "strong-strong"):
+        assert any(r.startswith("tilt/out-of-plane/") and tag in r for r in rel), tag
+
+
+@pytest.mark.parametrize("path", FILES, ids=[p.relative_to(CASES).as_posix() for p in FILES])
+def test_case_passes_dem_check(path):
+    result = CliRunner().invoke(app, ["check", str(path)])
+    assert result.exit_code == 0, result.output
+    assert "warning" not in result.output  # no block about to tip at the start
+
+
+def test_committed_schema_is_current():
+    committed = json.loads((CASES / "case.schema.json").read_text())
+    assert committed == json.loads(case_json_schema()), "run: dem schema --out cases/case.schema.json"
+
+
+def test_readme_lists_every_case():
+    readme = (CASES / "README.md").read_text()
+    missing = [p.relative_to(CASES).as_posix() for p in FILES if p.relative_to(CASES).as_posix() not in readme]
+    assert missing == []
