@@ -77,5 +77,17 @@ def run(
     raise typer.Exit(run_case_file(case, out, progress=progress))
 
 
+@app.command()
+def rocking(
+    case: Path = typer.Argument(..., help="rocking case YAML file (see dem/rocking/schema.py)"),
+    out: Path = typer.Option(..., "--out", "-o", help="output directory"),
+    plots: bool = typer.Option(True, help="write PNG plots"),
+) -> None:
+    """Run the two-body rocking model (thesis Ch. 5): summary.json, rocking.npz, plots in OUT."""
+    from dem.rocking.runner import run_rocking_case_file
+
+    raise typer.Exit(run_rocking_case_file(case, out, plots=plots, echo=typer.echo, err=_err))
+
+
 if __name__ == "__main__":  # pragma: no cover
     app()

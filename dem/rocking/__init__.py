@@ -1,0 +1,18 @@
+"""Reduced two-body rocking model of a facade (thesis Chapter 5), a fast companion to the DEM.
+
+Two stacked rigid blocks rock on a rigid base, with a top load N and a friction mu N from the roof
+beams, under a horizontal base acceleration.  Modules:
+
+* :mod:`dem.rocking.model`      equations of motion (Lagrangian, all patterns), kinematics, energy
+* :mod:`dem.rocking.simulate`   event-driven integration (solve_ivp + events), impacts, mode choice
+* :mod:`dem.rocking.excitation` base motion
+* :mod:`dem.rocking.analysis`   closed forms (Housner limits, thresholds), amplitudes, statistics
+* :mod:`dem.rocking.schema`     the case format; :mod:`dem.rocking.runner` ``dem rocking``
+
+Derivation and choices: docs/rocking_model.md; results against the thesis: docs/rocking_results.md.
+"""
+
+from dem.rocking.model import RockingParams, pattern_name
+from dem.rocking.simulate import RockingError, RockingResult, Settings, simulate
+
+__all__ = ["RockingParams", "pattern_name", "RockingError", "RockingResult", "Settings", "simulate"]

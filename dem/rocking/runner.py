@@ -1,0 +1,250 @@
+"""``dem rocking CASE.yaml --out DIR``: run the two-body model and write its outputs.
+
+Outputs (contract of ../shared/DESIGN.md, extended):
+
+* ``rocking.npz``: ``t`` [T] s; ``theta1``, ``theta2`` [T] rad (absolute); ``omega1``,
+  ``omega2`` [T] rad/s; ``pattern`` [T] str ("1A" .. "4B", "rest"); ``top_disp`` [T] m
+  (d = H1 sin theta1 + H2 sin theta2); extensions: ``top_stick`` [T] bool, ``mode`` [T, 4] int8
+  (b, c, tau, sigma, see dem.rocking.model), ``base_disp``, ``base_acc`` [T] (m, m/s2, along the
+  loading direction), ``kinetic_energy``, ``potential_energy`` [T] J, ``cycle_index``,
+  ``cycle_max``, ``cycle_min`` (top displacement per excitation cycle, m), ``peak_t``,
+  ``peak_disp`` (extreme of every rocking oscillation), ``event_t``, ``event_kind``,
+  ``event_before``, ``event_after`` (the exact event log);
+* ``summary.json`` (name, status, message, model, loading, closed-form thresholds, pattern
+  statistics, amplitudes, event counts, sim_time, wall_seconds ...);
+* ``events.csv``; ``rocking.png`` (time histories), ``amplitudes.png`` (per cycle).
+
+Exit codes: 0 ok (also when the wall collapses: that is a result), 1 the integration failed (what
+was computed is written, the message says where and why), 2 bad input.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+
+from dem.rocking import analysis as an
+from dem.rocking.model import PATTERNS, energy_arrays
+from dem.rocking.schema import (
+    RockingCase,
+    RockingCaseError,
+    excitation_from_case,
+    initial_from_case,
+    load_rocking_case,
+    params_from_case,
+    settings_from_case,
+)
+from dem.rocking.simulate import RockingError, RockingResult, simulate
+
+EXIT_OK, EXIT_RUN_FAILED, EXIT_BAD_INPUT = 0, 1, 2
+
+
+def run_case(case: RockingCase):
+    """Simulate a validated case; returns (params, excitation, result, error or None)."""
+    P = params_from_case(case)
+    exc = excitation_from_case(case)
+    S = settings_from_case(case)
+    try:
+        res = simulate(P, exc, S, initial_from_case(case))
+        return P, exc, res, None
+    except RockingError as err:
+        return P, exc, err.partial, err
+
+
+def summarize(case: RockingCase, P, exc, res: RockingResult, wall: float) -> tuple[dict, dict]:
+    """summary.json content and the derived arrays for rocking.npz."""
+    d = an.top_displacement(P, res.theta1, res.theta2)
+    t_end = float(res.t[-1]) if len(res.t) else 0.0
+    arrays = {}
+    if exc.period:
+        ci, cmax, cmin = an.cycle_amplitudes(res.t, d, exc.period, min(exc.t_stop, t_end + 1e-12))
+    else:
+        ci, cmax, cmin = np.zeros(0, int), np.zeros(0), np.zeros(0)
+    tp, dp = an.oscillation_peaks(res.t, d)
+    arrays.update(cycle_index=ci, cycle_max=cmax, cycle_min=cmin, peak_t=tp, peak_disp=dp)
+    stats, merged = an.pattern_statistics(res.episodes, t_end)
+    moving = {k: v for k, v in stats.items() if k != "rest"}
+    kinds = {}
+    for e in res.events:
+        kinds[e["kind"]] = kinds.get(e["kind"], 0) + 1
+    uplift = next((e["t"] for e in res.events if e["before"] == "rest"), None)
+    # steady state: the second half of the shaking cycles
+    amp = {}
+    if len(ci):
+        half = ci >= (ci.max() + 1) / 2
+        amp = {
+            "positive_mean_m": float(np.mean(cmax[half])),
+            "negative_mean_m": float(np.mean(cmin[half])),
+            "positive_max_m": float(cmax.max()),
+            "negative_min_m": float(cmin.min()),
+            "peak_to_peak_mean_m": float(np.mean(cmax[half] - cmin[half])),
+        }
+    summary = {
+        "name": case.name,
+        "description": case.description,
+        "status": res.status,
+        "message": res.message,
+        "model": {
+            "thickness": P.thickness, "h1": P.h1, "m1": P.m1, "h2": P.h2, "m2": P.m2,
+            "top_load": P.top_load, "top_friction": P.top_friction, "gravity": P.gravity,
+            "restitution": case.rocking.restitution, "top_load_point": P.load_point,
+            "locked": P.locked,
+        },
+        "loading": exc.describe(),
+        "closed_form": {
+            "uplift_threshold_whole_m_s2": an.uplift_threshold(P, "whole"),
+            "uplift_threshold_upper_m_s2": an.uplift_threshold(P, "upper"),
+            "thesis_eq_5_4_threshold_m_s2": an.thesis_uplift_threshold(P),
+            "housner_restitution_locked": an.housner_restitution(P),
+            "peak_over_threshold": (exc.peak / an.uplift_threshold(P, "whole"))
+            if getattr(exc, "peak", None) else None,
+        },
+        "sim_time": t_end,
+        "wall_seconds": wall,
+        "integration_seconds": res.wall_seconds,
+        "n_samples": int(len(res.t)),
+        "output_interval": case.run.output_interval,
+        "first_uplift_time": uplift,
+        "events": kinds,
+        "patterns": stats,
+        "most_frequent_pattern_by_occurrences": max(moving, key=lambda k: moving[k]["occurrences"])
+        if moving else "rest",
+        "most_frequent_pattern_by_time": max(moving, key=lambda k: moving[k]["time_fraction"])
+        if moving else "rest",
+        "pattern_sequence": [p for _, _, p in merged][:200],
+        "response": {
+            "max_abs_theta1_rad": float(np.abs(res.theta1).max()) if len(res.t) else 0.0,
+            "max_abs_theta2_rad": float(np.abs(res.theta2).max()) if len(res.t) else 0.0,
+            "top_disp_max_m": float(d.max()) if len(d) else 0.0,
+            "top_disp_min_m": float(d.min()) if len(d) else 0.0,
+            "amplitude_steady": amp,
+            "oscillations": int(len(tp)),
+        },
+        "diagnostics": res.stats,
+    }
+    return summary, arrays
+
+
+def write_outputs(out: Path, case: RockingCase, P, exc, res: RockingResult, wall: float,
+                  plots: bool = True) -> dict:
+    out.mkdir(parents=True, exist_ok=True)
+    summary, arrays = summarize(case, P, exc, res, wall)
+    d = an.top_displacement(P, res.theta1, res.theta2)
+    ke, v = energy_arrays(P, res.theta1, res.theta2, res.omega1, res.omega2,
+                          res.mode[:, 0], res.mode[:, 1], res.mode[:, 3]) if len(res.t) else \
+        (np.zeros(0), np.zeros(0))
+    ev = res.events
+    np.savez_compressed(
+        out / "rocking.npz",
+        t=res.t, theta1=res.theta1, theta2=res.theta2, omega1=res.omega1, omega2=res.omega2,
+        pattern=res.pattern.astype("<U4"), top_disp=d, top_stick=res.top_stick, mode=res.mode,
+        base_disp=exc.disp(res.t), base_acc=exc.acc_array(res.t),
+        kinetic_energy=ke, potential_energy=v,
+        event_t=np.array([e["t"] for e in ev], dtype=float),
+        event_kind=np.array([e["kind"] for e in ev], dtype="<U20"),
+        event_before=np.array([e["before"] for e in ev], dtype="<U4"),
+        event_after=np.array([e["after"] for e in ev], dtype="<U4"),
+        **arrays,
+    )
+    with open(out / "events.csv", "w") as fh:
+        fh.write("t_s,kind,before,after\n")
+        for e in ev:
+            fh.write(f"{e['t']:.12g},{e['kind']},{e['before']},{e['after']}\n")
+    if plots and len(res.t):
+        try:
+            plot_results(out, case, P, exc, res, d, arrays)
+        except Exception as err:  # a plot must never lose the run's data
+            summary["plot_error"] = f"{type(err).__name__}: {err}"
+    (out / "summary.json").write_text(json.dumps(summary, indent=2, default=_json_default))
+    return summary
+
+
+def _json_default(o):
+    if isinstance(o, (np.floating, np.integer)):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    raise TypeError(type(o))
+
+
+def plot_results(out: Path, case, P, exc, res, d, arrays) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    t = res.t
+    fig, ax = plt.subplots(4, 1, figsize=(11, 10), sharex=True)
+    ax[0].plot(t, res.theta1, lw=0.8, label=r"$\theta_1$ (Part 1)")
+    ax[0].plot(t, res.theta2, lw=0.8, label=r"$\theta_2$ (Part 2)")
+    ax[0].set_ylabel("angle (rad)")
+    ax[0].legend(loc="upper right")
+    ax[1].plot(t, 1e3 * d, lw=0.8, label="top displacement d")
+    ax[1].plot(t, 1e3 * exc.disp(t), lw=0.6, color="0.6", label="table displacement")
+    ax[1].set_ylabel("mm")
+    ax[1].legend(loc="upper right")
+    ax[2].plot(t, exc.acc_array(t), lw=0.6, color="0.4")
+    thr = an.uplift_threshold(P)
+    for s in (1, -1):
+        ax[2].axhline(s * thr, color="r", lw=0.6, ls="--")
+    ax[2].set_ylabel("table acc. (m/s2)")
+    ax[2].set_title("dashed: uplift threshold (closed form)", fontsize=8)
+    levels = {p: i for i, p in enumerate(PATTERNS)}
+    ax[3].step(t, [levels[p] for p in res.pattern], where="post", lw=0.8)
+    ax[3].set_yticks(range(len(PATTERNS)), PATTERNS)
+    ax[3].set_ylabel("pattern")
+    ax[3].set_xlabel("t (s)")
+    fig.suptitle(f"{case.name}: {res.status}", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(out / "rocking.png", dpi=110)
+    plt.close(fig)
+
+    fig, ax = plt.subplots(1, 1, figsize=(9, 4))
+    if len(arrays["cycle_index"]):
+        ax.plot(arrays["cycle_index"] + 1, 1e3 * arrays["cycle_max"], "o-", ms=3, label="max per cycle")
+        ax.plot(arrays["cycle_index"] + 1, 1e3 * arrays["cycle_min"], "s-", ms=3, label="min per cycle")
+        ax.set_xlabel("excitation cycle")
+    else:
+        ax.plot(arrays["peak_t"], 1e3 * arrays["peak_disp"], "o", ms=3, label="oscillation peaks")
+        ax.set_xlabel("t (s)")
+    ax.set_ylabel("top displacement (mm)")
+    ax.legend()
+    ax.set_title(case.name, fontsize=10)
+    fig.tight_layout()
+    fig.savefig(out / "amplitudes.png", dpi=110)
+    plt.close(fig)
+
+
+def run_rocking_case_file(path, out, plots: bool = True, echo=print, err=print,
+                          overrides: dict | None = None) -> int:
+    """Load, run, write; returns the exit code (0 ok, 1 run failed, 2 bad input)."""
+    t0 = time.perf_counter()
+    try:
+        case = load_rocking_case(path, overrides)
+    except RockingCaseError as e:
+        err(f"error: {path}:\n{e}")
+        return EXIT_BAD_INPUT
+    try:
+        P, exc, res, failure = run_case(case)
+    except ValueError as e:  # parameters the model refuses (should have been caught by the schema)
+        err(f"error: {path}:\n{e}")
+        return EXIT_BAD_INPUT
+    out = Path(out)
+    summary = write_outputs(out, case, P, exc, res, time.perf_counter() - t0, plots=plots)
+    if failure is not None:
+        err(f"error: {case.name}: the integration failed: {failure}\n"
+            f"(results up to t = {summary['sim_time']:.6g} s written to {out})")
+        return EXIT_RUN_FAILED
+    amp = summary["response"]["amplitude_steady"]
+    amp_txt = (f", steady amplitude +{1e3 * amp['positive_mean_m']:.2f} / "
+               f"{1e3 * amp['negative_mean_m']:.2f} mm") if amp else ""
+    echo(f"{case.name}: {res.status} in {summary['wall_seconds']:.2f} s, "
+         f"{summary['sim_time']:.3g} s simulated, {len(res.events)} events, most frequent "
+         f"pattern {summary['most_frequent_pattern_by_occurrences']}{amp_txt} -> {out}")
+    if res.status == "collapsed":
+        echo(f"  {res.message}")
+    return EXIT_OK

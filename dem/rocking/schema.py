@@ -1,0 +1,316 @@
+"""Case files of the two-body rocking model (``dem rocking CASE.yaml --out DIR``).
+
+The format of ../shared/DESIGN.md ("The two-body rocking model reads a case like this") is accepted
+exactly as written; everything below ``# extensions`` is optional.  SI units, angles in radians::
+
+    name: model-ii-facade-y
+    rocking:
+      thickness: 0.050                   # m, both parts (T)
+      lower: {height: 0.140, mass: 6.05} # Part 1: H1 (m), m1 (kg)
+      upper: {height: 0.140, mass: 9.41} # Part 2: H2 (m), m2 (kg)
+      top_load: 58.8                     # N, vertical, on top of Part 2
+      top_friction: 0.81                 # mu of the sliding friction mu * N at the top
+      restitution: housner               # or a number in [0, 1]
+      initial: {theta1: 0.0, theta2: 0.0, omega1: 0.0, omega2: 0.0}   # rad, rad/s (absolute)
+      # extensions
+      top_load_point: corner             # corner (thesis eq. 5-9..5-14) | centre (eq. 5-3)
+      locked: false                      # true: the parts never separate (one block)
+    loading: {type: shake, direction: [0, 1, 0], frequency: 2.8, amplitude: 0.00469, cycles: 50}
+    run: {duration: 20.0, output_interval: 0.001}   # extension: collapse_angle (rad)
+    # extensions
+    gravity: 9.81                        # m/s2
+    solver: {method: DOP853, rtol: 1.0e-10, atol: 1.0e-12, max_step_fraction: 0.0625,
+             zeno_velocity: 1.0e-6}
+
+The loading is along ``direction`` (used as given, as in the DEM's case format: the rocking plane
+contains it and the displacement amplitude is ``amplitude * |direction|``); give ``amplitude`` (m)
+or ``peak_acceleration`` (m/s2).  ``loading: {type: none}`` is free motion from ``initial``.
+Unknown keys are rejected; errors name the field, e.g. ``rocking.lower.mass: must be > 0 kg``.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Annotated, Literal, Union
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+
+
+class RockingCaseError(ValueError):
+    """A rocking case that cannot be used; the message names the bad field(s)."""
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+def _positive(unit: str):
+    def check(v: float) -> float:
+        if not (math.isfinite(v) and v > 0):
+            raise ValueError(f"must be > 0 {unit}, got {v}".replace("  ", " "))
+        return v
+    return check
+
+
+def _non_negative(unit: str):
+    def check(v: float) -> float:
+        if not (math.isfinite(v) and v >= 0):
+            raise ValueError(f"must be >= 0 {unit}, got {v}".replace("  ", " "))
+        return v
+    return check
+
+
+def _finite(v: float) -> float:
+    if not math.isfinite(v):
+        raise ValueError(f"must be finite, got {v}")
+    return v
+
+
+class PartSpec(_Strict):
+    """One rigid part (a rectangle of the wall's thickness)."""
+
+    height: float = Field(description="H, m")
+    mass: float = Field(description="kg")
+
+    _h = field_validator("height")(lambda cls, v: _positive("m")(v))
+    _m = field_validator("mass")(lambda cls, v: _positive("kg")(v))
+
+
+class InitialSpec(_Strict):
+    """Initial absolute angles (rad, positive when the top moves towards +direction) and rates."""
+
+    theta1: float = 0.0
+    theta2: float = 0.0
+    omega1: float = 0.0
+    omega2: float = 0.0
+
+    _f = field_validator("theta1", "theta2", "omega1", "omega2")(lambda cls, v: _finite(v))
+
+    @model_validator(mode="after")
+    def _angles(self) -> "InitialSpec":
+        for k in ("theta1", "theta2"):
+            if abs(getattr(self, k)) >= math.pi / 2:
+                raise ValueError(f"{k} must be within (-pi/2, pi/2) rad, got {getattr(self, k)}")
+        return self
+
+
+class RockingSpec(_Strict):
+    """The two-body model of the thesis (Chapter 5, Table 5.1)."""
+
+    thickness: float = Field(description="T, m, both parts")
+    lower: PartSpec = Field(description="Part 1 (on the base)")
+    upper: PartSpec = Field(description="Part 2 (on Part 1)")
+    top_load: float = Field(default=0.0, description="N, N: vertical load on top of Part 2")
+    top_friction: float = Field(default=0.0, description="mu, -: friction mu N at the top")
+    restitution: Union[str, float] = Field(
+        default="housner",
+        description="'housner' (plastic impact, momentum-conserving) or e in [0, 1]: "
+                    "plastic velocity direction with e^2 of the kinetic energy kept")
+    initial: InitialSpec = Field(default_factory=InitialSpec)
+    top_load_point: Literal["corner", "centre"] = Field(
+        default="corner", description="where N acts: the raised top corner or the top centre")
+    locked: bool = Field(default=False, description="the parts never separate (one block)")
+
+    _t = field_validator("thickness")(lambda cls, v: _positive("m")(v))
+    _n = field_validator("top_load")(lambda cls, v: _non_negative("N")(v))
+    _mu = field_validator("top_friction")(lambda cls, v: _non_negative("")(v))
+
+    @field_validator("restitution", mode="before")
+    @classmethod
+    def _restitution(cls, v):
+        if isinstance(v, str):
+            if v != "housner":
+                raise ValueError(f"must be 'housner' or a number in [0, 1], got {v!r}")
+            return v
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise ValueError(f"must be 'housner' or a number in [0, 1], got {v!r}")
+        if not (math.isfinite(v) and 0.0 <= v <= 1.0):
+            raise ValueError(f"must be 'housner' or a number in [0, 1], got {v}")
+        return float(v)
+
+
+Vec3 = Annotated[list[float], Field(min_length=3, max_length=3)]
+
+
+class ShakeSpec(_Strict):
+    """u(t) = amplitude * direction * sin(2 pi f t) for ``cycles`` cycles (as the DEM's shake)."""
+
+    type: Literal["shake"]
+    direction: Vec3
+    frequency: float = Field(description="Hz")
+    amplitude: float | None = Field(default=None, description="m")
+    peak_acceleration: float | None = Field(default=None, description="m/s2")
+    cycles: float = Field(default=50.0, description="number of cycles")
+
+    _f = field_validator("frequency")(lambda cls, v: _positive("Hz")(v))
+    _c = field_validator("cycles")(lambda cls, v: _positive("")(v))
+
+    @field_validator("amplitude")
+    @classmethod
+    def _amp(cls, v):
+        return None if v is None else _positive("m")(v)
+
+    @field_validator("peak_acceleration")
+    @classmethod
+    def _peak(cls, v):
+        return None if v is None else _positive("m/s2")(v)
+
+    @field_validator("direction")
+    @classmethod
+    def _dir(cls, v):
+        if any(not math.isfinite(x) for x in v) or math.sqrt(sum(x * x for x in v)) == 0.0:
+            raise ValueError(f"must be a finite non-zero vector, got {v}")
+        if abs(v[2]) > 1e-12:
+            raise ValueError(f"must be horizontal (z = 0) for the rocking model, got {v}")
+        return v
+
+    @model_validator(mode="after")
+    def _one(self) -> "ShakeSpec":
+        if (self.amplitude is None) == (self.peak_acceleration is None):
+            raise ValueError("give exactly one of amplitude (m) or peak_acceleration (m/s2)")
+        return self
+
+    @property
+    def axis_amplitude(self) -> float:
+        """Displacement amplitude along the direction, m (= amplitude * |direction|)."""
+        A = self.amplitude if self.amplitude is not None else \
+            self.peak_acceleration / (2 * math.pi * self.frequency) ** 2
+        return A * math.sqrt(sum(x * x for x in self.direction))
+
+
+class NoneSpec(_Strict):
+    type: Literal["none"]
+
+
+LoadingSpec = Annotated[Union[ShakeSpec, NoneSpec], Field(discriminator="type")]
+
+
+class RunSpec(_Strict):
+    duration: float = Field(description="simulated time, s")
+    output_interval: float = Field(default=0.001, description="s between output samples")
+    collapse_angle: float = Field(default=1.0, description="rad: the run stops when a part "
+                                  "tilts further (status 'collapsed')")
+
+    _d = field_validator("duration", "output_interval")(lambda cls, v: _positive("s")(v))
+
+    @field_validator("collapse_angle")
+    @classmethod
+    def _ca(cls, v):
+        if not (0.0 < v <= math.pi / 2):
+            raise ValueError(f"must be in (0, pi/2] rad, got {v}")
+        return v
+
+    @model_validator(mode="after")
+    def _interval(self) -> "RunSpec":
+        if self.output_interval > self.duration:
+            raise ValueError("output_interval must not exceed duration")
+        if self.duration / self.output_interval > 5e7:
+            raise ValueError("more than 5e7 output samples: raise output_interval")
+        return self
+
+
+class SolverSpec(_Strict):
+    """Integration settings; defaults justified in docs/rocking_results.md (convergence)."""
+
+    method: Literal["DOP853", "RK45", "Radau", "LSODA", "BDF"] = "DOP853"
+    rtol: float = 1e-10
+    atol: float = 1e-12
+    max_step_fraction: float = Field(default=1.0 / 16.0, description="max step / period")
+    zeno_velocity: float = Field(default=1e-6, description="rad/s: slower closing rates lock")
+
+    _p = field_validator("rtol", "atol", "max_step_fraction", "zeno_velocity")(
+        lambda cls, v: _positive("")(v))
+
+
+class RockingCase(_Strict):
+    name: str = Field(min_length=1)
+    description: str = ""
+    rocking: RockingSpec
+    loading: LoadingSpec = Field(default_factory=lambda: NoneSpec(type="none"))
+    run: RunSpec
+    solver: SolverSpec = Field(default_factory=SolverSpec)
+    gravity: float = Field(default=9.81, description="m/s2")
+
+    _g = field_validator("gravity")(lambda cls, v: _non_negative("m/s2")(v))
+
+
+def _format(err: ValidationError) -> str:
+    lines = []
+    for e in err.errors():
+        loc = ".".join(str(p) for p in e["loc"] if not str(p).startswith("function-"))
+        msg = e["msg"].removeprefix("Value error, ")
+        if e["type"] == "extra_forbidden":
+            msg = "unknown key"
+        elif e["type"] == "missing":
+            msg = "required field missing"
+        lines.append(f"{loc or '<case>'}: {msg}")
+    return "\n".join(lines)
+
+
+def parse_rocking_case(data: dict) -> RockingCase:
+    try:
+        return RockingCase.model_validate(data)
+    except ValidationError as err:
+        raise RockingCaseError(_format(err)) from None
+
+
+def load_rocking_case(path: str | Path, overrides: dict | None = None) -> RockingCase:
+    """Read and validate a rocking case file (``overrides`` are merged into the top level)."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as err:
+        raise RockingCaseError(f"{path}: cannot read: {err.strerror}") from None
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as err:
+        raise RockingCaseError(f"{path}: not valid YAML: {err}") from None
+    if not isinstance(data, dict):
+        raise RockingCaseError(f"{path}: the case must be a YAML mapping")
+    if "rocking" not in data:
+        raise RockingCaseError("rocking: required field missing (this is not a rocking case)")
+    for k, v in (overrides or {}).items():
+        if isinstance(v, dict) and isinstance(data.get(k), dict):
+            data[k] = {**data[k], **v}
+        else:
+            data[k] = v
+    return parse_rocking_case(data)
+
+
+# ------------------------------------------------------------------------------------------
+# from the case to the model's objects
+# ------------------------------------------------------------------------------------------
+def params_from_case(case: RockingCase):
+    from dem.rocking.model import RockingParams
+
+    r = case.rocking
+    return RockingParams(
+        thickness=r.thickness, h1=r.lower.height, m1=r.lower.mass, h2=r.upper.height,
+        m2=r.upper.mass, top_load=r.top_load, top_friction=r.top_friction,
+        gravity=case.gravity, load_point=r.top_load_point, locked=r.locked)
+
+
+def excitation_from_case(case: RockingCase):
+    from dem.rocking.excitation import Excitation, Sine
+
+    L = case.loading
+    if L.type == "none":
+        return Excitation()
+    return Sine(L.axis_amplitude, L.frequency, L.cycles)
+
+
+def settings_from_case(case: RockingCase):
+    from dem.rocking.simulate import Settings
+
+    s = case.solver
+    return Settings(duration=case.run.duration, output_interval=case.run.output_interval,
+                    restitution=case.rocking.restitution, method=s.method, rtol=s.rtol,
+                    atol=s.atol, max_step_fraction=s.max_step_fraction,
+                    zeno_velocity=s.zeno_velocity, collapse_angle=case.run.collapse_angle)
+
+
+def initial_from_case(case: RockingCase) -> tuple:
+    i = case.rocking.initial
+    return (i.theta1, i.theta2, i.omega1, i.omega2)
