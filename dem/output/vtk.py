@@ -30,8 +30,8 @@ The ``.pvd`` files are rewritten after every frame through a temporary file and 
 and every ``.vtu`` is written to a temporary name first, so whatever happens to the run, the
 series on disk is valid and lists exactly the frames that are complete.
 
-Size: points and data are float32 and zlib-compressed; a 217-block box model takes about
-23 kB per frame (measured; see README "Output").
+Size: points and data are float32 and zlib-compressed; a 217-block box model in motion takes
+about 32 kB per frame (~150 bytes per block; measured, see README "Output"), written in ~10 ms.
 """
 
 from __future__ import annotations
