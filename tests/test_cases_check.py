@@ -45,3 +45,12 @@ def test_readme_lists_every_case():
     readme = (CASES / "README.md").read_text()
     missing = [p.relative_to(CASES).as_posix() for p in FILES if p.relative_to(CASES).as_posix() not in readme]
     assert missing == []
+
+
+def test_dem_schema_command(tmp_path):
+    result = CliRunner().invoke(app, ["schema", "--out", str(tmp_path / "s.json")])
+    assert result.exit_code == 0
+    schema = json.loads((tmp_path / "s.json").read_text())
+    scene = schema["$defs"]["SceneSpec"]["properties"]
+    assert {"blocks", "wall", "facade", "box_model"} <= set(scene)
+    assert schema["$defs"]["WallSpec"]["additionalProperties"] is False  # unknown keys rejected
