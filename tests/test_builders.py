@@ -395,3 +395,45 @@ def test_check_block_below_table():
     s = boxes(([0.2, 0.2, 0.1], [0, 0, 0.04]))
     rep = check_scene(s)
     assert len(rep.overlaps) == 1 and "below the table" in rep.overlaps[0]
+
+
+# ----------------------------------------------------------------------------- from a case
+def test_case_scene_explicit_blocks_first_then_builders():
+    from dem.case import parse_case
+    from dem.scene import scene_from_case
+
+    case = parse_case({
+        "name": "mixed",
+        "scene": {
+            "blocks": [{"size": [0.2, 0.2, 0.1], "position": [2.0, 0.0, 0.05], "mass": 4.0, "group": "probe"}],
+            "wall": {"brick": "small", "length": 3, "courses": 2, "origin": [0.0, 0.0, 0.0]},
+            "box_model": {"model": "I", "origin": [0.0, 1.5, 0.0], "yaw": 90},
+        },
+        "material": {"friction": 0.81},
+        "run": {"duration": 1.0},
+    })
+    s = scene_from_case(case)
+    assert s.n_blocks == 1 + (3 + 4) + 213
+    assert s.group_names[:3] == ["probe", "wall", "L1"]
+    assert s.position[0] == pytest.approx([2.0, 0.0, 0.05]) and s.course[0] == -1
+    assert (s.group[1:8] == 1).all()
+    box = slice(8, None)
+    lo, hi = s.position[box] - s.size[box] / 2, s.position[box] + s.size[box] / 2
+    # turned by 90 deg: the 735 mm long walls now run along y, centred on (0, 1.5)
+    assert hi.max(axis=0)[:2] - lo.min(axis=0)[:2] == pytest.approx([0.525, 0.735])
+    assert (lo.min(axis=0)[:2] + hi.max(axis=0)[:2]) / 2 == pytest.approx([0.0, 1.5])
+
+
+def test_case_scene_rejects_overlapping_builders():
+    from dem.case import parse_case
+    from dem.scene import scene_from_case
+
+    case = parse_case({
+        "name": "clash",
+        # a 945 mm wall through the middle of the 735 mm box crosses T1 and T2
+        "scene": {"wall": {"length": 9, "courses": 2}, "box_model": {"model": "I"}},
+        "material": {"friction": 0.81},
+        "run": {"duration": 1.0},
+    })
+    with pytest.raises(SceneError, match=r"block \d+ \(wall, course \d\) and block \d+ \(T\d, course \d\)"):
+        scene_from_case(case)
