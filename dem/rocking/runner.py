@@ -74,7 +74,7 @@ def summarize(case: RockingCase, P, exc, res: RockingResult, wall: float) -> tup
     uplift = next((e["t"] for e in res.events if e["before"] == "rest"), None)
     # steady state: the second half of the shaking cycles
     amp = {}
-    if len(ci):
+    if len(ci) and res.status == "ok":
         half = ci >= (ci.max() + 1) / 2
         amp = {
             "positive_mean_m": float(np.mean(cmax[half])),

@@ -219,6 +219,7 @@ class SolverSpec(_Strict):
     atol: float = 1e-12
     max_step_fraction: float = Field(default=1.0 / 16.0, description="max step / period")
     zeno_velocity: float = Field(default=1e-6, description="rad/s: slower closing rates lock")
+    max_events: int = Field(default=200000, ge=1, description="more events stop the run (error)")
 
     _p = field_validator("rtol", "atol", "max_step_fraction", "zeno_velocity")(
         lambda cls, v: _positive("")(v))
@@ -308,7 +309,8 @@ def settings_from_case(case: RockingCase):
     return Settings(duration=case.run.duration, output_interval=case.run.output_interval,
                     restitution=case.rocking.restitution, method=s.method, rtol=s.rtol,
                     atol=s.atol, max_step_fraction=s.max_step_fraction,
-                    zeno_velocity=s.zeno_velocity, collapse_angle=case.run.collapse_angle)
+                    zeno_velocity=s.zeno_velocity, collapse_angle=case.run.collapse_angle,
+                    max_events=s.max_events)
 
 
 def initial_from_case(case: RockingCase) -> tuple:

@@ -420,7 +420,9 @@ class _Sim:
                         hi = min(hi, -v0 / v1)
                     elif v0 <= 0:
                         lo, hi = math.inf, -math.inf
-                if lo < hi:
+                # ignore intervals of zero width (consistent at one exact acceleration only)
+                if lo < hi and (math.isinf(lo) or math.isinf(hi)
+                                or hi - lo > 1e-9 * max(1.0, abs(lo), abs(hi))):
                     out.append((lo, hi))
             return out
         lo, hi = -math.inf, math.inf
@@ -582,7 +584,10 @@ class _Sim:
                 self._event(t, "collapse", mode, mode)
                 y = tuple(y_ev)
                 break
-            mode, y = self._handle_event(name, t, y_ev, mode)
+            t_before = t
+            t, mode, y = self._handle_event(name, t, y_ev, mode)
+            if t > t_before:  # a grid point inside the release nudge takes the event state
+                self._record_constant(t_before, t, tuple(y_ev), mode)
         # final sample at t_end (if not yet recorded)
         if status == "ok" and self.i_next < len(self.grid):
             self._record_constant(t, t_end, y, mode, include_end=True)
@@ -669,7 +674,20 @@ class _Sim:
             new = self.select_mode(t, tuple(y), prev=mode, exclude=mode)
             self._event(t, name, mode, new)
         else:
-            # a validity condition of the mode has just been violated: release it
+            # A validity condition of the mode has just been violated: release it.  At the
+            # located root the released mode is only marginally consistent (its opening
+            # acceleration is exactly 0), so first continue the old mode NUDGE past the root
+            # (second-order Taylor step; the neglected motion is ~ jerk NUDGE^3 / 6).
+            e = evaluate(P, mode, tuple(y), self.exc.acc(t), want_forces=False)
+            h = NUDGE
+            dphi = e.dd2 - e.dd1
+            y = [y[0] + h * y[2] + 0.5 * h * h * e.dd1, y[1] + h * y[3] + 0.5 * h * h * dphi,
+                 y[2] + h * e.dd1, y[3] + h * dphi]
+            if flow_kind(b, c, tau) in ("p3", "p3_stuck"):
+                y[1], y[3] = 0.0, 0.0
+            if flow_kind(b, c, tau) in ("p4", "p4_stuck"):
+                y[0], y[2] = 0.0, 0.0
+            t = t + h
             if name == "liftoff_iface+":    # force at the + corner -> 0: rock on the - corner
                 cand = (b, -1, tau, sig)
             elif name == "liftoff_iface-":
@@ -687,7 +705,7 @@ class _Sim:
             new = self._check_release(cand, t, tuple(y), mode)
             self._event(t, name, mode, new)
         self._episode(t, mode, new)
-        return new, tuple(y)
+        return t, new, tuple(y)
 
     def _snap_top_velocity(self, mode, y):
         """Make the load point's velocity exactly 0 (it is ~1e-15 at the located event).
