@@ -233,8 +233,18 @@ Loading = Annotated[Union[TiltLoading, ShakeLoading, NoLoading], Field(discrimin
 # run and solver
 # --------------------------------------------------------------------------------------------
 class RunSpec(_Strict):
+    """How long to run and what to write (frames.npz always holds every output frame)."""
+
     duration: float = Field(gt=0.0, description="simulated time, s")
     output_interval: float = Field(default=0.01, gt=0.0, description="time between frames, s")
+    vtk: bool = Field(default=True, description="write vtk/ (one .vtu per written frame)")
+    vtk_every: int = Field(
+        default=1, ge=1, description="write a .vtu for every k-th output frame"
+    )
+    contacts: bool = Field(
+        default=False, description="also write contact points and forces (vtk/contacts_*.vtp)"
+    )
+    snapshot: bool = Field(default=True, description="write final.png (off-screen rendering)")
 
 
 class SolverSpec(_Strict):

@@ -84,6 +84,16 @@ def _json_default(o):
     raise TypeError(type(o).__name__)
 
 
+def _snapshot(path: Path, scene: Scene, rec: FrameRecorder, title: str) -> None:
+    """final.png: the last frame coloured by displacement from the start."""
+    from dem.output.snapshot import snapshot_png
+
+    pos, quat = rec.cols["pos"], rec.cols["quat"]
+    disp = np.linalg.norm(pos[-1] - pos[0], axis=1)
+    snapshot_png(path, scene, pos[-1], quat[-1], scalars=disp, scalar_name="displacement (m)",
+                 title=title)
+
+
 class _Progress:
     """A rich progress bar over simulated time (steps/s and ETA), or nothing."""
 
@@ -151,14 +161,22 @@ def simulate(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
         "output_interval_steps": k_out,
     }
 
+    vtk = None
+    if out is not None and case.run.vtk:
+        from dem.output.vtk import VtkSeries
+        vtk = VtkSeries(out, scene, write_contacts=case.run.contacts)
+
     def record():
         st = sim.state
         t = sim.t
         extra = {}
         if isinstance(loading, Tilt):
             extra["tilt_angle"] = float(loading.angle(t)[0])
-        rec.add(t, st.pos.to_numpy()[:n], st.quat.to_numpy()[:n], st.vel.to_numpy()[:n],
-                loading.base_disp(np.array([t]))[0], **extra)
+        base = loading.base_disp(np.array([t]))[0]
+        if vtk is not None and len(rec.cols["t"]) % case.run.vtk_every == 0:
+            vtk.add_frame(t, st.pos[:n], st.quat[:n], st.vel[:n], base,
+                          contacts=sim.contacts.active_points() if case.run.contacts else None)
+        rec.add(t, st.pos[:n], st.quat[:n], st.vel[:n], base, **extra)
 
     def finish(status: str, error: str | None = None):
         summary["status"] = status
@@ -170,10 +188,16 @@ def simulate(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
         summary["brick_steps_per_second"] = n * sim.step_count / run_s if run_s > 0 else None
         summary["neighbour_rebuilds"] = sim.n_rebuilds
         summary["n_pairs"] = sim.contacts.n_pairs
-        summary["n_contact_points"] = int(sim.contacts.npts.to_numpy()[: sim.contacts.n_pairs].sum())
+        summary["n_contact_points"] = int(sim.contacts.npts[: sim.contacts.n_pairs].sum())
         summary["energy"] = sim.energy_report()
         if out is not None:
             rec.write()
+            if vtk is not None:
+                vtk.close()
+                summary["vtk_frames"] = vtk.n_frames
+                summary["vtk_bytes"] = vtk.bytes_written
+            if case.run.snapshot and rec.cols["t"]:
+                _snapshot(out / "final.png", scene, rec, case.name)
             _write_json(out / "summary.json", summary)
 
     bar = _Progress(progress, n_total * dt, case.name)
@@ -219,7 +243,7 @@ def run_case_file(path: str | Path, out: str | Path, progress: bool = True) -> i
     try:
         case = load_case(path)
     except CaseError as err:
-        typer.echo(f"error: {path}:\n{err}", err=True)
+        typer.echo(f"error: {err}", err=True)  # the message starts with path:line:
         return 2
     try:
         res = simulate(case, out, progress=progress)

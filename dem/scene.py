@@ -79,7 +79,7 @@ class Scene:
         corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
         r = self.rotation_matrices()
         pts = self.position[:, None, :] + np.einsum(
-            "nij,kj->nki", r, corners[None, :, :] * 0.5 * self.size[:, None, :]
+            "nij,nkj->nki", r, corners[None, :, :] * 0.5 * self.size[:, None, :]
         )
         return pts.reshape(-1, 3).min(axis=0), pts.reshape(-1, 3).max(axis=0)
 
@@ -128,6 +128,30 @@ def blocks_to_scene(blocks) -> Scene:
     )
 
 
-def scene_from_case(case: Case) -> Scene:
-    """Build the scene of a case: explicit blocks first, then builder blocks."""
-    return blocks_to_scene(case.scene.blocks)
+def scene_from_case(case: Case, check: bool = True) -> Scene:
+    """Build the scene of a case: explicit blocks first, then the builder entries in the order
+    wall, facade, box_model (see :mod:`dem.builders`).
+
+    With ``check`` (default) the scene goes through :func:`dem.builders.check_scene`: initial
+    overlaps deeper than ``solver.overlap_tolerance`` and floating blocks (unless
+    ``scene.allow_floating``) raise :class:`dem.builders.SceneError` (a ValueError) naming the
+    blocks.
+    """
+    from dem.builders import build_from_spec, check_scene, require_valid
+
+    parts = []
+    if case.scene.blocks:
+        parts.append(blocks_to_scene(case.scene.blocks))
+    for spec in (case.scene.wall, case.scene.facade, case.scene.box_model):
+        if spec is not None:
+            parts.append(build_from_spec(spec))
+    scene = parts[0] if len(parts) == 1 else Scene.concatenate(parts)
+    if check:
+        require_valid(
+            check_scene(
+                scene,
+                overlap_tolerance=case.solver.overlap_tolerance,
+                allow_floating=case.scene.allow_floating,
+            )
+        )
+    return scene

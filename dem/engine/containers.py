@@ -1,6 +1,9 @@
 """The three containers of a simulation, one writer each (MuJoCo mjModel/mjData, Warp Model/State).
 
-All arrays are Taichi ndarrays (kernels compile once for every scene size).  Bodies are the N
+All arrays are numpy arrays passed to the kernels as ``ti.types.ndarray`` arguments: on the CPU
+Taichi uses them in place (zero copy), kernels compile once for every scene size, and the host
+reads them without the ~0.3 ms copy a Taichi ndarray costs.  Element shapes: vec3 -> [..., 3],
+vec4 -> [..., 4], mat3 -> [..., 3, 3]; ``dtype`` f64 unless noted.  Bodies are the N
 blocks of the scene in case order, followed by the table (index N), a large fixed box whose top
 face is the plane z = 0.
 
@@ -65,8 +68,14 @@ ivec2 = ti.math.ivec2
 MAT_BLOCK, MAT_TABLE = 0, 1
 
 
-def _nd(dtype, shape):
-    return ti.ndarray(dtype=dtype, shape=shape)
+_ELEM = {vec3: ((3,), np.float64), vec4: ((4,), np.float64), mat3: ((3, 3), np.float64),
+         ivec2: ((2,), np.int32), ti.f64: ((), np.float64), ti.i32: ((), np.int32)}
+
+
+def _nd(dtype, shape) -> np.ndarray:
+    """A zeroed numpy array laid out as the Taichi ndarray type ``dtype`` of ``shape``."""
+    elem, npdt = _ELEM[dtype]
+    return np.zeros(tuple(np.atleast_1d(shape)) + elem, dtype=npdt)
 
 
 class Model:
@@ -86,23 +95,14 @@ class Model:
         inv_mass = np.where(self.fixed_np, 0.0, 1.0 / self.mass_np)
         inv_inertia = np.where(self.fixed_np[:, None], 0.0, 1.0 / self.inertia_np)
 
-        B = self.n_bodies
-        self.half = _nd(vec3, B)
-        self.mass = _nd(ti.f64, B)
-        self.inv_mass = _nd(ti.f64, B)
-        self.inertia = _nd(vec3, B)
-        self.inv_inertia = _nd(vec3, B)
-        self.radius = _nd(ti.f64, B)
-        self.material = _nd(ti.i32, B)
-        self.mat_pair = _nd(vec4, self.mat_pair_np.shape[:2])
-        self.half.from_numpy(self.half_np)
-        self.mass.from_numpy(self.mass_np)
-        self.inv_mass.from_numpy(inv_mass)
-        self.inertia.from_numpy(self.inertia_np)
-        self.inv_inertia.from_numpy(inv_inertia)
-        self.radius.from_numpy(self.radius_np)
-        self.material.from_numpy(self.material_np)
-        self.mat_pair.from_numpy(self.mat_pair_np)
+        self.half = self.half_np
+        self.mass = self.mass_np
+        self.inv_mass = np.ascontiguousarray(inv_mass)
+        self.inertia = self.inertia_np
+        self.inv_inertia = np.ascontiguousarray(inv_inertia)
+        self.radius = self.radius_np
+        self.material = self.material_np
+        self.mat_pair = self.mat_pair_np
 
     @classmethod
     def from_scene(cls, scene: Scene, material) -> "Model":
@@ -148,7 +148,6 @@ class State:
     @classmethod
     def from_scene(cls, scene: Scene, model: Model) -> "State":
         st = cls(model.n_bodies)
-        B = model.n_bodies
         pos = np.vstack([scene.position, model.table_centre])
         quat = np.vstack([scene.quat, [1.0, 0.0, 0.0, 0.0]])
         vel = np.vstack([scene.velocity, np.zeros(3)])
@@ -159,25 +158,18 @@ class State:
         # L = R I R^T omega
         inertia = model.inertia_np
         angmom = np.einsum("nij,nj->ni", rot, inertia * np.einsum("nji,nj->ni", rot, omega))
-        st.pos.from_numpy(pos)
-        st.quat.from_numpy(quat)
-        st.vel.from_numpy(vel)
-        st.angmom.from_numpy(angmom)
-        st.omega.from_numpy(omega)
-        st.rot.from_numpy(rot)
-        st.force.from_numpy(np.zeros((B, 3)))
-        st.torque.from_numpy(np.zeros((B, 3)))
+        st.pos[...] = pos
+        st.quat[...] = quat
+        st.vel[...] = vel
+        st.angmom[...] = angmom
+        st.omega[...] = omega
+        st.rot[...] = rot
         return st
 
     def snapshot(self) -> dict[str, np.ndarray]:
         """Copies of the pose and velocity arrays (numpy)."""
-        return {
-            "pos": self.pos.to_numpy(),
-            "quat": self.quat.to_numpy(),
-            "vel": self.vel.to_numpy(),
-            "omega": self.omega.to_numpy(),
-            "angmom": self.angmom.to_numpy(),
-        }
+        return {name: getattr(self, name).copy()
+                for name in ("pos", "quat", "vel", "omega", "angmom")}
 
 
 class Contacts:
@@ -203,13 +195,13 @@ class Contacts:
         self.fn = _nd(ti.f64, (P, K))
         self.ft = _nd(vec3, (P, K))
         self.wrench = _nd(vec3, (P, 3))
-        self.code.from_numpy(np.full(P, -1, dtype=np.int32))
+        self.code[...] = np.full(P, -1, dtype=np.int32)
 
     # -- history transfer across neighbour-list rebuilds ------------------------------------
     HISTORY = ("code", "npts", "loc", "shear")
 
     def read_history(self) -> dict[str, np.ndarray]:
-        return {name: getattr(self, name).to_numpy() for name in self.HISTORY}
+        return {name: getattr(self, name).copy() for name in self.HISTORY}
 
     def write_pairs(self, pairs: np.ndarray, n_bodies: int, history_from: dict | None,
                     old_pairs: np.ndarray | None) -> None:
@@ -218,7 +210,7 @@ class Contacts:
         n = len(pairs)
         pad = np.zeros((P, 2), dtype=np.int32)
         pad[:n] = pairs
-        self.pairs.from_numpy(pad)
+        self.pairs[...] = pad
         # CSR adjacency, deterministic order (pair index ascending)
         ends = np.concatenate([pairs[:, 0], pairs[:, 1]])
         entry = np.concatenate([2 * np.arange(n), 2 * np.arange(n) + 1]).astype(np.int32)
@@ -228,8 +220,8 @@ class Contacts:
         ptr[1:] = np.cumsum(counts)
         adj = np.zeros(2 * P, dtype=np.int32)
         adj[: 2 * n] = entry[order]
-        self.adj_ptr.from_numpy(ptr)
-        self.adj.from_numpy(adj)
+        self.adj_ptr[...] = ptr
+        self.adj[...] = adj
         # history: index of each new pair in the old list, or -1
         new = {name: np.zeros_like(arr) for name, arr in (history_from or {}).items()}
         if history_from is not None and old_pairs is not None and len(old_pairs):
@@ -245,25 +237,25 @@ class Contacts:
             for name in self.HISTORY:
                 new[name][dst] = history_from[name][src]
             for name in self.HISTORY:
-                getattr(self, name).from_numpy(new[name])
+                getattr(self, name)[...] = new[name]
         else:
-            self.code.from_numpy(np.full(P, -1, dtype=np.int32))
-            self.npts.from_numpy(np.zeros(P, dtype=np.int32))
+            self.code[...] = np.full(P, -1, dtype=np.int32)
+            self.npts[...] = np.zeros(P, dtype=np.int32)
         self.n_pairs = n
 
     def active_points(self) -> dict[str, np.ndarray]:
         """All current contact points (table frame): point, normal, fn, ft, area, depth, pair."""
         n = self.n_pairs
-        npts = self.npts.to_numpy()[:n]
+        npts = self.npts[:n]
         mask = np.arange(MAXP)[None, :] < npts[:, None]
-        normal = np.repeat(self.normal.to_numpy()[:n, None, :], MAXP, axis=1)
-        pairs = np.repeat(self.pairs.to_numpy()[:n, None, :], MAXP, axis=1)
+        normal = np.repeat(self.normal[:n, None, :], MAXP, axis=1)
+        pairs = np.repeat(self.pairs[:n, None, :], MAXP, axis=1)
         return {
-            "point": self.point.to_numpy()[:n][mask],
+            "point": self.point[:n][mask],
             "normal": normal[mask],
-            "fn": self.fn.to_numpy()[:n][mask],
-            "ft": self.ft.to_numpy()[:n][mask],
-            "area": self.area.to_numpy()[:n][mask],
-            "depth": self.depth.to_numpy()[:n][mask],
+            "fn": self.fn[:n][mask],
+            "ft": self.ft[:n][mask],
+            "area": self.area[:n][mask],
+            "depth": self.depth[:n][mask],
             "pair": pairs[mask],
         }

@@ -148,12 +148,16 @@ def clip_halfplane(xs, ys, n, ax, ay, off):
 def polygon_quadrature(xs, ys, n):
     """Quadrature points (x', y') and weights (m^2) of a convex polygon, see module docstring.
 
-    Returns (qx, qy, w, area).  Exact for linear pressure on rectangles and triangles.
+    Returns (qx, qy, w, area, s, cx, cy): points, weights, polygon area, the shrink factor s and
+    the area centroid.  Exact for linear pressure on rectangles and triangles.
     """
     qx = VP(0.0)
     qy = VP(0.0)
     w = VP(0.0)
     area = 0.0
+    s = 1.0
+    gcx = 0.0
+    gcy = 0.0
     if n >= 3:
         # work relative to the vertex mean to limit cancellation
         mx = 0.0
@@ -197,22 +201,24 @@ def polygon_quadrature(xs, ys, n):
                 rx = xs[k] - mx - cx
                 ry = ys[k] - my - cy
                 jp += w[k] * (rx * rx + ry * ry)
-            s = 1.0
             if jp > 0.0 and J > 0.0:
                 s = ti.sqrt(J / jp)
             s = ti.min(ti.max(s, 0.3), 1.0)
+            gcx = mx + cx
+            gcy = my + cy
             for k in range(n):
-                qx[k] = mx + cx + s * (xs[k] - mx - cx)
-                qy[k] = my + cy + s * (ys[k] - my - cy)
-    return qx, qy, w, area
+                qx[k] = gcx + s * (xs[k] - gcx)
+                qy[k] = gcy + s * (ys[k] - gcy)
+    return qx, qy, w, area, s, gcx, gcy
 
 
 @ti.func
 def face_contact(pR, RR, hR, k, sgn, pI, RI, hI):
     """Contact patch of reference face k of box R (outward normal sgn * R e_k) with box I.
 
-    Returns (n, npts, px, py, pz, depth, weight): n points from R to I; points are in world
-    coordinates, midway through the overlap; depth (m) and weight (m^2) per point.
+    Returns (n, npts, px, py, pz, depth, weight, s, centroid): n points from R to I; points are
+    in world coordinates, midway through the overlap; depth (m) and weight (m^2) per point; the
+    polygon vertex behind point q is centroid + (p_q - centroid) / s.
     """
     k1 = (k + 1) % 3
     k2 = (k + 2) % 3
@@ -258,7 +264,9 @@ def face_contact(pR, RR, hR, k, sgn, pI, RI, hI):
     gx = u1.dot(nI) / den
     gy = u2.dot(nI) / den
     xs, ys, npoly = clip_halfplane(xs, ys, npoly, -gx, -gy, d0)
-    qx, qy, w, area = polygon_quadrature(xs, ys, npoly)
+    qx, qy, w, area, shrink, gcx, gcy = polygon_quadrature(xs, ys, npoly)
+    dc = ti.max(d0 + gx * gcx + gy * gcy, 0.0)
+    centroid = c + gcx * u1 + gcy * u2 - 0.5 * dc * n
     px = VP(0.0)
     py = VP(0.0)
     pz = VP(0.0)
@@ -273,7 +281,7 @@ def face_contact(pR, RR, hR, k, sgn, pI, RI, hI):
             py[q] = p[1]
             pz[q] = p[2]
             dep[q] = dq
-    return n, npts, px, py, pz, dep, w
+    return n, npts, px, py, pz, dep, w, shrink, centroid
 
 
 @ti.func
@@ -319,19 +327,22 @@ def edge_contact(pA, RA, hA, pB, RB, hB, k, m, overlap, edge_area):
     pz[0] = p[2]
     dep[0] = overlap
     w[0] = edge_area
-    return n, 1, px, py, pz, dep, w
+    return n, 1, px, py, pz, dep, w, 1.0, p
 
 
 @ti.func
 def box_contact(pA, RA, hA, pB, RB, hB, prev_code, margin, edge_area):
-    """Full narrow phase for one pair.  Returns (code, n, npts, px, py, pz, depth, weight).
+    """Full narrow phase for one pair.
 
-    n points from A to B whatever the reference face.
+    Returns (code, n, npts, px, py, pz, depth, weight, shrink, centroid); n points from A to B
+    whatever the reference face; see :func:`face_contact` for shrink and centroid.
     """
     ov = sat_overlaps(pA, RA, hA, pB, RB, hB)
     code, smallest = choose_axis(ov, prev_code, margin)
     n = vec3(0.0, 0.0, 1.0)
     npts = 0
+    shrink = 1.0
+    centroid = vec3(0.0)
     px = VP(0.0)
     py = VP(0.0)
     pz = VP(0.0)
@@ -356,11 +367,12 @@ def box_contact(pA, RA, hA, pB, RB, hB, prev_code, margin, edge_area):
         sg = 1.0
         if (pI - pR).dot(vec3(RR[0, k], RR[1, k], RR[2, k])) < 0.0:
             sg = -1.0
-        n, npts, px, py, pz, dep, w = face_contact(pR, RR, hR, k, sg, pI, RI, hI)
+        n, npts, px, py, pz, dep, w, shrink, centroid = face_contact(
+            pR, RR, hR, k, sg, pI, RI, hI)
         if code >= 3:
             n = -n
     elif code >= 6:
-        n, npts, px, py, pz, dep, w = edge_contact(
+        n, npts, px, py, pz, dep, w, shrink, centroid = edge_contact(
             pA, RA, hA, pB, RB, hB, (code - 6) // 3, (code - 6) % 3, ov[code], edge_area
         )
-    return code, n, npts, px, py, pz, dep, w
+    return code, n, npts, px, py, pz, dep, w, shrink, centroid

@@ -31,10 +31,13 @@ from dem.engine.mathutil import vec3
 
 @ti.func
 def normal_law(kn_area, depth, depth_rate, cn):
-    """Returns (Fn, dissipation rate factor): Fn >= 0 (N) and the non-elastic force Fn - kn A d."""
+    """Returns (elastic part kn A d, viscous part) of Fn = max(0, kn A d + cn ddot) (N).
+
+    The viscous part is cut so that the sum never pulls (no tension).
+    """
     f_el = kn_area * depth
-    fn = ti.max(f_el + cn * depth_rate, 0.0)
-    return fn, fn - f_el
+    f_visc = ti.max(cn * depth_rate, -f_el)
+    return f_el, f_visc
 
 
 @ti.func

@@ -4,7 +4,7 @@ Typical use::
 
     sim = Simulation(scene, material, solver)            # checks, dt, neighbour list
     sim.advance(n_steps, loads)                          # loads(t) -> (gravity [K,3], a_base [K,3])
-    sim.state.pos.to_numpy()[:sim.n_blocks]
+    sim.state.pos[:sim.n_blocks]
 
 Time is kept as an integer step count (t = step * dt) so that long runs do not accumulate
 rounding in t.
@@ -69,13 +69,12 @@ class Simulation:
             self.mode = "parallel" if self.model.n_bodies >= PARALLEL_MIN_BODIES else "serial"
         self.flags = ti_nd_i32(4)
         self.energy = ti_nd_f64(stepk.N_ENERGY)
-        self.energy.from_numpy(np.zeros(stepk.N_ENERGY))
         self.params = ti_nd_f64(stepk.N_PARAMS)
         params = np.zeros(stepk.N_PARAMS)
         params[stepk.P_SKIN] = self.skin
         params[stepk.P_MAX_SPEED] = solver.max_speed
         params[stepk.P_LOCAL_DAMPING] = solver.local_damping
-        self.params.from_numpy(params)
+        self.params[:] = params
         t0 = time.perf_counter()
         self._warm_up()
         self.compile_seconds = time.perf_counter() - t0
@@ -91,9 +90,9 @@ class Simulation:
     def rebuild(self) -> None:
         """Broad phase: new neighbour list, history carried over for pairs that stay."""
         st = self.state
-        pos = st.pos.to_numpy()
-        quat = st.quat.to_numpy()
-        rot = st.rot.to_numpy()
+        pos = st.pos
+        quat = st.quat
+        rot = st.rot
         m = self.model
         pairs = candidate_pairs(pos, rot, m.half_np, m.radius_np, m.fixed_np, m.table, self.skin)
         c = self.contacts
@@ -105,11 +104,11 @@ class Simulation:
                 f"{len(pairs)} candidate pairs > capacity {c.capacity} (block {worst} has "
                 f"{counts[worst]} neighbours); raise solver.max_pairs_per_block "
                 f"(now {self.solver.max_pairs_per_block}) or lower solver.skin ({self.skin:.3g} m)")
-        old_pairs = c.pairs.to_numpy()[: c.n_pairs] if c.n_pairs else None
+        old_pairs = c.pairs[: c.n_pairs].copy() if c.n_pairs else None
         history = c.read_history() if c.n_pairs else None
         c.write_pairs(pairs, m.n_bodies, history, old_pairs)
-        c.ref_pos.from_numpy(pos)
-        c.ref_quat.from_numpy(quat)
+        c.ref_pos[...] = pos
+        c.ref_quat[...] = quat
         self.n_rebuilds += 1
 
     def check_initial_overlaps(self, tolerance: float) -> None:
@@ -119,10 +118,10 @@ class Simulation:
         depth = ti_nd_f64(c.capacity)
         stepk.probe_contacts(c.n_pairs, depth, self.model.half, self.state.pos, self.state.rot,
                              c.pairs)
-        d = depth.to_numpy()[: c.n_pairs]
+        d = depth[: c.n_pairs]
         worst = int(np.argmax(d))
         if d[worst] > tolerance:
-            i, j = c.pairs.to_numpy()[worst]
+            i, j = c.pairs[worst]
             name = lambda b: "the table" if b == self.model.table else f"block {b}"  # noqa: E731
             raise InputError(
                 f"{name(i)} and {name(j)} overlap by {d[worst] * 1e3:.3f} mm at the start "
@@ -139,7 +138,7 @@ class Simulation:
             k = min(n_steps - done_total, SERIAL_CHUNK if self.mode == "serial" else 1)
             done = self._launch(k, loads)
             done_total += done
-            flags = self.flags.to_numpy()
+            flags = self.flags
             if flags[0] & stepk.STOP:
                 self._raise_instability(flags)
             if flags[0] & stepk.REBUILD:
@@ -150,11 +149,9 @@ class Simulation:
     def _launch(self, k: int, loads: LoadFn) -> int:
         t = (self.step_count + np.arange(k)) * self.dt
         g, a = loads(t)
-        arr = np.stack([np.asarray(g, float).reshape(k, 3), np.asarray(a, float).reshape(k, 3)],
-                       axis=1)
-        self._loads_np[:k] = arr
-        self._loads.from_numpy(self._loads_np)
-        self.flags.from_numpy(np.zeros(4, dtype=np.int32))
+        self._loads[:k, 0] = g
+        self._loads[:k, 1] = a
+        self.flags[:] = 0
         m, st, c = self.model, self.state, self.contacts
         if self.mode == "serial":
             stepk.advance_serial(
@@ -163,14 +160,14 @@ class Simulation:
                 st.pos, st.quat, st.vel, st.angmom, st.omega, st.rot, st.force, st.torque,
                 c.pairs, c.adj_ptr, c.adj, c.ref_pos, c.ref_quat, c.code, c.npts, c.normal,
                 c.loc, c.shear, c.point, c.depth, c.area, c.fn, c.ft, c.wrench)
-            done = int(self.flags.to_numpy()[2])
+            done = int(self.flags[2])
         else:
             stepk.contact_parallel(
                 c.n_pairs, self.dt, self.energy, m.half, m.inv_mass, m.material, m.mat_pair,
                 st.pos, st.vel, st.omega, st.rot, c.pairs, c.code, c.npts, c.normal, c.loc,
                 c.shear, c.point, c.depth, c.area, c.fn, c.ft, c.wrench)
             stepk.integrate_parallel(
-                m.n_bodies, self.dt, arr[0, 0], arr[0, 1], self.params, self.flags, self.energy, m.mass,
+                m.n_bodies, self.dt, self._loads[0, 0], self._loads[0, 1], self.params, self.flags, self.energy, m.mass,
                 m.inv_mass, m.inv_inertia, m.radius, st.pos, st.quat, st.vel, st.angmom,
                 st.omega, st.rot, st.force, st.torque, c.wrench, c.adj_ptr, c.adj, c.ref_pos,
                 c.ref_quat)
@@ -182,7 +179,6 @@ class Simulation:
         """Compile every kernel (or load it from Taichi's offline cache) with zero work."""
         m, st, c = self.model, self.state, self.contacts
         self._loads = ti_nd_vec3((SERIAL_CHUNK, 2))
-        self._loads_np = np.zeros((SERIAL_CHUNK, 2, 3))
         if self.mode == "serial":
             stepk.advance_serial(
                 0, 0, self.dt, self._loads, self.params, self.flags, self.energy,
@@ -208,8 +204,8 @@ class Simulation:
     def _raise_instability(self, flags) -> None:
         b = int(flags[1])
         st = self.state
-        v = st.vel.to_numpy()[b]
-        x = st.pos.to_numpy()[b]
+        v = st.vel[b]
+        x = st.pos[b]
         what = "became NaN/inf" if flags[0] & stepk.NONFINITE else (
             f"moves faster than solver.max_speed = {self.solver.max_speed} m/s")
         raise InstabilityError(
@@ -220,9 +216,9 @@ class Simulation:
     # ------------------------------------------------------------------------------------
     def kinetic_energy(self) -> float:
         st, m = self.state, self.model
-        v = st.vel.to_numpy()
-        w = st.omega.to_numpy()
-        L = st.angmom.to_numpy()
+        v = st.vel
+        w = st.omega
+        L = st.angmom
         movable = ~m.fixed_np
         return float(0.5 * (m.mass_np[movable] * (v[movable] ** 2).sum(1)).sum()
                      + 0.5 * (w[movable] * L[movable]).sum())
@@ -244,7 +240,7 @@ class Simulation:
         ``residual`` is what the explicit scheme created (> 0) or lost beyond the modelled
         dissipation (< 0); it is the number to watch.
         """
-        e = self.energy.to_numpy()
+        e = self.energy
         kin = self.kinetic_energy()
         el = self.elastic_energy()
         diss = e[stepk.E_DAMP_NORMAL] + e[stepk.E_DAMP_SHEAR] + e[stepk.E_FRICTION] + \
@@ -266,15 +262,12 @@ class Simulation:
 
 
 def ti_nd_i32(n):
-    import taichi as ti
-    return ti.ndarray(dtype=ti.i32, shape=n)
+    return np.zeros(n, dtype=np.int32)
 
 
 def ti_nd_f64(n):
-    import taichi as ti
-    return ti.ndarray(dtype=ti.f64, shape=n)
+    return np.zeros(n, dtype=np.float64)
 
 
 def ti_nd_vec3(shape):
-    import taichi as ti
-    return ti.ndarray(dtype=ti.math.vec3, shape=shape)
+    return np.zeros(tuple(np.atleast_1d(shape)) + (3,), dtype=np.float64)

@@ -78,7 +78,7 @@ def contact_stage_pair(p, dt, model_half: ti.template(), model_inv_mass: ti.temp
     hA = model_half[i]
     hB = model_half[j]
     hmin = ti.min(hA.min(), hB.min())
-    code, n, npts, px, py, pz, dep, w = geometry.box_contact(
+    code, n, npts, px, py, pz, dep, w, shrink, centroid = geometry.box_contact(
         pA, RA, hA, pB, RB, hB, c_code[p], 1e-3 * hmin, hmin * hmin)
     if code >= 0:
         c_code[p] = code
@@ -147,15 +147,23 @@ def contact_stage_pair(p, dt, model_half: ti.template(), model_inv_mass: ti.temp
             u_old = vec3(ux[best], uy[best], uz[best])
         vrel = (vB + wB.cross(rB)) - (vA + wA.cross(rA))
         vn = vrel.dot(n)
-        fn, f_visc = laws.normal_law(kn * w[q], dep[q], -vn, cn_per_area * w[q])
+        # elastic normal force at the quadrature point, viscous (impact) force at the polygon
+        # vertex behind it (see module docstring: rocking impacts)
+        pv = centroid + (pw - centroid) / shrink
+        rAv = pv - pA
+        rBv = pv - pB
+        vn_v = ((vB + wB.cross(rBv)) - (vA + wA.cross(rAv))).dot(n)
+        f_el, f_visc = laws.normal_law(kn * w[q], dep[q], -vn_v, cn_per_area * w[q])
+        fn = f_el + f_visc
         v_t = vrel - vn * n
         ft, u_new, sliding, diss = laws.coulomb_shear(
             u_old, n, v_t, dt, ks * w[q], ct_per_area * w[q], mu, fn)
-        f = fn * n + ft  # on j
-        F_i -= f
-        T_i -= rA.cross(f)
-        T_j += rB.cross(f)
-        e_damp_n += f_visc * (-vn) * dt
+        f = f_el * n + ft  # on j, at the quadrature point
+        fv = f_visc * n  # on j, at the vertex
+        F_i -= f + fv
+        T_i -= rA.cross(f) + rAv.cross(fv)
+        T_j += rB.cross(f) + rBv.cross(fv)
+        e_damp_n += f_visc * (-vn_v) * dt
         if sliding == 1:
             e_fric += diss
         else:
@@ -379,7 +387,7 @@ def probe_contacts(
         hA = model_half[i]
         hB = model_half[j]
         hmin = ti.min(hA.min(), hB.min())
-        code, n, npts, px, py, pz, dep, w = geometry.box_contact(
+        code, n, npts, px, py, pz, dep, w, shrink, centroid = geometry.box_contact(
             st_pos[i], st_rot[i], hA, st_pos[j], st_rot[j], hB, -1, 1e-3 * hmin, hmin * hmin)
         dmax = 0.0
         for q in range(npts):
