@@ -187,7 +187,6 @@ def terms(P: RockingParams, s1: int, s2: int, sig: int, th1: float, th2: float,
     the Jacobian of the load point's horizontal position, beta = L1 sin psiQ th1'^2 + Lp sin psip
     th2'^2 so that x_p'' = J q'' - beta.
     """
-    T = P.thickness
     if s2 == s1:
         L1 = P.h1
         psiQ = th1
@@ -213,7 +212,6 @@ def terms(P: RockingParams, s1: int, s2: int, sig: int, th1: float, th2: float,
     J1 = L1 * cQ
     J2 = Lp * cp
     beta = L1 * sQ * w1 * w1 + Lp * sp * w2 * w2
-    del T
     return M11, M12, M22, k, Q1, Q2, J1, J2, beta
 
 

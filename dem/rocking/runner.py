@@ -21,7 +21,6 @@ was computed is written, the message says where and why), 2 bad input.
 from __future__ import annotations
 
 import json
-import math
 import time
 from pathlib import Path
 

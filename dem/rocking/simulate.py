@@ -236,7 +236,6 @@ class _Sim:
                     if not P.friction:
                         taus = [1]
                     else:
-                        s1, s2 = geometry(P, b, c)
                         xd = evaluate(P, (b, c, 1, sig), y, 0.0, want_forces=False).xd
                         if abs(xd) > self.tol_x:
                             taus = [1 if xd > 0 else -1]
@@ -318,31 +317,32 @@ class _Sim:
             order.remove(natural)
             order.insert(0, natural)
         for bb, cc in order:
-            if True:
-                vplus, lam, rows = self._plastic(bb, cc, th1, th2, v_minus, M)
-                conds = []
-                if base_zero:
-                    if bb != 0:
-                        k, o = ("+", "-") if bb > 0 else ("-", "+")
-                        conds += [lam["base_z" + k] / tol_p, rows["base_z" + o] @ vplus / tol_v]
-                    else:
-                        conds += [lam["base_z+"] / tol_p, lam["base_z-"] / tol_p]
-                if if_zero and not P.locked:
-                    if cc != 0:
-                        k, o = ("+", "-") if cc > 0 else ("-", "+")
-                        ln = n1 @ np.array([lam["if_x" + k], lam["if_z" + k]])
-                        conds += [ln / tol_p, rows["if_n" + o] @ vplus / tol_v]
-                    else:
-                        ln = n1 @ np.array([lam["if_x+"], lam["if_z+"]])
-                        conds += [ln / tol_p, lam["if_n-"] / tol_p]
-                margin = min(conds) if conds else math.inf
-                n_flat = int(bb == 0) + int(cc == 0)
-                key = (margin >= -1.0, n_flat if margin < 1.0 else 0, margin)
-                if best is None or key > best[0]:
-                    best = (key, bb, cc, vplus, lam)
-                if margin > 1.0:   # strictly consistent: the unique solution of the LCP
-                    break
-        (consistent, _, margin), bb, cc, vplus, lam = best
+            vplus, lam, rows = self._plastic(bb, cc, th1, th2, v_minus, M)
+            conds = []
+            if base_zero:
+                if bb != 0:
+                    k, o = ("+", "-") if bb > 0 else ("-", "+")
+                    conds += [lam["base_z" + k] / tol_p, rows["base_z" + o] @ vplus / tol_v]
+                else:
+                    conds += [lam["base_z+"] / tol_p, lam["base_z-"] / tol_p]
+            if if_zero and not P.locked:
+                if cc != 0:
+                    k, o = ("+", "-") if cc > 0 else ("-", "+")
+                    ln = n1 @ np.array([lam["if_x" + k], lam["if_z" + k]])
+                    conds += [ln / tol_p, rows["if_n" + o] @ vplus / tol_v]
+                else:
+                    ln = n1 @ np.array([lam["if_x+"], lam["if_z+"]])
+                    conds += [ln / tol_p, lam["if_n-"] / tol_p]
+            margin = min(conds) if conds else math.inf
+            n_flat = int(bb == 0) + int(cc == 0)
+            # consistent first, strictly consistent next; among marginal ones (zero post-impact
+            # rate) prefer locking, the acceleration-level choice then decides about lift-off
+            key = (margin >= -1.0, margin > 1.0, n_flat, margin)
+            if best is None or key > best[0]:
+                best = (key, bb, cc, vplus, lam)
+            if margin > 1.0:   # strictly consistent: the unique solution of the LCP
+                break
+        (consistent, _, _, margin), bb, cc, vplus, lam = best
         if not consistent:
             self.stats["inconsistent_impacts"] += 1
         # persistent pivots pulled apart (flight would be needed; the model keeps contact)
