@@ -153,22 +153,44 @@ class Material(_Strict):
 # --------------------------------------------------------------------------------------------
 # loading
 # --------------------------------------------------------------------------------------------
+class CollapseSpec(_Strict):
+    """When a tilt run counts as collapsed and stops (see dem.collapse for the rule)."""
+
+    enabled: bool = Field(default=True, description="detect collapse and stop the run after it")
+    onset: float = Field(default=5e-4, gt=0.0, description="motion (m) that marks the onset")
+    confirm: float = Field(default=5e-3, gt=0.0, description="motion (m) that confirms collapse")
+    after: float = Field(default=1.0, ge=0.0, description="s to run on after confirmation")
+    stop: float = Field(default=0.03, gt=0.0, description="stop earlier once a block moved this, m")
+
+    @model_validator(mode="after")
+    def _ordered(self) -> "CollapseSpec":
+        if not self.onset < self.confirm < self.stop:
+            raise ValueError("need onset < confirm < stop")
+        return self
+
+
 class TiltLoading(_Strict):
-    """The table turns about a horizontal axis at a constant rate (pseudo-static collapse).
+    """The table turns about a horizontal axis (pseudo-static collapse, thesis Chapter 3).
 
     Modelled in the table's frame: gravity turns, the table stays.  With the right-hand rule about
     ``axis`` a positive angle theta gives gravity g_t = -g cos(theta) z + g sin(theta) (axis x z),
-    so about +x blocks are pushed towards -y, about +y towards +x.  Fictitious forces of the
-    rotation (of order rate^2 * size) are neglected.
+    so about +x blocks are pushed towards -y, about +y towards +x; the load factor is
+    lambda = tan(theta).  Where the pivot edge is does not matter in this frame: the fictitious
+    forces of the rotation (of order rate^2 * size, < 1e-5 g at 2 deg/s) are neglected.
+    The angle rises at ``rate``; with ``step`` it rises by ``step`` degrees, then holds for
+    ``hold`` seconds, and so on.  It stays at ``max_angle`` once reached.
     """
 
     type: Literal["tilt"]
     axis: Union[Literal["x", "y", "-x", "-y"], Vec3] = Field(
         description="table rotation axis (horizontal): x, y, -x, -y or a vector"
     )
-    rate: float = Field(gt=0.0, description="tilt rate, degrees per second")
+    rate: float = Field(gt=0.0, description="tilt rate while turning, degrees per second")
     max_angle: float = Field(default=60.0, gt=0.0, le=90.0, description="degrees")
     start_angle: float = Field(default=0.0, ge=0.0, le=90.0, description="degrees at t = 0")
+    step: float | None = Field(default=None, gt=0.0, description="degrees per step (with holds)")
+    hold: float = Field(default=0.0, ge=0.0, description="s held after every step")
+    collapse: CollapseSpec = Field(default_factory=CollapseSpec)
 
     @field_validator("axis")
     @classmethod

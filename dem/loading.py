@@ -48,29 +48,43 @@ class Loading:
 class Tilt(Loading):
     kind = "tilt"
 
-    def __init__(self, g0, axis, rate_deg: float, max_angle_deg: float, start_angle_deg=0.0):
+    def __init__(self, g0, axis, rate_deg: float, max_angle_deg: float, start_angle_deg=0.0,
+                 step_deg: float | None = None, hold_s: float = 0.0):
         super().__init__(g0)
         a = np.asarray(AXES[axis] if isinstance(axis, str) else axis, dtype=float)
         self.axis = a / np.linalg.norm(a)
         self.rate = float(rate_deg)
         self.max_angle = float(max_angle_deg)
         self.start_angle = float(start_angle_deg)
+        self.step = step_deg
+        self.hold = float(hold_s)
+
+    @property
+    def load_direction(self) -> np.ndarray:
+        """Unit vector of the lateral load in the table frame: axis x z."""
+        return np.cross(self.axis, [0.0, 0.0, 1.0])
 
     def angle(self, t) -> np.ndarray:
-        """Tilt angle (degrees) at times t."""
-        return np.minimum(self.start_angle + self.rate * np.atleast_1d(t), self.max_angle)
+        """Tilt angle (degrees) at times t: ramps at ``rate``, in steps with holds if asked."""
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        if self.step is None or self.hold == 0.0:
+            rise = self.rate * t
+        else:
+            period = self.step / self.rate + self.hold
+            n = np.floor(t / period)
+            rise = n * self.step + np.minimum(self.rate * (t - n * period), self.step)
+        return np.minimum(self.start_angle + rise, self.max_angle)
 
     def gravity(self, t):
         theta = np.radians(self.angle(t))
         rot = Rotation.from_rotvec(-theta[:, None] * self.axis[None, :])
         return rot.apply(self.g0)
 
-    def time_at_angle(self, angle_deg: float) -> float:
-        return (angle_deg - self.start_angle) / self.rate
-
     def describe(self):
         return {"type": "tilt", "axis": self.axis.tolist(), "rate_deg_per_s": self.rate,
-                "max_angle_deg": self.max_angle, "start_angle_deg": self.start_angle}
+                "max_angle_deg": self.max_angle, "start_angle_deg": self.start_angle,
+                "step_deg": self.step, "hold_s": self.hold,
+                "load_direction": self.load_direction.tolist()}
 
 
 class Shake(Loading):
@@ -113,7 +127,7 @@ def loading_from_case(case: Case) -> Loading:
     g0 = case.gravity_vector()
     ld = case.loading
     if isinstance(ld, TiltLoading):
-        return Tilt(g0, ld.axis, ld.rate, ld.max_angle, ld.start_angle)
+        return Tilt(g0, ld.axis, ld.rate, ld.max_angle, ld.start_angle, ld.step, ld.hold)
     if isinstance(ld, ShakeLoading):
         return Shake(g0, ld.direction, ld.frequency, ld.displacement_amplitude, ld.cycles)
     if isinstance(ld, NoLoading):

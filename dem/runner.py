@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from dem.case import Case, CaseError, load_case
+from dem.collapse import CollapseDetector
 from dem.loading import Loading, Tilt, loading_from_case
 from dem.scene import Scene, scene_from_case
 
@@ -161,6 +162,13 @@ def simulate(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
         "output_interval_steps": k_out,
     }
 
+    detector = None
+    if isinstance(loading, Tilt) and case.loading.collapse.enabled:
+        cs = case.loading.collapse
+        detector = CollapseDetector(scene.position.copy(), scene.quat.copy(),
+                                    0.5 * np.linalg.norm(scene.size, axis=1), cs.onset,
+                                    cs.confirm, cs.after, cs.stop)
+
     vtk = None
     if out is not None and case.run.vtk:
         from dem.output.vtk import VtkSeries
@@ -190,6 +198,14 @@ def simulate(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
         summary["n_pairs"] = sim.contacts.n_pairs
         summary["n_contact_points"] = int(sim.contacts.npts[: sim.contacts.n_pairs].sum())
         summary["energy"] = sim.energy_report()
+        if detector is not None:
+            summary["collapse"] = col = detector.result()
+            if col["detected"]:
+                from postprocess.tilt import classify
+
+                summary["mechanism"] = classify(
+                    case, scene, rec.cols["pos"][0], rec.cols["quat"][0], rec.cols["pos"][-1],
+                    rec.cols["quat"][-1], col["moved_blocks"], loading.load_direction)
         if out is not None:
             rec.write()
             if vtk is not None:
@@ -210,6 +226,9 @@ def simulate(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
             sim.advance(k, loading)
             if sim.step_count % k_out == 0 or sim.step_count == n_total:
                 record()
+                if detector is not None and detector.update(
+                        sim.t, rec.extra["tilt_angle"][-1], sim.state.pos[:n], sim.state.quat[:n]):
+                    break
             now = time.perf_counter()
             bar.update(sim.t, sim.step_count / max(now - run0, 1e-9))
             if out is not None and now - last_flush > CHECKPOINT_SECONDS:

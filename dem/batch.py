@@ -1,0 +1,89 @@
+"""Run many independent cases on dask.distributed (frequency sweeps, parameter studies).
+
+By default a local cluster sized to the cores, one single-threaded worker process per core
+(Taichi threads capped at 1 so that workers do not fight for cores); with ``scheduler`` an existing
+cluster is used with the same code (``dask scheduler`` / ``dask worker`` started by the user).
+A failed case never stops the others: its record carries ``status: "failed"`` and the error.
+
+Each case writes its own output directory (summary.json, frames.npz, ...) under ``out_root``.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+import traceback
+from pathlib import Path
+from typing import Callable
+
+from dem.case import Case
+
+
+def _run_one(name: str, case_json: str, out_dir: str, threads: int, max_steps: int | None,
+             post: Callable | None) -> dict:
+    """Task body (runs on a worker): simulate one case, return its summary (or the error)."""
+    os.environ.setdefault("DEM_THREADS", str(threads))
+    from dem import ti_runtime
+
+    ti_runtime.init(threads=threads)
+    from dem.runner import simulate
+
+    t0 = time.perf_counter()
+    case = Case.model_validate_json(case_json)
+    try:
+        res = simulate(case, out_dir, progress=False, max_steps=max_steps)
+        record = {"name": name, "status": "ok", "out_dir": out_dir, "summary": res.summary}
+        if post is not None:
+            record["post"] = post(case, res, out_dir)
+        return record
+    except Exception as err:  # noqa: BLE001 - a failed point is reported, never fatal
+        return {"name": name, "status": "failed", "out_dir": out_dir,
+                "error": f"{type(err).__name__}: {err}", "traceback": traceback.format_exc(),
+                "wall_seconds": time.perf_counter() - t0}
+
+
+def run_batch(cases: list[tuple[str, Case]], out_root: str | Path, scheduler: str | None = None,
+              n_workers: int | None = None, max_steps: int | None = None,
+              post: Callable | None = None, on_done: Callable[[dict], None] | None = None
+              ) -> list[dict]:
+    """Run (name, case) pairs; returns one record per case, in the order given.
+
+    post(case, RunResult, out_dir) -> dict runs on the worker after a successful run (keep its
+    result small: it travels back to the client).  on_done(record) is called on the client as
+    each case finishes (progress reporting).
+    """
+    from dask.distributed import Client, LocalCluster, as_completed
+
+    out_root = Path(out_root)
+    out_root.mkdir(parents=True, exist_ok=True)
+    cluster = None
+    if scheduler is None:
+        n_workers = n_workers or os.cpu_count() or 1
+        os.environ["DEM_THREADS"] = "1"  # inherited by the worker processes
+        cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
+                               dashboard_address=None)
+        client = Client(cluster)
+    else:
+        client = Client(scheduler)
+    try:
+        futures = {}
+        for i, (name, case) in enumerate(cases):
+            fut = client.submit(_run_one, name, case.model_dump_json(), str(out_root / name), 1,
+                                max_steps, post, key=f"dem-{i}-{name}", pure=False)
+            futures[fut] = i
+        records: list[dict | None] = [None] * len(cases)
+        for fut in as_completed(futures):
+            i = futures[fut]
+            try:
+                rec = fut.result()
+            except Exception as err:  # noqa: BLE001 - worker died: still report the point
+                rec = {"name": cases[i][0], "status": "failed",
+                       "error": f"{type(err).__name__}: {err}"}
+            records[i] = rec
+            if on_done is not None:
+                on_done(rec)
+        return records
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()

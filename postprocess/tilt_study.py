@@ -1,0 +1,283 @@
+"""Tilting-table study (thesis Chapter 3): run the tilt cases and variations, tabulate and plot.
+
+    python -m postprocess.tilt_study --out results/tilt            # run everything, then report
+    python -m postprocess.tilt_study --out results/tilt --report   # report from saved results
+    python -m postprocess.tilt_study --out results/tilt --only rate # a subset (name substring)
+
+Runs go through dask.distributed (``dem.batch``: one single-threaded worker per core).  Each run
+writes ``<out>/runs/<name>/`` (summary.json, frames.npz; not committed); the collected numbers go
+to ``<out>/results.json`` and the report to ``<out>/README.md`` with PNG plots.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from dem.case import Case, load_case
+
+ROOT = Path(__file__).resolve().parents[1]
+CASES = ROOT / "cases" / "tilt"
+RATES = (8.0, 4.0, 1.0, 0.5)  # deg/s, besides the default 2 deg/s of the case files
+
+# thesis numbers quoted in the text (Section 3.4.1): L/H = 2.5, large bricks
+THESIS_IN_PLANE = {"large-stretcher-flat-5x6": 0.48, "large-english-5x6": 0.45,
+                   "large-stretcher-on-edge-5x4": 0.36}
+THESIS_MECHANISM_IN_PLANE = {3.0: "sliding", 2.14: "sliding (leeward column overturns)",
+                             1.0: "mixed (two columns overturn)", 0.75: "overturning dominant",
+                             0.6: "pure overturning"}
+THESIS_MECHANISM_OOP = {"no-wings": "A (lowest lambda)", "poor-poor": "A", "poor-good": "B1",
+                        "poor-strong": "D", "strong-strong": "B2 (G on long facades)"}
+
+
+def _variant(case: Case, name: str, **changes) -> Case:
+    """A copy of a case with nested fields changed, e.g. loading={"rate": 1.0}."""
+    data = case.model_dump()
+    data["name"] = name
+    for key, upd in changes.items():
+        if isinstance(upd, dict):
+            data[key] = {**(data[key] or {}), **upd}
+        else:
+            data[key] = upd
+    return Case.model_validate(data)
+
+
+def _study_settings(case: Case, name: str) -> Case:
+    """Output suited to a study: frames every 0.02 s, no VTK/PNG, long enough for slow rates."""
+    angle_max = case.loading.max_angle
+    duration = angle_max / case.loading.rate + 2.0
+    return _variant(case, name, run={"output_interval": 0.02, "vtk": False, "snapshot": False,
+                                     "duration": duration})
+
+
+def build_runs() -> list[tuple[str, Case]]:
+    runs: dict[str, Case] = {}
+    for f in sorted((CASES / "in-plane").glob("*.yaml")):
+        runs[f"ip-{f.stem}"] = load_case(f)
+    for f in sorted((CASES / "out-of-plane").glob("*.yaml")):
+        runs[f"oop-{f.stem}"] = load_case(f)
+    base = load_case(CASES / "in-plane" / "small-5x15.yaml")
+    # size effect: same L/H, more bricks
+    for length, courses in ((3, 9), (7, 21), (3, 3), (7, 7)):
+        runs[f"size-small-{length}x{courses}"] = _variant(
+            base, f"size-small-{length}x{courses}",
+            scene={"wall": {**base.scene.wall.model_dump(), "length": length, "courses": courses}})
+    # friction
+    for mu in (0.6, 1.0):
+        runs[f"mu-{mu}-small-5x15"] = _variant(base, f"mu-{mu}-small-5x15",
+                                               material={"friction": mu})
+    # tilt rate
+    for rate in RATES:
+        for src in ("ip-small-5x7", "oop-large-5x9-no-wings"):
+            runs[f"rate-{rate:g}-{src}"] = _variant(runs[src], f"rate-{rate:g}-{src}",
+                                                    loading={"rate": rate})
+    return [(name, _study_settings(c, name)) for name, c in runs.items()]
+
+
+def _record(rec: dict) -> dict:
+    """The numbers of one run that the report needs."""
+    out = {"name": rec["name"], "status": rec["status"]}
+    if rec["status"] != "ok":
+        out["error"] = rec.get("error")
+        return out
+    s = rec["summary"]
+    out.update({k: s.get(k) for k in ("n_blocks", "dt", "sim_time", "wall_seconds",
+                                      "brick_steps_per_second")})
+    out["loading"] = s["loading"]
+    out["friction"] = s["material"]["friction"]
+    out["collapse"] = {k: v for k, v in s.get("collapse", {}).items()
+                       if k not in ("first_moving_blocks", "moved_blocks")}
+    out["mechanism"] = s.get("mechanism")
+    return out
+
+
+def run_all(out: Path, only: str | None, workers: int | None) -> list[dict]:
+    from dem.batch import run_batch
+
+    runs = build_runs()
+    if only:
+        runs = [(n, c) for n, c in runs if only in n]
+    path = out / "results.json"
+    old = {r["name"]: r for r in json.loads(path.read_text())} if path.exists() else {}
+    t0 = time.perf_counter()
+
+    def done(rec):
+        col = (rec.get("summary") or {}).get("collapse", {})
+        lam = col.get("load_factor")
+        print(f"[{time.perf_counter() - t0:7.0f} s] {rec['name']}: {rec['status']}"
+              + (f", lambda = {lam:.3f}" if lam is not None else "")
+              + (f" ({rec.get('error')})" if rec["status"] != "ok" else ""), flush=True)
+
+    print(f"{len(runs)} runs", flush=True)
+    records = run_batch(runs, out / "runs", n_workers=workers, on_done=done)
+    for rec in records:
+        old[rec["name"]] = _record(rec)
+    results = list(old.values())
+    path.write_text(json.dumps(results, indent=1))
+    return results
+
+
+# ------------------------------------------------------------------------------------------
+def _lam(r):
+    c = r.get("collapse") or {}
+    return c.get("load_factor") if c.get("detected") else None
+
+
+def report(out: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from postprocess.limit_analysis import in_plane_limit
+
+    res = {r["name"]: r for r in json.loads((out / "results.json").read_text())}
+    lines = ["# Tilting-table study (thesis Chapter 3)", "",
+             "Generated by `python -m postprocess.tilt_study --out results/tilt` "
+             "(runs, then this report; `--report` rebuilds the report from results.json).",
+             "lambda = tan(tilt angle at the collapse onset, see dem/collapse.py); LA = limit "
+             "analysis, eq 3-1..3-3 (postprocess/limit_analysis.py) with the brick friction; "
+             "default joint stiffness 5e9 Pa/m, damping 0.1, tilt rate 2 deg/s unless stated.", ""]
+
+    # ---- in-plane table
+    lines += ["## In plane", "",
+              "| run | bricks | L/H | s/h | mu | lambda | LA sliding | LA overturning | LA mechanism "
+              "| simulated mechanism | crack angle (deg from vertical) / bond angle | thesis |",
+              "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    ip = {n: r for n, r in res.items() if (r.get("mechanism") or {}).get("kind") == "in-plane"}
+    for n, r in sorted(ip.items()):
+        m = r["mechanism"]
+        la = m.get("limit_analysis", {})
+        crack = m.get("crack") or {}
+        cr = (f"{crack['angle_from_vertical_deg']:.0f} / {crack.get('stagger_angle_deg', 0):.0f}"
+              if crack else "-")
+        stem = n.removeprefix("ip-")
+        thesis = THESIS_IN_PLANE.get(stem)
+        lh = la.get("l_over_h", np.nan)
+        th_mech = THESIS_MECHANISM_IN_PLANE.get(round(lh, 2)) if n.startswith("ip-small-5x") else None
+        lam = _lam(r)
+        lines.append(
+            f"| {n} | {r['n_blocks']} | {lh:.2f} | {la.get('s_over_h', np.nan):.2f} | "
+            f"{r['friction']:.2f} | {lam:.3f} | {la.get('lambda_sliding', np.nan):.3f} | "
+            f"{la.get('lambda_overturning', np.nan):.3f} | {la.get('mechanism', '-')} | "
+            f"{m['mechanism']} ({m['overturning_mass_fraction']:.0%} overturning, "
+            f"{m['n_moving']} blocks) | {cr} | "
+            f"{(f'lambda {thesis}' if thesis else '') + (th_mech or '')} |"
+            if lam is not None else f"| {n} | {r.get('n_blocks')} | no collapse | | | | | | | | | |")
+    # ---- out-of-plane table
+    lines += ["", "## Out of plane", "",
+              "| run | bricks | lambda | mechanism | collapsed courses | wing bricks moved "
+              "(left/right) | thesis |", "|---|---|---|---|---|---|---|"]
+    for n, r in sorted(res.items()):
+        m = r.get("mechanism") or {}
+        if m.get("kind") != "out-of-plane" or n.startswith("rate-"):
+            continue
+        key = next((k for k in THESIS_MECHANISM_OOP if k in n), None)
+        w = m.get("wing_bricks_moved", {})
+        lines.append(f"| {n} | {r['n_blocks']} | {_lam(r):.3f} | {m['mechanism']} | "
+                     f"{m['collapsed_courses']} / {m['facade_courses']} | "
+                     f"{w.get('left', '-')}/{w.get('right', '-')} | "
+                     f"{THESIS_MECHANISM_OOP.get(key, '')} |")
+    # ---- rate study
+    lines += ["", "## Convergence with the tilt rate", "",
+              "| case | rate (deg/s) | lambda | onset angle (deg) | wall time (s) |",
+              "|---|---|---|---|---|"]
+    fig, ax = plt.subplots(figsize=(5, 3.5))
+    for src in ("ip-small-5x7", "oop-large-5x9-no-wings"):
+        pts = []
+        for rate in (*RATES, 2.0):
+            n = src if rate == 2.0 else f"rate-{rate:g}-{src}"
+            if n in res and _lam(res[n]) is not None:
+                pts.append((rate, _lam(res[n]), res[n]["wall_seconds"],
+                            res[n]["collapse"]["angle_deg"]))
+        pts.sort()
+        for rate, lam, wall, ang in pts:
+            lines.append(f"| {src} | {rate:g} | {lam:.4f} | {ang:.2f} | {wall:.0f} |")
+        if pts:
+            p = np.array(pts)
+            ax.plot(p[:, 0], p[:, 1] / p[0, 1], "o-", label=f"{src} (/ lambda at {p[0, 0]:g})")
+    ax.set_xscale("log")
+    ax.set_xlabel("tilt rate (deg/s)")
+    ax.set_ylabel("lambda / lambda at slowest rate")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(out / "lambda_vs_rate.png", dpi=120)
+    plt.close(fig)
+
+    # ---- plots: lambda vs L/H with LA, vs s/h, vs bricks, vs mu
+    fig, axs = plt.subplots(2, 2, figsize=(10, 7.5))
+    ax = axs[0, 0]
+    lh_runs = [(r["mechanism"]["limit_analysis"]["l_over_h"], _lam(r)) for n, r in ip.items()
+               if n.startswith("ip-small-5x") and _lam(r) is not None]
+    if lh_runs:
+        p = np.array(sorted(lh_runs))
+        ax.plot(p[:, 0], p[:, 1], "ko-", label="DEM (small, L = 5, s/h = 1.5)")
+    lhs = np.linspace(0.5, 3.2, 60)
+    las = [in_plane_limit(0.81, 1.5, x) for x in lhs]
+    ax.plot(lhs, [a.lambda_sliding for a in las], "b--", label="LA sliding (mu 0.81)")
+    ax.plot(lhs, [a.lambda_overturning for a in las], "r--", label="LA overturning")
+    ax.set_xlabel("L/H")
+    ax.set_ylabel("lambda")
+    ax.legend(fontsize=7)
+    ax = axs[0, 1]
+    sh = [(r["mechanism"]["limit_analysis"]["s_over_h"], _lam(r)) for n, r in ip.items()
+          if "9x15" in n and _lam(r) is not None]
+    if sh:
+        p = np.array(sorted(sh))
+        ax.plot(p[:, 0], p[:, 1], "ko-", label="DEM (small, 9 x 15)")
+    ax.set_xlabel("s/h")
+    ax.set_ylabel("lambda")
+    ax.legend(fontsize=7)
+    ax = axs[1, 0]
+    for lh_target, style in ((1.0, "o-"), (3.0, "s-")):
+        pts = [(r["n_blocks"], _lam(r)) for n, r in ip.items()
+               if (n.startswith("size-") or n.startswith("ip-small-5x"))
+               and abs(r["mechanism"]["limit_analysis"]["l_over_h"] - lh_target) < 0.01
+               and _lam(r) is not None]
+        if pts:
+            p = np.array(sorted(pts))
+            ax.plot(p[:, 0], p[:, 1], style, label=f"L/H = {lh_target:g}")
+    ax.set_xscale("log")
+    ax.set_xlabel("blocks in the wall")
+    ax.set_ylabel("lambda")
+    ax.legend(fontsize=7)
+    ax = axs[1, 1]
+    mus = [(r["friction"], _lam(r)) for n, r in ip.items()
+           if (n.startswith("mu-") or n == "ip-small-5x15") and _lam(r) is not None]
+    if mus:
+        p = np.array(sorted(mus))
+        ax.plot(p[:, 0], p[:, 1], "ko-", label="DEM (small 5 x 15)")
+        ax.plot(p[:, 0], [in_plane_limit(m, 1.5, 1.0).lambda_c for m in p[:, 0]], "r--",
+                label="LA")
+    ax.set_xlabel("friction mu")
+    ax.set_ylabel("lambda")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(out / "lambda_trends.png", dpi=120)
+    plt.close(fig)
+    lines += ["", "![trends](lambda_trends.png)", "", "![rate](lambda_vs_rate.png)", ""]
+    failed = [r for r in res.values() if r["status"] != "ok"]
+    if failed:
+        lines += ["## Failed runs", ""] + [f"- {r['name']}: {r.get('error')}" for r in failed]
+    (out / "README.md").write_text("\n".join(lines) + "\n")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+    ap.add_argument("--out", type=Path, default=ROOT / "results" / "tilt")
+    ap.add_argument("--only", default=None, help="run only runs whose name contains this")
+    ap.add_argument("--workers", type=int, default=None)
+    ap.add_argument("--report", action="store_true", help="only rebuild the report")
+    args = ap.parse_args()
+    args.out.mkdir(parents=True, exist_ok=True)
+    if not args.report:
+        run_all(args.out, args.only, args.workers)
+    report(args.out)
+
+
+if __name__ == "__main__":
+    main()
