@@ -20,7 +20,7 @@ exactly as written; everything below ``# extensions`` is optional.  SI units, an
     # extensions
     gravity: 9.81                        # m/s2
     solver: {method: DOP853, rtol: 1.0e-10, atol: 1.0e-12, max_step_fraction: 0.0625,
-             zeno_velocity: 1.0e-6}
+             zeno_velocity: 1.0e-6, zeno_time: 1.0e-4, max_events: 200000}
 
 The loading is along ``direction`` (used as given, as in the DEM's case format: the rocking plane
 contains it and the displacement amplitude is ``amplitude * |direction|``); give ``amplitude`` (m)
@@ -219,6 +219,8 @@ class SolverSpec(_Strict):
     atol: float = 1e-12
     max_step_fraction: float = Field(default=1.0 / 16.0, description="max step / period")
     zeno_velocity: float = Field(default=1e-6, description="rad/s: slower closing rates lock")
+    zeno_time: float = Field(default=1e-4, ge=0.0, description="s: a joint whose next flight "
+                             "would be shorter is locked (end of an accumulation of impacts)")
     max_events: int = Field(default=200000, ge=1, description="more events stop the run (error)")
 
     _p = field_validator("rtol", "atol", "max_step_fraction", "zeno_velocity")(
@@ -309,7 +311,8 @@ def settings_from_case(case: RockingCase):
     return Settings(duration=case.run.duration, output_interval=case.run.output_interval,
                     restitution=case.rocking.restitution, method=s.method, rtol=s.rtol,
                     atol=s.atol, max_step_fraction=s.max_step_fraction,
-                    zeno_velocity=s.zeno_velocity, collapse_angle=case.run.collapse_angle,
+                    zeno_velocity=s.zeno_velocity, zeno_time=s.zeno_time,
+                    collapse_angle=case.run.collapse_angle,
                     max_events=s.max_events)
 
 

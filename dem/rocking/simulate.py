@@ -82,6 +82,7 @@ class Settings:
     atol: float = 1e-12
     max_step_fraction: float = 1.0 / 16.0   # of the excitation period (or of 2 pi sqrt(H/g))
     zeno_velocity: float = 1e-6             # rad/s
+    zeno_time: float = 1e-4                 # s: lock a joint whose next flight is shorter
     collapse_angle: float = 1.0             # rad
     max_events: int = 200000
     chatter_events: int = 200               # this many events closer than chatter_dt in a row: fail
@@ -594,6 +595,11 @@ class _Sim:
         self.episodes.append((self._ep_start, float(t), pattern_name(*mode[:2]), int(mode[2])))
         return status, message
 
+    def _flight(self, rate, acc) -> bool:
+        """True when a joint opening at ``rate`` against ``acc`` (both signed positive = opening)
+        would close again within ``zeno_time``: 2 rate / (-acc) < zeno_time."""
+        return rate > 0.0 and acc < 0.0 and 2.0 * rate < -acc * self.S.zeno_time
+
     def _taylor_start(self, t, y, mode):
         """Step a flow off an event point by a tiny second-order Taylor step.
 
@@ -601,7 +607,9 @@ class _Sim:
         opened, a load point that has just stopped) would make solve_ivp's root finder return the
         segment start.  The state is advanced by EPS_START (error ~ jerk * EPS_START^3 / 6, far
         below the integration tolerance) so that they start on their valid side.  A joint that
-        would close again within EPS_START (the end of an accumulation of impacts) is locked.
+        would close again within EPS_START, or whose next flight (2 rate / closing acceleration)
+        is shorter than ``zeno_time``, is locked: the end of an accumulation of impacts, whose
+        remaining micro-rocking has an amplitude below |acc| zeno_time^2 / 8 (~1e-7 rad).
         """
         P = self.P
         for _ in range(4):
@@ -616,8 +624,10 @@ class _Sim:
             dphi = e.dd2 - e.dd1
             yn = (y[0] + h * y[2] + 0.5 * h * h * e.dd1, y[1] + h * y[3] + 0.5 * h * h * dphi,
                   y[2] + h * e.dd1, y[3] + h * dphi)
-            lock_b = b != 0 and y[0] == 0.0 and not b * yn[0] > 0.0
-            lock_c = c != 0 and y[1] == 0.0 and not c * yn[1] > 0.0
+            lock_b = b != 0 and y[0] == 0.0 and (not b * yn[0] > 0.0
+                                                  or self._flight(b * y[2], b * e.dd1))
+            lock_c = c != 0 and y[1] == 0.0 and (not c * yn[1] > 0.0
+                                                  or self._flight(c * y[3], c * dphi))
             if not (lock_b or lock_c):
                 return t + h, yn, mode
             # the joint recloses at once: plastic lock of that joint, then a new mode
@@ -626,7 +636,14 @@ class _Sim:
             s1, s2 = geometry(P, b, c)
             v = maximal_velocity(P, s1, s2, th1, th1 + phi, w1, w1 + wphi)
             bb, cc = (0 if lock_b else b), (0 if lock_c else c)
-            vp, _, _ = self._plastic(bb, cc, th1, th1 + phi, v, mass6(P))
+            M = mass6(P)
+            vp, _, _ = self._plastic(bb, cc, th1, th1 + phi, v, M)
+            if self.S.restitution != "housner":
+                # with a restitution number the lock keeps the kinetic energy (e was applied
+                # at the impact that started this flight)
+                ke0, ke1 = 0.5 * v @ M @ v, 0.5 * vp @ M @ vp
+                if ke1 > 1e-300:
+                    vp = vp * math.sqrt(ke0 / ke1)
             w1p, w2p = (0.0 if bb == 0 else float(vp[2])), float(vp[5])
             if cc == 0:
                 w2p = w1p
