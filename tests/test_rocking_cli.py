@@ -157,8 +157,8 @@ TABLE_5_2 = {  # frequency (Hz): amplitude (m); Model III 2.4 Hz given by its 1.
 
 
 def test_thesis_cases_use_table_5_values():
-    """Table 5.1 parameters, Table 5.2 excitations (the 2.8 Hz rows give 1.45 / 1.27 m/s2, not
-    the 1.53 / 1.23 m/s2 printed for their groups: a thesis inconsistency kept as printed)."""
+    """Table 5.1 parameters, Table 5.2 excitations (Model II's 2.8 Hz row, 4.69 mm, gives
+    1.45 m/s2, not the 1.53 m/s2 printed for its group: kept as printed)."""
     for stem, amp in TABLE_5_2.items():
         c = load_rocking_case(CASES[0].parent / f"{stem}.yaml")
         P = params_from_case(c)
