@@ -267,6 +267,14 @@ class RunSpec(_Strict):
         default=False, description="also write contact points and forces (vtk/contacts_*.vtp)"
     )
     snapshot: bool = Field(default=True, description="write final.png (off-screen rendering)")
+    instruments: Literal["auto", "none", "thesis"] = Field(
+        default="auto",
+        description="virtual instruments (instruments.npz): 'thesis' = Fig 4.4 on a box model; "
+        "'auto' = thesis for a shaken box model, none otherwise",
+    )
+    instrument_interval: float = Field(
+        default=0.002, gt=0.0, description="s between instrument samples (500 Hz)"
+    )
 
 
 class SolverSpec(_Strict):

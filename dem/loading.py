@@ -4,6 +4,7 @@ Every loading gives, for an array of times t (s):
     gravity(t)       [K,3]  m/s^2  gravity as seen in the table frame
     base_accel(t)    [K,3]  m/s^2  acceleration of the table; each block feels -m a_base
     base_disp(t)     [K,3]  m      displacement of the table (reported with the frames)
+    base_vel(t)      [K,3]  m/s    velocity of the table
 
 Tilt (DESIGN.md "Model only what a scene needs"): the table turns by theta(t) about a
 horizontal axis; instead of moving the table, gravity turns the other way:
@@ -35,6 +36,9 @@ class Loading:
         return np.zeros((len(np.atleast_1d(t)), 3))
 
     def base_disp(self, t: np.ndarray) -> np.ndarray:
+        return np.zeros((len(np.atleast_1d(t)), 3))
+
+    def base_vel(self, t: np.ndarray) -> np.ndarray:
         return np.zeros((len(np.atleast_1d(t)), 3))
 
     def __call__(self, t: np.ndarray):
@@ -111,6 +115,11 @@ class Shake(Loading):
 
     def base_disp(self, t):
         return self._u(t)[:, None] * self.direction[None, :]
+
+    def base_vel(self, t):
+        t = np.atleast_1d(t)
+        v = self.A * self.omega * np.cos(self.omega * np.minimum(t, self.t_end))
+        return v[:, None] * self.direction[None, :]
 
     def base_accel(self, t):
         t = np.atleast_1d(t)

@@ -5,6 +5,8 @@ Output directory (contract of ../shared/DESIGN.md):
                    status ("ok" | "failed" | "interrupted"), error, energy balance, loading ...
     frames.npz     t [T] (s), pos [T,N,3] (m, table frame), quat [T,N,4] (w,x,y,z),
                    base_disp [T,3] (m), vel [T,N,3] (m/s); tilt runs add tilt_angle [T] (deg)
+    instruments.npz  virtual instruments sampled every run.instrument_interval (dem.instruments)
+    case.json      the validated case with every default filled in (Case.model_validate_json)
 
 Nothing is lost on failure: frames.npz and summary.json are written (atomically, temp file +
 rename) when the run ends for any reason, and every ``CHECKPOINT_SECONDS`` of wall-clock time.
@@ -23,7 +25,8 @@ import numpy as np
 
 from dem.case import Case, CaseError, load_case
 from dem.collapse import CollapseDetector
-from dem.loading import Loading, Tilt, loading_from_case
+from dem.instruments import InstrumentRecorder, thesis_instruments
+from dem.loading import Shake, Tilt, loading_from_case
 from dem.scene import Scene, scene_from_case
 
 CHECKPOINT_SECONDS = 30.0
@@ -66,9 +69,14 @@ class FrameRecorder:
     def write(self) -> None:
         if self.out_dir is None or not self.cols["t"]:
             return
-        tmp = self.out_dir / "frames.tmp.npz"
-        np.savez_compressed(tmp, **self.arrays())
-        os.replace(tmp, self.out_dir / "frames.npz")
+        _save_npz(self.out_dir / "frames.npz", self.arrays())
+
+
+def _save_npz(path: Path, arrays: dict) -> None:
+    """np.savez_compressed through a temporary file, so the file is always whole."""
+    tmp = path.with_name(path.stem + ".tmp.npz")
+    np.savez_compressed(tmp, **arrays)
+    os.replace(tmp, path)
 
 
 def _write_json(path: Path, data: dict) -> None:
@@ -134,6 +142,8 @@ def simulate(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
     out = Path(out_dir) if out_dir is not None else None
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
+        # the validated case (all defaults filled in): post-processing rebuilds the scene from it
+        (out / "case.json").write_text(case.model_dump_json(indent=1))
     scene = scene_from_case(case)
     loading = loading_from_case(case)
     sim = Simulation(scene, case.material, case.solver, gravity=loading.g0)
@@ -168,6 +178,23 @@ def simulate(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
         detector = CollapseDetector(scene.position.copy(), scene.quat.copy(),
                                     0.5 * np.linalg.norm(scene.size, axis=1), cs.onset,
                                     cs.confirm, cs.after, cs.stop)
+
+    instruments = None
+    choice = case.run.instruments
+    if choice == "auto":
+        boxy = {"L1", "L2", "T1", "T2"} <= set(scene.group_names)
+        choice = "thesis" if boxy and isinstance(loading, Shake) else "none"
+    if choice == "thesis":
+        d = np.abs(loading.direction) if isinstance(loading, Shake) else np.array([0.0, 1.0, 0])
+        axis = "xy" if d[0] > 1e-9 and d[1] > 1e-9 else ("x" if d[0] > d[1] else "y")
+        instruments = InstrumentRecorder(thesis_instruments(scene, axis), scene)
+    k_inst = max(1, int(round(case.run.instrument_interval / dt)))
+
+    def sample_instruments():
+        st = sim.state
+        tt = np.array([sim.t])
+        instruments.sample(sim.t, st.pos, st.quat, st.vel, st.omega, loading.base_disp(tt)[0],
+                           loading.base_vel(tt)[0])
 
     vtk = None
     if out is not None and case.run.vtk:
@@ -206,8 +233,13 @@ def simulate(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
                 summary["mechanism"] = classify(
                     case, scene, rec.cols["pos"][0], rec.cols["quat"][0], rec.cols["pos"][-1],
                     rec.cols["quat"][-1], col["moved_blocks"], loading.load_direction)
+        if instruments is not None:
+            summary["instruments"] = {"file": "instruments.npz", "interval_s": k_inst * dt,
+                                      "names": [i.name for i in instruments.instruments]}
         if out is not None:
             rec.write()
+            if instruments is not None and instruments.rows["t"]:
+                _save_npz(out / "instruments.npz", instruments.arrays())
             if vtk is not None:
                 vtk.close()
                 summary["vtk_frames"] = vtk.n_frames
@@ -221,9 +253,15 @@ def simulate(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
     run0 = time.perf_counter()
     try:
         record()
+        if instruments is not None:
+            sample_instruments()
         while sim.step_count < n_total:
             k = min(k_out - sim.step_count % k_out, n_total - sim.step_count)
+            if instruments is not None:
+                k = min(k, k_inst - sim.step_count % k_inst)
             sim.advance(k, loading)
+            if instruments is not None and sim.step_count % k_inst == 0:
+                sample_instruments()
             if sim.step_count % k_out == 0 or sim.step_count == n_total:
                 record()
                 if detector is not None and detector.update(

@@ -1,0 +1,154 @@
+"""Virtual instruments: points fixed on blocks, sampled during the run (thesis Section 4.2.5).
+
+An instrument is a point ``point`` (m, in the block's body frame) on block ``block``, with a
+measuring direction ``direction`` (unit vector, table frame) and a kind: "transducer" (the thesis'
+LVDTs bolted to the table: displacement relative to the table, ds) or "accelerometer" (absolute
+acceleration, a).  Every instrument records all three components, so any direction can be
+derived later; ``direction`` says what the physical instrument would read.
+
+Recorded (``instruments.npz``), K samples every ``run.instrument_interval`` seconds:
+    t            [K]        s
+    disp         [K,n,3]    m      displacement of the point relative to the table (table frame)
+    vel          [K,n,3]    m/s    velocity of the point relative to the table
+    acc          [K,n,3]    m/s2   ABSOLUTE acceleration of the point, mean over the sample
+                                   interval: (v_abs(t_k) - v_abs(t_k-1)) / dt_sample, with
+                                   v_abs = v_rel + v_table (a band-limited reading, as a real
+                                   accelerometer; the raw contact forces chatter at kHz)
+    table_disp   [K,3], table_acc [K,3]   the excitation
+    names [n], kind [n], block [n], point [n,3], direction [n,3], group [n] (block group name)
+
+Thesis placement (Fig 4.4, Section 4.2.5), used for box models under shaking: all instruments on
+the back walls L1 and T1 at the penultimate course (8th of 9, 14th of 15); for y excitation the
+facade is L1 (out-of-plane, along y) and the side wall T1, for x excitation the other way round:
+  transducers    ds-centre, ds-corner-a, ds-corner-b   on the facade (centre brick, both ends)
+                 side-centre, side-corner-a, side-corner-b  on the side wall
+  accelerometers a-centre, a-corner on the facade; a-corner-inplane on the facade's corner
+                 brick along the wall; a-front-centre on the front facade (L2 / T2) centre.
+Points are on the wall's outer face, at mid-height of the brick.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from dem.scene import Scene
+
+
+@dataclass
+class Instrument:
+    name: str
+    block: int
+    point: np.ndarray      # body frame, m
+    direction: np.ndarray  # table frame, unit
+    kind: str              # "transducer" | "accelerometer"
+
+
+def _outer_face_point(scene: Scene, b: int, outward: np.ndarray) -> np.ndarray:
+    """Body-frame point at the centre of block b's face that points along ``outward``."""
+    R = scene.rotation_matrices()[b]
+    n_body = R.T @ outward
+    k = int(np.argmax(np.abs(n_body)))
+    p = np.zeros(3)
+    p[k] = np.sign(n_body[k]) * 0.5 * scene.size[b, k]
+    return p
+
+
+def thesis_instruments(scene: Scene, axis: str) -> list[Instrument]:
+    """Instruments of Fig 4.4 on a box model (groups L1, L2, T1, T2) for excitation along
+    ``axis`` ("x" or "y"; "xy" for the diagonal tests gives both sets, prefixed x- and y-)."""
+    if axis == "xy":
+        return [Instrument(f"{a}-{i.name}", i.block, i.point, i.direction, i.kind)
+                for a in ("x", "y") for i in thesis_instruments(scene, a)]
+    names = list(scene.group_names)
+    if not {"L1", "L2", "T1", "T2"} <= set(names):
+        raise ValueError("thesis instruments need a box model (groups L1, L2, T1, T2)")
+    facade, front, side = ("L1", "L2", "T1") if axis == "y" else ("T1", "T2", "L1")
+    e = np.array([0.0, 1.0, 0.0]) if axis == "y" else np.array([1.0, 0.0, 0.0])
+    along = np.array([1.0, 0.0, 0.0]) if axis == "y" else np.array([0.0, 1.0, 0.0])
+    top = int(scene.course[scene.group == names.index(facade)].max())
+    course = top - 1
+
+    def pick(group: str, where: str) -> int:
+        g = names.index(group)
+        idx = np.flatnonzero((scene.group == g) & (scene.course == course))
+        wall_along = np.array([1.0, 0.0, 0.0]) if group in ("L1", "L2") else \
+            np.array([0.0, 1.0, 0.0])
+        s = scene.position[idx] @ wall_along
+        k = {"centre": np.argmin(np.abs(s)), "a": np.argmin(s), "b": np.argmax(s)}[where]
+        return int(idx[k])
+
+    def outward(group: str) -> np.ndarray:
+        g = names.index(group)
+        c = scene.position[scene.group == g].mean(axis=0)
+        n = e if group in (facade, front) else along
+        return n * np.sign(c @ n)
+
+    out = []
+    for nm, grp, where in (("ds-centre", facade, "centre"), ("ds-corner-a", facade, "a"),
+                           ("ds-corner-b", facade, "b"), ("side-centre", side, "centre"),
+                           ("side-corner-a", side, "a"), ("side-corner-b", side, "b")):
+        b = pick(grp, where)
+        n_out = outward(grp)
+        out.append(Instrument(nm, b, _outer_face_point(scene, b, n_out), e.copy(), "transducer"))
+    for nm, grp, where, d in (("a-centre", facade, "centre", e), ("a-corner", facade, "a", e),
+                              ("a-corner-inplane", facade, "a", along),
+                              ("a-front-centre", front, "centre", e)):
+        b = pick(grp, where)
+        out.append(Instrument(nm, b, _outer_face_point(scene, b, outward(grp)), d.copy(),
+                              "accelerometer"))
+    return out
+
+
+class InstrumentRecorder:
+    """Samples instruments from the engine state (see module docstring for the arrays)."""
+
+    def __init__(self, instruments: list[Instrument], scene: Scene):
+        self.instruments = instruments
+        self.blocks = np.array([i.block for i in instruments], dtype=int)
+        self.points = np.array([i.point for i in instruments], dtype=float).reshape(-1, 3)
+        q0 = scene.quat[self.blocks]
+        self.R0 = Rotation.from_quat(np.column_stack([q0[:, 1:], q0[:, :1]])).as_matrix()
+        self.x0 = scene.position[self.blocks] + np.einsum("nij,nj->ni", self.R0, self.points)
+        self.group = [scene.group_names[scene.group[b]] for b in self.blocks]
+        self.rows: dict[str, list] = {k: [] for k in ("t", "disp", "vel", "acc", "table_disp",
+                                                       "table_acc")}
+        self._last = None  # (t, absolute velocity [n,3])
+
+    def sample(self, t: float, pos, quat, vel, omega, table_disp, table_vel) -> None:
+        b = self.blocks
+        q = quat[b]
+        R = Rotation.from_quat(np.column_stack([q[:, 1:], q[:, :1]])).as_matrix()
+        r = np.einsum("nij,nj->ni", R, self.points)
+        x = pos[b] + r
+        v = vel[b] + np.cross(omega[b], r)
+        table_vel = np.asarray(table_vel, float)
+        v_abs = v + table_vel
+        if self._last is None:
+            acc = np.zeros((len(b), 3))
+            table_acc = np.zeros(3)
+        else:
+            dt = t - self._last[0]
+            acc = (v_abs - self._last[1]) / dt
+            table_acc = (table_vel - self._last[2]) / dt
+        self._last = (t, v_abs, table_vel)
+        self.rows["t"].append(t)
+        self.rows["disp"].append(x - self.x0)
+        self.rows["vel"].append(v)
+        self.rows["acc"].append(acc)
+        self.rows["table_disp"].append(np.asarray(table_disp, float))
+        self.rows["table_acc"].append(table_acc)
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        out = {k: np.asarray(v) for k, v in self.rows.items()}
+        out.update({
+            "names": np.array([i.name for i in self.instruments]),
+            "kind": np.array([i.kind for i in self.instruments]),
+            "block": self.blocks,
+            "point": self.points,
+            "direction": np.array([i.direction for i in self.instruments]).reshape(-1, 3),
+            "group": np.array(self.group),
+        })
+        return out
