@@ -36,7 +36,7 @@ weights are areas (m^2).  Codes: 0-2 face k of A, 3-5 face k of B, 6-14 edge pai
 
 import taichi as ti
 
-from dem.engine.mathutil import col, vec3
+from dem.engine.mathutil import vec3
 
 MAXP = 9  # face polygon: 4 corners, clipped by 4 sides (<= 8) then by d >= 0 (<= 9)
 VP = ti.types.vector(MAXP + 1, ti.f64)  # one spare slot for the clipping passes
@@ -49,39 +49,38 @@ def sat_overlaps(pA, RA, hA, pB, RB, hB):
     """Overlap (m) of the projections of boxes A and B on each of the 15 candidate axes.
 
     Returns a 15-vector; entries of degenerate edge axes (parallel edges) are +inf-like (1e30).
-    Negative overlap on any axis means the boxes are separated.
+    Negative overlap on any axis means the boxes are separated.  Everything is expressed with
+    C = RA^T RB (C[k, m] = a_k . b_m) and the centre offset in both frames (Gottschalk's OBB
+    test): the edge axis L = a_k x b_m is (0, -C[2, m], C[1, m]) in A's frame for k = 0 and
+    (0, C[k, 2], -C[k, 1]) in B's frame for m = 0 (cyclic for the others), so no cross product
+    is formed; the projections on the unnormalised L are divided by |L| once.
     """
     ov = ti.Vector([0.0] * 15, dt=ti.f64)
     d = pB - pA
-    C = RA.transpose() @ RB  # C[k, m] = a_k . b_m
+    dA = RA.transpose() @ d
+    dB = RB.transpose() @ d
+    C = RA.transpose() @ RB
     absC = ti.abs(C) + 1e-14
     for k in ti.static(range(3)):
-        ra = hA[k]
         rb = hB[0] * absC[k, 0] + hB[1] * absC[k, 1] + hB[2] * absC[k, 2]
-        ov[k] = ra + rb - ti.abs(d.dot(col(RA, k)))
+        ov[k] = hA[k] + rb - ti.abs(dA[k])
     for m in ti.static(range(3)):
         ra = hA[0] * absC[0, m] + hA[1] * absC[1, m] + hA[2] * absC[2, m]
-        rb = hB[m]
-        ov[3 + m] = ra + rb - ti.abs(d.dot(col(RB, m)))
+        ov[3 + m] = ra + hB[m] - ti.abs(dB[m])
     for k in ti.static(range(3)):
+        k1 = (k + 1) % 3
+        k2 = (k + 2) % 3
         for m in ti.static(range(3)):
-            L = col(RA, k).cross(col(RB, m))
-            l2 = L.norm_sqr()
+            m1 = (m + 1) % 3
+            m2 = (m + 2) % 3
+            l2 = C[k1, m] * C[k1, m] + C[k2, m] * C[k2, m]  # |a_k x b_m|^2
             if l2 < 1e-6:
                 ov[6 + 3 * k + m] = 1e30
             else:
-                L = L / ti.sqrt(l2)
-                ra = (
-                    hA[0] * ti.abs(col(RA, 0).dot(L))
-                    + hA[1] * ti.abs(col(RA, 1).dot(L))
-                    + hA[2] * ti.abs(col(RA, 2).dot(L))
-                )
-                rb = (
-                    hB[0] * ti.abs(col(RB, 0).dot(L))
-                    + hB[1] * ti.abs(col(RB, 1).dot(L))
-                    + hB[2] * ti.abs(col(RB, 2).dot(L))
-                )
-                ov[6 + 3 * k + m] = ra + rb - ti.abs(d.dot(L))
+                ra = hA[k1] * ti.abs(C[k2, m]) + hA[k2] * ti.abs(C[k1, m])
+                rb = hB[m1] * ti.abs(C[k, m2]) + hB[m2] * ti.abs(C[k, m1])
+                dl = dA[k2] * C[k1, m] - dA[k1] * C[k2, m]
+                ov[6 + 3 * k + m] = (ra + rb - ti.abs(dl)) / ti.sqrt(l2)
     return ov
 
 
@@ -110,10 +109,14 @@ def choose_axis(ov, prev_code, margin):
 
 
 @ti.func
-def clip_halfplane(xs, ys, n, ax, ay, off):
-    """Keep the part of a convex polygon (xs, ys, n vertices) where ax*x + ay*y <= off."""
-    ox = VP(0.0)
-    oy = VP(0.0)
+def clip_halfplane(xs: ti.template(), ys: ti.template(), n, ax, ay, off, ox: ti.template(),
+                   oy: ti.template()):
+    """One Sutherland-Hodgman pass: write to (ox, oy) the part of the convex polygon (xs, ys,
+    n vertices) where ax*x + ay*y <= off, and return its number of vertices.
+
+    The buffers are passed by reference (``ti.template()``): the passes of
+    :func:`face_contact` ping-pong between two pairs of buffers instead of copying them.
+    """
     m = 0
     if n > 0:
         px = xs[n - 1]
@@ -141,7 +144,7 @@ def clip_halfplane(xs, ys, n, ax, ay, off):
             px = cx
             py = cy
             fp = fc
-    return ox, oy, m
+    return m
 
 
 @ti.func
@@ -247,24 +250,25 @@ def face_contact(pR, RR, hR, k, sgn, pI, RI, hI):
     ci = pI + nI * hI[m]
     xs = VP(0.0)
     ys = VP(0.0)
+    xt = VP(0.0)  # second pair of buffers for the clipping passes
+    yt = VP(0.0)
     for q in ti.static(range(4)):
         s1 = 1.0 if q == 0 or q == 3 else -1.0
         s2 = 1.0 if q < 2 else -1.0
         v = ci + s1 * b1 + s2 * b2 - c
         xs[q] = v.dot(u1)
         ys[q] = v.dot(u2)
-    npoly = 4
-    xs, ys, npoly = clip_halfplane(xs, ys, npoly, 1.0, 0.0, e1)
-    xs, ys, npoly = clip_halfplane(xs, ys, npoly, -1.0, 0.0, e1)
-    xs, ys, npoly = clip_halfplane(xs, ys, npoly, 0.0, 1.0, e2)
-    xs, ys, npoly = clip_halfplane(xs, ys, npoly, 0.0, -1.0, e2)
+    npoly = clip_halfplane(xs, ys, 4, 1.0, 0.0, e1, xt, yt)
+    npoly = clip_halfplane(xt, yt, npoly, -1.0, 0.0, e1, xs, ys)
+    npoly = clip_halfplane(xs, ys, npoly, 0.0, 1.0, e2, xt, yt)
+    npoly = clip_halfplane(xt, yt, npoly, 0.0, -1.0, e2, xs, ys)
     # gap (penetration) d(x, y) = ((c + x u1 + y u2) - ci) . nI / (n . nI), affine in (x, y)
     den = n.dot(nI)
     d0 = (c - ci).dot(nI) / den
     gx = u1.dot(nI) / den
     gy = u2.dot(nI) / den
-    xs, ys, npoly = clip_halfplane(xs, ys, npoly, -gx, -gy, d0)
-    qx, qy, w, area, shrink, gcx, gcy = polygon_quadrature(xs, ys, npoly)
+    npoly = clip_halfplane(xs, ys, npoly, -gx, -gy, d0, xt, yt)
+    qx, qy, w, area, shrink, gcx, gcy = polygon_quadrature(xt, yt, npoly)
     dc = ti.max(d0 + gx * gcx + gy * gcy, 0.0)
     centroid = c + gcx * u1 + gcy * u2 - 0.5 * dc * n
     px = VP(0.0)

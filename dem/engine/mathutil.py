@@ -40,8 +40,3 @@ def quat_angle_between(a, b):
     c = ti.abs(a.dot(b))
     c = ti.min(c, 1.0)
     return 2.0 * ti.acos(c)
-
-
-@ti.func
-def col(m, k: ti.template()):
-    return vec3(m[0, k], m[1, k], m[2, k])
