@@ -149,10 +149,8 @@ def simulate(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
     sim = Simulation(scene, case.material, case.solver, gravity=loading.g0)
     n = scene.n_blocks
     dt = sim.dt
-    n_total = int(math.ceil(case.run.duration / dt - 1e-9))
-    if max_steps is not None:
-        n_total = min(n_total, int(max_steps))
-    k_out = max(1, int(round(case.run.output_interval / dt)))
+    t_end = case.run.duration
+    step_limit = int(max_steps) if max_steps is not None else None
     rec = FrameRecorder(out)
     summary = {
         "name": case.name,
@@ -169,7 +167,7 @@ def simulate(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
         "skin": sim.skin,
         "loading": loading.describe(),
         "material": case.material.model_dump(),
-        "output_interval_steps": k_out,
+        "output_interval": case.run.output_interval,
     }
 
     detector = None
@@ -188,7 +186,6 @@ def simulate(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
         d = np.abs(loading.direction) if isinstance(loading, Shake) else np.array([0.0, 1.0, 0])
         axis = "xy" if d[0] > 1e-9 and d[1] > 1e-9 else ("x" if d[0] > d[1] else "y")
         instruments = InstrumentRecorder(thesis_instruments(scene, axis), scene)
-    k_inst = max(1, int(round(case.run.instrument_interval / dt)))
 
     def sample_instruments():
         st = sim.state
@@ -234,7 +231,8 @@ def simulate(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
                     case, scene, rec.cols["pos"][0], rec.cols["quat"][0], rec.cols["pos"][-1],
                     rec.cols["quat"][-1], col["moved_blocks"], loading.load_direction)
         if instruments is not None:
-            summary["instruments"] = {"file": "instruments.npz", "interval_s": k_inst * dt,
+            summary["instruments"] = {"file": "instruments.npz",
+                                      "interval_s": case.run.instrument_interval,
                                       "names": [i.name for i in instruments.instruments]}
         if out is not None:
             rec.write()
@@ -248,21 +246,38 @@ def simulate(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
                 _snapshot(out / "final.png", scene, rec, case.name)
             _write_json(out / "summary.json", summary)
 
-    bar = _Progress(progress, n_total * dt, case.name)
+    bar = _Progress(progress, t_end, case.name)
     last_flush = time.perf_counter()
     run0 = time.perf_counter()
     try:
         record()
         if instruments is not None:
             sample_instruments()
-        while sim.step_count < n_total:
-            k = min(k_out - sim.step_count % k_out, n_total - sim.step_count)
+        # frames and instrument samples at the first step at or after each multiple of their
+        # interval (time-based, so a change of dt during the run keeps the schedule)
+        next_frame = case.run.output_interval
+        next_inst = case.run.instrument_interval
+
+        def steps_to(t_target):
+            return max(1, int(math.ceil((t_target - sim.t) / sim.dt - 1e-9)))
+
+        def next_multiple(interval):
+            return (math.floor(sim.t / interval + 1e-9) + 1) * interval
+
+        while sim.t < t_end - 1e-12 * t_end and (step_limit is None or sim.step_count < step_limit):
+            k = steps_to(min(next_frame, t_end))
             if instruments is not None:
-                k = min(k, k_inst - sim.step_count % k_inst)
+                k = min(k, steps_to(next_inst))
+            if step_limit is not None:
+                k = min(k, step_limit - sim.step_count)
             sim.advance(k, loading)
-            if instruments is not None and sim.step_count % k_inst == 0:
+            if instruments is not None and sim.t >= next_inst - 1e-9 * sim.dt:
                 sample_instruments()
-            if sim.step_count % k_out == 0 or sim.step_count == n_total:
+                next_inst = next_multiple(case.run.instrument_interval)
+            last = sim.t >= t_end - 1e-12 * t_end or (step_limit is not None
+                                                       and sim.step_count >= step_limit)
+            if sim.t >= next_frame - 1e-9 * sim.dt or last:
+                next_frame = next_multiple(case.run.output_interval)
                 record()
                 if detector is not None and detector.update(
                         sim.t, rec.extra["tilt_angle"][-1], sim.state.pos[:n], sim.state.quat[:n]):
