@@ -157,15 +157,17 @@ class CollapseSpec(_Strict):
     """When a tilt run counts as collapsed and stops (see dem.collapse for the rule)."""
 
     enabled: bool = Field(default=True, description="detect collapse and stop the run after it")
-    onset: float = Field(default=5e-4, gt=0.0, description="motion (m) that marks the onset")
+    onset_speed: float = Field(
+        default=1e-3, gt=0.0, description="m/s: blocks slower than this are at rest (onset)"
+    )
     confirm: float = Field(default=5e-3, gt=0.0, description="motion (m) that confirms collapse")
     after: float = Field(default=1.0, ge=0.0, description="s to run on after confirmation")
     stop: float = Field(default=0.03, gt=0.0, description="stop earlier once a block moved this, m")
 
     @model_validator(mode="after")
     def _ordered(self) -> "CollapseSpec":
-        if not self.onset < self.confirm < self.stop:
-            raise ValueError("need onset < confirm < stop")
+        if not self.confirm < self.stop:
+            raise ValueError("need confirm < stop")
         return self
 
 
@@ -188,6 +190,12 @@ class TiltLoading(_Strict):
     rate: float = Field(gt=0.0, description="tilt rate while turning, degrees per second")
     max_angle: float = Field(default=60.0, gt=0.0, le=90.0, description="degrees")
     start_angle: float = Field(default=0.0, ge=0.0, le=90.0, description="degrees at t = 0")
+    start_time: float = Field(
+        default=0.0, ge=0.0,
+        description="s to bring the table smoothly (smoothstep) from 0 to start_angle; 0 = the "
+        "table starts at start_angle (a sudden load: right for a block released on an incline, "
+        "a shock for a wall)",
+    )
     step: float | None = Field(default=None, gt=0.0, description="degrees per step (with holds)")
     hold: float = Field(default=0.0, ge=0.0, description="s held after every step")
     collapse: CollapseSpec = Field(default_factory=CollapseSpec)

@@ -5,15 +5,19 @@ Motion measure of block i relative to the table (a bound on how far any of its p
     M_i(t) = |x_i(t) - x_i(0)| + r_i * angle(q_i(0) -> q_i(t))        (m), r_i = half diagonal
 Joints deform elastically by micrometres, so millimetre motions mean blocks are moving.
 
+Speed measure: V_i = |v_i| + r_i |omega_i| (m/s, bounds the speed of any point of the block).
+
 Rule (checked at every output frame):
   * collapse is *confirmed* at the first frame where max_i M_i >= ``confirm`` (default 5 mm):
     motion large enough not to be elastic and sustained long enough to build up (a block that
     slips a little and stops never reaches it);
   * the *collapsing blocks* are those with M_i >= confirm / 2 at that frame;
-  * the collapse *onset* is the last frame before confirmation at which every collapsing block had
-    M_i <= ``onset`` (default 0.5 mm); the collapse angle and load factor lambda = tan(angle) are
-    taken there (a rate-independent reading of "incipient collapse", instead of the angle at which
-    the collapse became visible);
+  * the collapse *onset* is the last frame before confirmation at which every collapsing block
+    was at rest, V_i <= ``onset_speed`` (default 1 mm/s; quasi-static elastic motion is um/s);
+    the collapse angle and load factor lambda = tan(angle) are taken there.  This reads
+    "incipient collapse" instead of the angle at which the collapse became visible, and it is
+    not fooled by an earlier slip that stopped (a displacement threshold would be).  For sliding
+    at 2 deg/s the speed reaches 1 mm/s about 0.1 s (0.2 deg) after the true onset.
   * the run goes on for ``after`` seconds (default 1 s) or until max M reaches ``stop``
     (default 30 mm), so that the mechanism shows, then stops.
 """
@@ -36,17 +40,18 @@ class CollapseDetector:
     pos0: np.ndarray
     quat0: np.ndarray
     radius: np.ndarray
-    onset: float = 5e-4
+    onset_speed: float = 1e-3
     confirm: float = 5e-3
     after: float = 1.0
     stop: float = 0.03
-    history: list = field(default_factory=list)   # (t, angle, M [N])
+    history: list = field(default_factory=list)   # (t, angle, M [N], V [N])
     confirmed_at: int | None = None
 
-    def update(self, t: float, angle: float, pos, quat) -> bool:
+    def update(self, t: float, angle: float, pos, quat, vel, omega) -> bool:
         """Feed one frame; returns True when the run should stop."""
         m = motion_measure(self.pos0, self.quat0, pos, quat, self.radius)
-        self.history.append((t, angle, m))
+        v = np.linalg.norm(vel, axis=-1) + self.radius * np.linalg.norm(omega, axis=-1)
+        self.history.append((t, angle, m, v))
         if self.confirmed_at is None and m.max() >= self.confirm:
             self.confirmed_at = len(self.history) - 1
         if self.confirmed_at is None:
@@ -60,14 +65,14 @@ class CollapseDetector:
             last = self.history[-1] if self.history else (0.0, 0.0, np.zeros(0))
             return {"detected": False, "max_motion_m": float(last[2].max(initial=0.0)),
                     "last_angle_deg": float(last[1])}
-        t_c, a_c, m_c = self.history[self.confirmed_at]
+        t_c, a_c, m_c, _ = self.history[self.confirmed_at]
         moving = np.flatnonzero(m_c >= 0.5 * self.confirm)
         k_on = 0
         for k in range(self.confirmed_at - 1, -1, -1):
-            if self.history[k][2][moving].max() <= self.onset:
+            if self.history[k][3][moving].max() <= self.onset_speed:
                 k_on = k
                 break
-        t_on, a_on, _ = self.history[k_on]
+        t_on, a_on = self.history[k_on][:2]
         m_end = self.history[-1][2]
         moved_end = np.flatnonzero(m_end >= 0.5 * self.confirm)
         return {
@@ -81,5 +86,6 @@ class CollapseDetector:
             "first_moving_blocks": moving.tolist(),
             "moved_blocks": moved_end.tolist(),
             "n_moved": int(len(moved_end)),
-            "thresholds_m": {"onset": self.onset, "confirm": self.confirm, "stop": self.stop},
+            "thresholds": {"onset_speed_m_s": self.onset_speed, "confirm_m": self.confirm,
+                           "stop_m": self.stop},
         }

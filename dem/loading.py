@@ -8,7 +8,8 @@ Every loading gives, for an array of times t (s):
 
 Tilt (DESIGN.md "Model only what a scene needs"): the table turns by theta(t) about a
 horizontal axis; instead of moving the table, gravity turns the other way:
-g_table = R(axis, theta)^T g.  theta(t) = min(start + rate t, max_angle).
+g_table = R(axis, theta)^T g.  theta(t) = min(start + rate t, max_angle), optionally in steps
+with holds and after a smooth approach to the start angle (see dem.case.TiltLoading).
 Shake: u(t) = A d sin(2 pi f t) for t <= T = cycles / f, with a(t) = u''(t); after T the table
 acceleration is zero (the table keeps the velocity it had, so u continues linearly).
 """
@@ -53,7 +54,7 @@ class Tilt(Loading):
     kind = "tilt"
 
     def __init__(self, g0, axis, rate_deg: float, max_angle_deg: float, start_angle_deg=0.0,
-                 step_deg: float | None = None, hold_s: float = 0.0):
+                 step_deg: float | None = None, hold_s: float = 0.0, start_time_s: float = 0.0):
         super().__init__(g0)
         a = np.asarray(AXES[axis] if isinstance(axis, str) else axis, dtype=float)
         self.axis = a / np.linalg.norm(a)
@@ -62,6 +63,7 @@ class Tilt(Loading):
         self.start_angle = float(start_angle_deg)
         self.step = step_deg
         self.hold = float(hold_s)
+        self.start_time = float(start_time_s)
 
     @property
     def load_direction(self) -> np.ndarray:
@@ -71,13 +73,18 @@ class Tilt(Loading):
     def angle(self, t) -> np.ndarray:
         """Tilt angle (degrees) at times t: ramps at ``rate``, in steps with holds if asked."""
         t = np.atleast_1d(np.asarray(t, dtype=float))
+        ts = np.maximum(t - self.start_time, 0.0)  # time since the start angle was reached
         if self.step is None or self.hold == 0.0:
-            rise = self.rate * t
+            rise = self.rate * ts
         else:
             period = self.step / self.rate + self.hold
-            n = np.floor(t / period)
-            rise = n * self.step + np.minimum(self.rate * (t - n * period), self.step)
-        return np.minimum(self.start_angle + rise, self.max_angle)
+            n = np.floor(ts / period)
+            rise = n * self.step + np.minimum(self.rate * (ts - n * period), self.step)
+        angle = self.start_angle + rise
+        if self.start_time > 0.0:
+            s = np.clip(t / self.start_time, 0.0, 1.0)
+            angle = np.where(t < self.start_time, self.start_angle * s * s * (3 - 2 * s), angle)
+        return np.minimum(angle, self.max_angle)
 
     def gravity(self, t):
         theta = np.radians(self.angle(t))
@@ -87,7 +94,7 @@ class Tilt(Loading):
     def describe(self):
         return {"type": "tilt", "axis": self.axis.tolist(), "rate_deg_per_s": self.rate,
                 "max_angle_deg": self.max_angle, "start_angle_deg": self.start_angle,
-                "step_deg": self.step, "hold_s": self.hold,
+                "step_deg": self.step, "hold_s": self.hold, "start_time_s": self.start_time,
                 "load_direction": self.load_direction.tolist()}
 
 
@@ -136,7 +143,8 @@ def loading_from_case(case: Case) -> Loading:
     g0 = case.gravity_vector()
     ld = case.loading
     if isinstance(ld, TiltLoading):
-        return Tilt(g0, ld.axis, ld.rate, ld.max_angle, ld.start_angle, ld.step, ld.hold)
+        return Tilt(g0, ld.axis, ld.rate, ld.max_angle, ld.start_angle, ld.step, ld.hold,
+                    ld.start_time)
     if isinstance(ld, ShakeLoading):
         return Shake(g0, ld.direction, ld.frequency, ld.displacement_amplitude, ld.cycles)
     if isinstance(ld, NoLoading):

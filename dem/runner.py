@@ -174,7 +174,7 @@ def simulate(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
     if isinstance(loading, Tilt) and case.loading.collapse.enabled:
         cs = case.loading.collapse
         detector = CollapseDetector(scene.position.copy(), scene.quat.copy(),
-                                    0.5 * np.linalg.norm(scene.size, axis=1), cs.onset,
+                                    0.5 * np.linalg.norm(scene.size, axis=1), cs.onset_speed,
                                     cs.confirm, cs.after, cs.stop)
 
     instruments = None
@@ -279,8 +279,10 @@ def simulate(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
             if sim.t >= next_frame - 1e-9 * sim.dt or last:
                 next_frame = next_multiple(case.run.output_interval)
                 record()
+                st = sim.state
                 if detector is not None and detector.update(
-                        sim.t, rec.extra["tilt_angle"][-1], sim.state.pos[:n], sim.state.quat[:n]):
+                        sim.t, rec.extra["tilt_angle"][-1], st.pos[:n], st.quat[:n], st.vel[:n],
+                        st.omega[:n]):
                     break
             now = time.perf_counter()
             bar.update(sim.t, sim.step_count / max(now - run0, 1e-9))

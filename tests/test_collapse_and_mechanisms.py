@@ -23,30 +23,39 @@ def test_tilt_angle_schedule_with_steps_and_holds():
     t = np.array([0.25, 0.5, 1.9, 2.25, 100.0])
     assert np.allclose(tilt.angle(t), [0.5, 1.0, 1.0, 1.5, 10.0])
     assert np.allclose(tilt.load_direction, [1, 0, 0])  # about +y the load points to +x
+    smooth = Tilt([0, 0, -9.81], "y", 2.0, 40.0, start_angle_deg=20.0, start_time_s=1.0)
+    assert np.allclose(smooth.angle([0.0, 0.5, 1.0, 2.0]), [0.0, 10.0, 20.0, 22.0])
 
 
 def test_detector_reads_the_onset_not_the_visible_collapse():
     n = 3
     pos0, quat0 = np.zeros((n, 3)), np.tile(IDENT, (n, 1))
-    det = CollapseDetector(pos0, quat0, np.full(n, 0.05), onset=5e-4, confirm=5e-3, after=0.2,
-                           stop=0.03)
+    det = CollapseDetector(pos0, quat0, np.full(n, 0.05), onset_speed=1e-3, confirm=5e-3,
+                           after=0.2, stop=0.03)
+    zero = np.zeros((n, 3))
     stopped_at = None
     for k in range(200):
         t = 0.01 * k
-        pos = pos0.copy()
+        pos, vel = pos0.copy(), zero.copy()
         pos[2, 0] = 1e-5  # elastic creep-free resting block
-        if t > 1.0:  # block 1 starts to accelerate at t = 1 s (angle 10 deg)
-            pos[1, 0] = 0.5 * 2.0 * (t - 1.0) ** 2
-        if det.update(t, 10.0 * t, pos, quat0):
+        if 0.2 < t < 0.3:  # block 1 slips 2 mm early on and stops: not the collapse
+            pos[1, 0], vel[1, 0] = 0.02 * (t - 0.2), 0.02
+        elif t >= 0.3:
+            pos[1, 0] = 0.002
+        if t > 1.0:  # block 1 starts to accelerate at t = 1 s (angle 10 deg), a = 2 m/s2
+            pos[1, 0] = 0.002 + (t - 1.0) ** 2
+            vel[1, 0] = 2.0 * (t - 1.0)
+        if det.update(t, 10.0 * t, pos, quat0, vel, zero):
             stopped_at = t
             break
     res = det.result()
     assert res["detected"] and res["first_moving_blocks"] == [1]
-    # onset read when the block had moved at most 0.5 mm (0.022 s after it started here),
-    # although 5 mm is only reached at t = 1.07 s
-    assert 1.0 <= res["onset_time_s"] <= 1.0 + np.sqrt(5e-4) + 1e-9
+    # onset read while the block was still slower than 1 mm/s (0.0005 s after it started here,
+    # i.e. at the last frame before 1 s + 1 frame), although 5 mm of motion came at 1.06 s, and
+    # not at the early slip
+    assert 0.99 <= res["onset_time_s"] <= 1.0 + 1e-9
     assert res["load_factor"] == pytest.approx(np.tan(np.radians(10.0 * res["onset_time_s"])))
-    assert res["confirm_time_s"] > 1.06
+    assert res["confirm_time_s"] >= 1.05  # 5 mm since the start: 2 mm slip + 3 mm after 1 s
     assert stopped_at is not None and stopped_at <= res["confirm_time_s"] + 0.2 + 1e-9
 
 
@@ -55,7 +64,8 @@ def test_detector_ignores_a_small_slip_that_stops():
     det = CollapseDetector(pos0, quat0, np.full(1, 0.05))
     for k in range(100):
         pos = np.array([[min(0.002, 0.001 * k), 0.0, 0.0]])  # slips 2 mm and stops
-        assert not det.update(0.01 * k, float(k), pos, quat0)
+        vel = np.array([[0.1 if k < 2 else 0.0, 0.0, 0.0]])
+        assert not det.update(0.01 * k, float(k), pos, quat0, vel, np.zeros((1, 3)))
     assert not det.result()["detected"]
 
 

@@ -31,12 +31,20 @@ from dem.engine.mathutil import vec3
 
 @ti.func
 def normal_law(kn_area, depth, depth_rate, cn):
-    """Returns (elastic part kn A d, viscous part) of Fn = max(0, kn A d + cn ddot) (N).
+    """Returns (elastic part kn A d, viscous part cn ddot) of the normal force (N), both zero
+    when their sum would pull (no tension: the point is released).
 
-    The viscous part is cut so that the sum never pulls (no tension).
+    The two parts act at different points (elastic at the quadrature point, viscous at the
+    polygon vertex, see dem.engine.step), so they are released together: cutting only the
+    viscous part to -kn A d would leave a couple with no net force, a torque from nothing that
+    feeds energy into chattering contacts (measured: +2.5 % of the gravity work on a rattling
+    brick before this rule).
     """
     f_el = kn_area * depth
-    f_visc = ti.max(cn * depth_rate, -f_el)
+    f_visc = cn * depth_rate
+    if f_el + f_visc <= 0.0:
+        f_el = 0.0
+        f_visc = 0.0
     return f_el, f_visc
 
 
@@ -62,22 +70,23 @@ def coulomb_shear(u_old, n, v_t, dt, ks_area, ct, mu, fn):
     u_trial = u_rot + v_t * dt
     ft_el = -ks_area * u_trial
     cap = mu * fn
-    mag = ft_el.norm()
+    cap2 = cap * cap  # the tests compare squares (cap >= 0): no square root while sticking
+    mag2 = ft_el.norm_sqr()
     ft = vec3(0.0)
     u_new = u_trial
     sliding = 0
-    if mag >= cap:
+    if mag2 >= cap2:
         sliding = 1
-        if mag > 0.0:
-            ft = ft_el * (cap / mag)
-        u_new = vec3(0.0)
-        if ks_area > 0.0:
-            u_new = -ft / ks_area
+        scale = 0.0  # Ft = scale Ft*, u = -Ft / (ks A) = scale u*
+        if mag2 > 0.0:
+            scale = cap / ti.sqrt(mag2)
+        ft = ft_el * scale
+        u_new = u_trial * scale
     else:
         ft = ft_el - ct * v_t
-        fm = ft.norm()
-        if fm > cap:
-            ft = ft * (cap / fm)
+        fm2 = ft.norm_sqr()
+        if fm2 > cap2:
+            ft = ft * (cap / ti.sqrt(fm2))
     # work not stored elastically: -(Ft . v_t) dt - (E_new - E_old), E = ks A |u|^2 / 2
     diss = -ft.dot(v_t) * dt - 0.5 * ks_area * (u_new.norm_sqr() - u_rot.norm_sqr())
     return ft, u_new, sliding, diss
