@@ -36,9 +36,7 @@ def normal_law(kn_area, depth, depth_rate, cn):
 
     The two parts act at different points (elastic at the quadrature point, viscous at the
     polygon vertex, see dem.engine.step), so they are released together: cutting only the
-    viscous part to -kn A d would leave a couple with no net force, a torque from nothing that
-    feeds energy into chattering contacts (measured: +2.5 % of the gravity work on a rattling
-    brick before this rule).
+    viscous part to -kn A d would leave a couple with no net force, a torque from nothing.
     """
     f_el = kn_area * depth
     f_visc = cn * depth_rate
