@@ -2,17 +2,28 @@
 
 For a mass-spring pair, symplectic Euler is stable for dt < 2 / omega, omega = sqrt(k / m); a
 viscous ratio zeta lowers that to (2 / omega)(sqrt(1 + zeta^2) - zeta).  For a box we bound the
-highest frequency by assuming every face of the block fully in contact with joints of stiffness
-kn (normal) and ks (shear) per unit area, against a neighbour of equal mass (factor 2 on k/m):
+highest frequency by assuming every face of the block in contact over an area A_f (at most the
+whole face) with joints of stiffness kn (normal) and ks (shear) per unit area, against a neighbour
+of equal mass (factor 2 on k/m):
 
-  translation along x:  k_x = 2 [kn A_x + ks (A_y + A_z)]        A_x = l_y l_z, ...
-  rotation about x:     k_rx = 2 [kn l_x (l_y^3 + l_z^3)/12       (bending of faces _|_ z and _|_ y)
-                              + ks A_x (l_y^2 + l_z^2)/12          (torsion of faces _|_ x)
-                              + ks (A_z l_z^2 + A_y l_y^2)/4]      (shear of faces _|_ y, z)
+  translation along x:  k_x = kn (A_+x + A_-x) + ks (A_+y + A_-y + A_+z + A_-z)
+  rotation about x:     k_rx = kn (f_+z + f_-z) l_x l_y^3/12 + kn (f_+y + f_-y) l_x l_z^3/12
+                               (bending of the faces normal to z and y; f = A_f / face area)
+                               + ks (A_+x + A_-x) (l_y^2 + l_z^2)/12      (torsion of x faces)
+                               + ks (A_+z + A_-z) l_z^2/4 + ks (A_+y + A_-y) l_y^2/4
   omega^2 = 2 max(k_x / m, ..., k_rx / I_x, ...)
 
 (and likewise for y, z), which covers thin blocks whose rotation about the long axis is the
-fastest mode.  dt_crit = min over movable blocks; the default step is ``safety * dt_crit``.
+fastest mode.  With every A_f the whole face this is a bound for any configuration.
+dt_crit = min over movable blocks; the default step is ``safety * dt_crit``.
+
+Capped faces.  A light block with a large face (a timber roof beam, 0.158 kg on 525 x 30 mm)
+would set dt for the whole scene although it only ever touches the walls on small patches.
+:func:`face_area_caps` caps the contact area of such faces at the largest face of a typical block
+(the 90th percentile over the movable blocks), but only where the capped bound underestimates the
+block's worst-case stiffness by less than ``0.5 / safety^2``: if a patch ever exceeds its cap
+(the beam falls flat on the table), the step in use is still below the true critical step, and
+the simulation then lifts the cap and recomputes the step (dem.engine.simulation).
 """
 
 from __future__ import annotations
@@ -20,22 +31,63 @@ from __future__ import annotations
 import numpy as np
 
 
-def critical_time_step(size: np.ndarray, mass: np.ndarray, inertia: np.ndarray,
-                       movable: np.ndarray, kn: float, ks: float, zeta: float) -> float:
-    """Critical time step (s) of the scene; size [N,3] full edges (m), inertia [N,3] (kg m^2)."""
-    size = np.asarray(size, dtype=float)[movable]
-    if len(size) == 0:
-        return np.inf
-    m = np.asarray(mass, dtype=float)[movable]
-    inertia = np.asarray(inertia, dtype=float)[movable]
+def _omega2(size, mass, inertia, face_area, kn, ks):
+    """omega^2 bound per block; face_area [N,3,2]: contact area of the -/+ faces of each axis."""
     omega2 = np.zeros(len(size))
+    full = np.stack([size[:, 1] * size[:, 2], size[:, 0] * size[:, 2],
+                     size[:, 0] * size[:, 1]], axis=1)
+    frac = face_area / np.maximum(full, 1e-300)[:, :, None]
+    area = face_area.sum(axis=2)  # both faces of each axis
+    fsum = frac.sum(axis=2)
     for a in range(3):
         b, c = (a + 1) % 3, (a + 2) % 3
         la, lb, lc = size[:, a], size[:, b], size[:, c]
-        Aa, Ab, Ac = lb * lc, la * lc, la * lb
-        k_t = 2.0 * (kn * Aa + ks * (Ab + Ac))
-        k_r = 2.0 * (kn * la * (lb**3 + lc**3) / 12.0 + ks * Aa * (lb**2 + lc**2) / 12.0
-                     + ks * (Ac * lc**2 + Ab * lb**2) / 4.0)
-        omega2 = np.maximum(omega2, 2.0 * np.maximum(k_t / m, k_r / inertia[:, a]))
-    omega = np.sqrt(omega2.max())
-    return float(2.0 / omega * (np.sqrt(1.0 + zeta**2) - zeta))
+        k_t = kn * area[:, a] + ks * (area[:, b] + area[:, c])
+        k_r = (kn * fsum[:, c] * la * lb**3 / 12.0 + kn * fsum[:, b] * la * lc**3 / 12.0
+               + ks * area[:, a] * (lb**2 + lc**2) / 12.0
+               + ks * (area[:, c] * lc**2 + area[:, b] * lb**2) / 4.0)
+        omega2 = np.maximum(omega2, 2.0 * np.maximum(k_t / mass, k_r / inertia[:, a]))
+    return omega2
+
+
+def full_face_areas(size) -> np.ndarray:
+    """[N,3,2] areas of the -/+ faces normal to each body axis, m^2."""
+    size = np.asarray(size, dtype=float)
+    full = np.stack([size[:, 1] * size[:, 2], size[:, 0] * size[:, 2],
+                     size[:, 0] * size[:, 1]], axis=1)
+    return np.repeat(full[:, :, None], 2, axis=2)
+
+
+def critical_time_step(size: np.ndarray, mass: np.ndarray, inertia: np.ndarray,
+                       movable: np.ndarray, kn: float, ks: float, zeta: float,
+                       face_area: np.ndarray | None = None) -> float:
+    """Critical time step (s); size [N,3] full edges (m), inertia [N,3] (kg m^2), face_area
+    [N,3,2] contact areas assumed for the faces (default: whole faces, a strict bound)."""
+    size = np.asarray(size, dtype=float)
+    if face_area is None:
+        face_area = full_face_areas(size)
+    movable = np.asarray(movable, dtype=bool)
+    if not movable.any():
+        return np.inf
+    w2 = _omega2(size[movable], np.asarray(mass, float)[movable],
+                 np.asarray(inertia, float)[movable], np.asarray(face_area)[movable], kn, ks)
+    return float(2.0 / np.sqrt(w2.max()) * (np.sqrt(1.0 + zeta**2) - zeta))
+
+
+def face_area_caps(size, mass, inertia, movable, kn, ks, safety) -> tuple[np.ndarray, np.ndarray]:
+    """Face areas to use in the bound (see module docstring) and a per-block cap (m^2; inf for
+    blocks left uncapped).  Returns (face_area [N,3,2], cap [N])."""
+    size = np.asarray(size, dtype=float)
+    full = full_face_areas(size)
+    cap = np.full(len(size), np.inf)
+    movable = np.asarray(movable, dtype=bool)
+    if movable.sum() < 2:
+        return full, cap
+    typical = float(np.percentile(full[movable].max(axis=(1, 2)), 90))
+    capped = np.minimum(full, typical)
+    w_full = _omega2(size, mass, inertia, full, kn, ks)
+    w_cap = _omega2(size, mass, inertia, capped, kn, ks)
+    ok = movable & (full.max(axis=(1, 2)) > typical) & (w_full <= 0.5 / safety**2 * w_cap)
+    face_area = np.where(ok[:, None, None], capped, full)
+    cap[ok] = typical
+    return face_area, cap
