@@ -89,5 +89,39 @@ def rocking(
     raise typer.Exit(run_rocking_case_file(case, out, plots=plots, echo=typer.echo, err=_err))
 
 
+@app.command()
+def sweep(
+    case: Path = typer.Argument(..., help="shake case YAML file"),
+    out: Path = typer.Option(..., "--out", "-o", help="output directory"),
+    frequencies: str = typer.Option(None, "--frequencies", help="comma-separated, Hz: 1.8,2.0,2.4"),
+    range_: str = typer.Option(None, "--range", help="start:stop:step, Hz (stop included)"),
+    cycles: float = typer.Option(None, "--cycles", help="cycles per run (default: the case's)"),
+    margin: float = typer.Option(1.0, "--margin", help="s simulated after the last cycle"),
+    workers: int = typer.Option(None, "--workers", help="local workers (default: one per core)"),
+    scheduler: str = typer.Option(None, "--scheduler", help="address of a running dask scheduler"),
+    max_steps: int = typer.Option(None, "--max-steps", help="cap the steps of each run (smoke)"),
+) -> None:
+    """Frequency sweep of a shake case at its constant peak acceleration (or amplitude): one run
+    per frequency on dask, each analysed (postprocess.shake), then the amplification curves,
+    characteristic frequency, effective range and lag times in OUT/sweep.json and sweep.png.
+    Exit 0 all points ok, 1 a point failed (the others still land), 2 bad input."""
+    from postprocess.sweep import run_sweep
+
+    raise typer.Exit(run_sweep(case, out, frequencies, range_, cycles, margin, scheduler, workers,
+                               max_steps))
+
+
+@app.command()
+def post(
+    directory: Path = typer.Argument(..., help="run directory or sweep directory"),
+) -> None:
+    """(Re)build the analysis of a run directory (shake: analysis.json, PNGs, excited.vtu; tilt:
+    collapse and mechanism into analysis.json) or of a sweep directory (every point re-analysed,
+    sweep.json and sweep.png re-aggregated).  Exit 0 ok, 1 a sweep point failed, 2 bad input."""
+    from postprocess.sweep import post_command
+
+    raise typer.Exit(post_command(directory))
+
+
 if __name__ == "__main__":  # pragma: no cover
     app()
