@@ -759,6 +759,17 @@ def analyze_run(run_dir, plots: bool = True, write: bool = True) -> dict:
     for sig in sigs:
         res, arr = analyze_signals(sig)
         win, q = arr["window"], arr["q"]
+        # a steady response needs the facade standing: a centre that moved by more than the
+        # brick's own thickness along e has tipped past a rigid block's overturning point
+        ref = sig.blocks["centre"]
+        thick = float(np.abs(scene.rotation_matrices()[ref].T @ sig.direction) @ scene.size[ref])
+        shaking = sig.t <= sig.t_end + 1e-9
+        moved = float(np.abs(sig.ds_centre[shaking]).max())
+        res["max_abs_ds_m"], res["collapse_suspected"] = moved, bool(moved > thick)
+        if moved > thick:
+            out["warnings"].append(
+                f"{sig.axis}: the centre moved {moved * 1e3:.1f} mm relative to the table, more "
+                f"than its thickness {thick * 1e3:.0f} mm: collapse, not a steady response")
         sfx = suffix(sig.axis)
         ttl = f"{case.name}: {sig.axis}, {ld.frequency:g} Hz"
         # excited portion (needs block poses)
