@@ -74,13 +74,12 @@ def sat_overlaps(pA, RA, hA, pB, RB, hB):
             m1 = (m + 1) % 3
             m2 = (m + 2) % 3
             l2 = C[k1, m] * C[k1, m] + C[k2, m] * C[k2, m]  # |a_k x b_m|^2
-            if l2 < 1e-6:
-                ov[6 + 3 * k + m] = 1e30
-            else:
-                ra = hA[k1] * ti.abs(C[k2, m]) + hA[k2] * ti.abs(C[k1, m])
-                rb = hB[m1] * ti.abs(C[k, m2]) + hB[m2] * ti.abs(C[k, m1])
-                dl = dA[k2] * C[k1, m] - dA[k1] * C[k2, m]
-                ov[6 + 3 * k + m] = (ra + rb - ti.abs(dl)) / ti.sqrt(l2)
+            ra = hA[k1] * ti.abs(C[k2, m]) + hA[k2] * ti.abs(C[k1, m])
+            rb = hB[m1] * ti.abs(C[k, m2]) + hB[m2] * ti.abs(C[k, m1])
+            dl = dA[k2] * C[k1, m] - dA[k1] * C[k2, m]
+            # branch-free, so that the nine square roots and divisions vectorise
+            ov_e = (ra + rb - ti.abs(dl)) / ti.sqrt(ti.max(l2, 1e-6))
+            ov[6 + 3 * k + m] = ti.select(l2 < 1e-6, 1e30, ov_e)
     return ov
 
 
@@ -88,22 +87,28 @@ def sat_overlaps(pA, RA, hA, pB, RB, hB):
 def choose_axis(ov, prev_code, margin):
     """Sticky least-overlap axis.  Returns (code, overlap) or (NO_CONTACT, min overlap)."""
     best_face = 0
+    ov_face = ov[0]
     for a in ti.static(range(1, 6)):
-        if ov[a] < ov[best_face]:
+        if ov[a] < ov_face:
             best_face = a
+            ov_face = ov[a]
     best_edge = 6
+    ov_edge = ov[6]
     for a in ti.static(range(7, 15)):
-        if ov[a] < ov[best_edge]:
+        if ov[a] < ov_edge:
             best_edge = a
+            ov_edge = ov[a]
     best = best_face
-    if ov[best_edge] + margin < ov[best_face]:
+    ov_best = ov_face
+    if ov_edge + margin < ov_face:
         best = best_edge
-    smallest = ti.min(ov[best_face], ov[best_edge])
+        ov_best = ov_edge
+    smallest = ti.min(ov_face, ov_edge)
     code = NO_CONTACT
     if smallest >= 0.0:
         code = best
         if prev_code >= 0:
-            if ov[prev_code] <= ov[best] + margin:
+            if ov[prev_code] <= ov_best + margin:
                 code = prev_code
     return code, smallest
 
@@ -148,15 +153,14 @@ def clip_halfplane(xs: ti.template(), ys: ti.template(), n, ax, ay, off, ox: ti.
 
 
 @ti.func
-def polygon_quadrature(xs, ys, n):
-    """Quadrature points (x', y') and weights (m^2) of a convex polygon, see module docstring.
+def polygon_quadrature(xs: ti.template(), ys: ti.template(), n, w: ti.template()):
+    """Quadrature points and weights of a convex polygon (xs, ys, n vertices), see the module
+    docstring.  Exact for linear pressure on rectangles and triangles.
 
-    Returns (qx, qy, w, area, s, cx, cy): points, weights, polygon area, the shrink factor s and
-    the area centroid.  Exact for linear pressure on rectangles and triangles.
+    Moves the vertices in place to the points p'_k = c + s (p_k - c), writes the weights (m^2)
+    to w and returns (area, s, cx, cy): the polygon area, the shrink factor s and the area
+    centroid c.
     """
-    qx = VP(0.0)
-    qy = VP(0.0)
-    w = VP(0.0)
     area = 0.0
     s = 1.0
     gcx = 0.0
@@ -174,10 +178,12 @@ def polygon_quadrature(xs, ys, n):
         cx = 0.0
         cy = 0.0
         j0 = 0.0  # polar second moment about the vertex mean, times 12 * sign
+        x0 = xs[0] - mx
+        y0 = ys[0] - my
         for k in range(n):
-            k1 = (k + 1) % n
-            x0 = xs[k] - mx
-            y0 = ys[k] - my
+            k1 = k + 1
+            if k1 == n:
+                k1 = 0
             x1 = xs[k1] - mx
             y1 = ys[k1] - my
             cr = x0 * y1 - x1 * y0
@@ -185,43 +191,52 @@ def polygon_quadrature(xs, ys, n):
             cx += (x0 + x1) * cr
             cy += (y0 + y1) * cr
             j0 += cr * (x0 * x0 + x0 * x1 + x1 * x1 + y0 * y0 + y0 * y1 + y1 * y1)
+            x0 = x1
+            y0 = y1
         if ti.abs(a2) > 1e-24:
             cx /= 3.0 * a2
             cy /= 3.0 * a2
             area = 0.5 * ti.abs(a2)
             J = ti.abs(j0) / 12.0 - area * (cx * cx + cy * cy)  # about the centroid
+            gcx = mx + cx
+            gcy = my + cy
             # median-dual weights from the centroid fan
-            kl = n - 1
-            tri_prev = 0.5 * ti.abs((xs[kl] - mx - cx) * (ys[0] - my - cy) - (xs[0] - mx - cx) * (ys[kl] - my - cy))
+            rx0 = xs[0] - mx - cx  # vertex relative to the centroid
+            ry0 = ys[0] - my - cy
+            rxl = xs[n - 1] - mx - cx
+            ryl = ys[n - 1] - my - cy
+            tri_prev = 0.5 * ti.abs(rxl * ry0 - rx0 * ryl)
             jp = 0.0
             for k in range(n):
-                k1 = (k + 1) % n
-                tri = 0.5 * ti.abs(
-                    (xs[k] - mx - cx) * (ys[k1] - my - cy) - (xs[k1] - mx - cx) * (ys[k] - my - cy)
-                )
-                w[k] = 0.5 * (tri_prev + tri)
+                k1 = k + 1
+                if k1 == n:
+                    k1 = 0
+                rx1 = xs[k1] - mx - cx
+                ry1 = ys[k1] - my - cy
+                tri = 0.5 * ti.abs(rx0 * ry1 - rx1 * ry0)
+                wk = 0.5 * (tri_prev + tri)
+                w[k] = wk
+                jp += wk * (rx0 * rx0 + ry0 * ry0)
                 tri_prev = tri
-                rx = xs[k] - mx - cx
-                ry = ys[k] - my - cy
-                jp += w[k] * (rx * rx + ry * ry)
+                rx0 = rx1
+                ry0 = ry1
             if jp > 0.0 and J > 0.0:
                 s = ti.sqrt(J / jp)
             s = ti.min(ti.max(s, 0.3), 1.0)
-            gcx = mx + cx
-            gcy = my + cy
             for k in range(n):
-                qx[k] = gcx + s * (xs[k] - gcx)
-                qy[k] = gcy + s * (ys[k] - gcy)
-    return qx, qy, w, area, s, gcx, gcy
+                xs[k] = gcx + s * (xs[k] - gcx)
+                ys[k] = gcy + s * (ys[k] - gcy)
+    return area, s, gcx, gcy
 
 
 @ti.func
-def face_contact(pR, RR, hR, k, sgn, pI, RI, hI):
+def face_contact(pR, RR, hR, k, sgn, pI, RI, hI, px: ti.template(), py: ti.template(),
+                 pz: ti.template(), dep: ti.template(), w: ti.template()):
     """Contact patch of reference face k of box R (outward normal sgn * R e_k) with box I.
 
-    Returns (n, npts, px, py, pz, depth, weight, s, centroid): n points from R to I; points are
-    in world coordinates, midway through the overlap; depth (m) and weight (m^2) per point; the
-    polygon vertex behind point q is centroid + (p_q - centroid) / s.
+    Writes the points (world coordinates, midway through the overlap) to (px, py, pz), their
+    depth (m) to dep and weight (m^2) to w, and returns (n, npts, s, centroid): n points from
+    R to I; the polygon vertex behind point q is centroid + (p_q - centroid) / s.
     """
     k1 = (k + 1) % 3
     k2 = (k + 2) % 3
@@ -268,29 +283,28 @@ def face_contact(pR, RR, hR, k, sgn, pI, RI, hI):
     gx = u1.dot(nI) / den
     gy = u2.dot(nI) / den
     npoly = clip_halfplane(xs, ys, npoly, -gx, -gy, d0, xt, yt)
-    qx, qy, w, area, shrink, gcx, gcy = polygon_quadrature(xt, yt, npoly)
+    area, shrink, gcx, gcy = polygon_quadrature(xt, yt, npoly, w)
     dc = ti.max(d0 + gx * gcx + gy * gcy, 0.0)
     centroid = c + gcx * u1 + gcy * u2 - 0.5 * dc * n
-    px = VP(0.0)
-    py = VP(0.0)
-    pz = VP(0.0)
-    dep = VP(0.0)
     npts = 0
     if area > 0.0:
         npts = ti.min(npoly, MAXP)
         for q in range(npts):
-            dq = ti.max(d0 + gx * qx[q] + gy * qy[q], 0.0)
-            p = c + qx[q] * u1 + qy[q] * u2 - 0.5 * dq * n
+            dq = ti.max(d0 + gx * xt[q] + gy * yt[q], 0.0)
+            p = c + xt[q] * u1 + yt[q] * u2 - 0.5 * dq * n
             px[q] = p[0]
             py[q] = p[1]
             pz[q] = p[2]
             dep[q] = dq
-    return n, npts, px, py, pz, dep, w, shrink, centroid
+    return n, npts, shrink, centroid
 
 
 @ti.func
-def edge_contact(pA, RA, hA, pB, RB, hB, k, m, overlap, edge_area):
-    """Edge k of A against edge m of B: one point, normal from A to B."""
+def edge_contact(pA, RA, hA, pB, RB, hB, k, m, overlap, edge_area, px: ti.template(),
+                 py: ti.template(), pz: ti.template(), dep: ti.template(), w: ti.template()):
+    """Edge k of A against edge m of B: one point (slot 0 of the buffers), normal from A to B.
+
+    Returns (n, npts, s, centroid) as :func:`face_contact`."""
     ak = vec3(RA[0, k], RA[1, k], RA[2, k])
     bm = vec3(RB[0, m], RB[1, m], RB[2, m])
     n = ak.cross(bm).normalized()
@@ -321,25 +335,22 @@ def edge_contact(pA, RA, hA, pB, RB, hB, k, m, overlap, edge_area):
     t = ti.min(ti.max(b * s + e, -hB[m]), hB[m])
     s = ti.min(ti.max(b * t - dd, -hA[k]), hA[k])
     p = 0.5 * ((ca + s * ak) + (cb + t * bm))
-    px = VP(0.0)
-    py = VP(0.0)
-    pz = VP(0.0)
-    dep = VP(0.0)
-    w = VP(0.0)
     px[0] = p[0]
     py[0] = p[1]
     pz[0] = p[2]
     dep[0] = overlap
     w[0] = edge_area
-    return n, 1, px, py, pz, dep, w, 1.0, p
+    return n, 1, 1.0, p
 
 
 @ti.func
-def box_contact(pA, RA, hA, pB, RB, hB, prev_code, margin, edge_area):
+def box_contact(pA, RA, hA, pB, RB, hB, prev_code, margin, edge_area, px: ti.template(),
+                py: ti.template(), pz: ti.template(), dep: ti.template(), w: ti.template()):
     """Full narrow phase for one pair.
 
-    Returns (code, n, npts, px, py, pz, depth, weight, shrink, centroid); n points from A to B
-    whatever the reference face; see :func:`face_contact` for shrink and centroid.
+    Writes the points, depths and weights to the buffers (px, py, pz, dep, w: VP, zero beyond
+    the points) and returns (code, n, npts, shrink, centroid); n points from A to B whatever
+    the reference face; see :func:`face_contact` for shrink and centroid.
     """
     ov = sat_overlaps(pA, RA, hA, pB, RB, hB)
     code, smallest = choose_axis(ov, prev_code, margin)
@@ -347,11 +358,6 @@ def box_contact(pA, RA, hA, pB, RB, hB, prev_code, margin, edge_area):
     npts = 0
     shrink = 1.0
     centroid = vec3(0.0)
-    px = VP(0.0)
-    py = VP(0.0)
-    pz = VP(0.0)
-    dep = VP(0.0)
-    w = VP(0.0)
     if code >= 0 and code < 6:
         # reference box R (owner of the face), incident box I
         pR = pA
@@ -371,12 +377,12 @@ def box_contact(pA, RA, hA, pB, RB, hB, prev_code, margin, edge_area):
         sg = 1.0
         if (pI - pR).dot(vec3(RR[0, k], RR[1, k], RR[2, k])) < 0.0:
             sg = -1.0
-        n, npts, px, py, pz, dep, w, shrink, centroid = face_contact(
-            pR, RR, hR, k, sg, pI, RI, hI)
+        n, npts, shrink, centroid = face_contact(pR, RR, hR, k, sg, pI, RI, hI, px, py, pz,
+                                                 dep, w)
         if code >= 3:
             n = -n
     elif code >= 6:
-        n, npts, px, py, pz, dep, w, shrink, centroid = edge_contact(
-            pA, RA, hA, pB, RB, hB, (code - 6) // 3, (code - 6) % 3, ov[code], edge_area
-        )
-    return code, n, npts, px, py, pz, dep, w, shrink, centroid
+        n, npts, shrink, centroid = edge_contact(
+            pA, RA, hA, pB, RB, hB, (code - 6) // 3, (code - 6) % 3, ov[code], edge_area, px,
+            py, pz, dep, w)
+    return code, n, npts, shrink, centroid

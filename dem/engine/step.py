@@ -78,8 +78,13 @@ def contact_stage_pair(p, dt, model_half: ti.template(), model_inv_mass: ti.temp
     hA = model_half[i]
     hB = model_half[j]
     hmin = ti.min(hA.min(), hB.min())
-    code, n, npts, px, py, pz, dep, w, shrink, centroid = geometry.box_contact(
-        pA, RA, hA, pB, RB, hB, c_code[p], 1e-3 * hmin, hmin * hmin)
+    px = VP(0.0)
+    py = VP(0.0)
+    pz = VP(0.0)
+    dep = VP(0.0)
+    w = VP(0.0)
+    code, n, npts, shrink, centroid = geometry.box_contact(
+        pA, RA, hA, pB, RB, hB, c_code[p], 1e-3 * hmin, hmin * hmin, px, py, pz, dep, w)
     if code >= 0:
         c_code[p] = code
     # previous points (history), read before overwriting
@@ -387,8 +392,14 @@ def probe_contacts(
         hA = model_half[i]
         hB = model_half[j]
         hmin = ti.min(hA.min(), hB.min())
-        code, n, npts, px, py, pz, dep, w, shrink, centroid = geometry.box_contact(
-            st_pos[i], st_rot[i], hA, st_pos[j], st_rot[j], hB, -1, 1e-3 * hmin, hmin * hmin)
+        px = VP(0.0)
+        py = VP(0.0)
+        pz = VP(0.0)
+        dep = VP(0.0)
+        w = VP(0.0)
+        code, n, npts, shrink, centroid = geometry.box_contact(
+            st_pos[i], st_rot[i], hA, st_pos[j], st_rot[j], hB, -1, 1e-3 * hmin, hmin * hmin,
+            px, py, pz, dep, w)
         dmax = 0.0
         for q in range(npts):
             dmax = ti.max(dmax, dep[q])
