@@ -120,13 +120,14 @@ def contact_stage_pair(p, dt, model_half: ti.template(), model_inv_mass: ti.temp
         m_eff = 1.0 / inv_m
         cn_per_area = 2.0 * zeta * ti.sqrt(kn * m_eff / area_tot)
         ct_per_area = 2.0 * zeta * ti.sqrt(ks * m_eff / area_tot)
-    vA = st_vel[i]
-    vB = st_vel[j]
-    wA = st_omega[i]
-    wB = st_omega[j]
+    # velocity of B's material point at x relative to A's: v0 + dw x (x - pA); the normal
+    # rate at the polygon vertex pv behind a point x is that at x plus (pv - x) . (n x dw)
+    dw = st_omega[j] - st_omega[i]
+    v0 = st_vel[j] - st_vel[i] + st_omega[j].cross(pA - pB)
+    nxw = n.cross(dw)
+    inv_shrink = 1.0 / shrink
     F_i = vec3(0.0)
     T_i = vec3(0.0)
-    T_j = vec3(0.0)
     match_tol2 = (0.05 * hmin) ** 2
     e_damp_n = 0.0
     e_shear = 0.0
@@ -134,7 +135,6 @@ def contact_stage_pair(p, dt, model_half: ti.template(), model_inv_mass: ti.temp
     for q in range(npts):
         pw = vec3(px[q], py[q], pz[q])
         rA = pw - pA
-        rB = pw - pB
         lq = RA.transpose() @ rA
         # shear history: the old point at the same slot if it is still there, else the nearest
         u_old = vec3(0.0)
@@ -150,24 +150,21 @@ def contact_stage_pair(p, dt, model_half: ti.template(), model_inv_mass: ti.temp
                         dbest = dk
                         best = k
             u_old = vec3(ux[best], uy[best], uz[best])
-        vrel = (vB + wB.cross(rB)) - (vA + wA.cross(rA))
+        vrel = v0 + dw.cross(rA)
         vn = vrel.dot(n)
         # elastic normal force at the quadrature point, viscous (impact) force at the polygon
-        # vertex behind it (see module docstring: rocking impacts)
-        pv = centroid + (pw - centroid) / shrink
-        rAv = pv - pA
-        rBv = pv - pB
-        vn_v = ((vB + wB.cross(rBv)) - (vA + wA.cross(rAv))).dot(n)
+        # vertex pv = pw + dv behind it (see module docstring: rocking impacts)
+        dv = (pw - centroid) * (inv_shrink - 1.0)
+        vn_v = vn + dv.dot(nxw)
         f_el, f_visc = laws.normal_law(kn * w[q], dep[q], -vn_v, cn_per_area * w[q])
         fn = f_el + f_visc
         v_t = vrel - vn * n
         ft, u_new, sliding, diss = laws.coulomb_shear(
             u_old, n, v_t, dt, ks * w[q], ct_per_area * w[q], mu, fn)
-        f = f_el * n + ft  # on j, at the quadrature point
         fv = f_visc * n  # on j, at the vertex
-        F_i -= f + fv
-        T_i -= rA.cross(f) + rAv.cross(fv)
-        T_j += rB.cross(f) + rBv.cross(fv)
+        f = f_el * n + ft + fv  # on j; moment about A's centre rA x f + dv x fv
+        F_i -= f
+        T_i -= rA.cross(f) + dv.cross(fv)
         e_damp_n += f_visc * (-vn_v) * dt
         if sliding == 1:
             e_fric += diss
@@ -180,6 +177,8 @@ def contact_stage_pair(p, dt, model_half: ti.template(), model_inv_mass: ti.temp
         c_ft[p, q] = ft
         c_loc[p, q] = lq
         c_shear[p, q] = u_new
+    # torque on j about its centre: the same forces, moved from pA to pB
+    T_j = -T_i - (pA - pB).cross(F_i)
     c_npts[p] = npts
     c_normal[p] = n
     c_wrench[p, 0] = F_i
