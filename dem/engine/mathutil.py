@@ -11,6 +11,8 @@ vec4 = ti.math.vec4
 mat3 = ti.math.mat3
 ivec2 = ti.math.ivec2
 
+TINY_ANGLE = 2.0**-27  # below this, sin x and cos x round to exactly x and 1 in double precision
+
 
 @ti.func
 def quat_mul(a, b):

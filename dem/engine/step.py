@@ -33,7 +33,7 @@ import taichi as ti
 
 from dem.engine import geometry, laws
 from dem.engine.geometry import MAXP, VP
-from dem.engine.mathutil import quat_angle_between, quat_mul, quat_to_mat, vec3, vec4
+from dem.engine.mathutil import TINY_ANGLE, quat_angle_between, quat_mul, quat_to_mat, vec3, vec4
 
 # flags[0] bits
 REBUILD = 1
@@ -190,34 +190,39 @@ def contact_stage_pair(p, dt, model_half: ti.template(), model_inv_mass: ti.temp
 
 
 @ti.func
-def rotate_about_body_axis(q, R, k: ti.template(), phi):
-    """q <- q * (cos(phi/2), sin(phi/2) e_k);  R <- R Rot_k(phi)."""
-    h = 0.5 * phi
-    c = ti.cos(h)
-    s = ti.sin(h)
-    dq = vec4(c, 0.0, 0.0, 0.0)
-    dq[k + 1] = s
-    q = quat_mul(q, dq)
-    k1 = (k + 1) % 3
-    k2 = (k + 2) % 3
-    cp = ti.cos(phi)
-    sp = ti.sin(phi)
-    for r in ti.static(range(3)):
-        a = R[r, k1]
-        b = R[r, k2]
-        R[r, k1] = cp * a + sp * b
-        R[r, k2] = -sp * a + cp * b
-    return q, R
-
-
-@ti.func
 def free_rotation(q, R, L, inv_I, dt):
-    """Rotate for dt at constant angular momentum L: X(dt/2) Y(dt/2) Z(dt) Y(dt/2) X(dt/2)."""
-    for s in ti.static(range(5)):
-        k = (0, 1, 2, 1, 0)[s]
-        h = (0.5, 0.5, 1.0, 0.5, 0.5)[s] * dt
-        Pk = L[0] * R[0, k] + L[1] * R[1, k] + L[2] * R[2, k]  # body-frame component
-        q, R = rotate_about_body_axis(q, R, k, h * Pk * inv_I[k])
+    """Rotate for dt at constant angular momentum L: X(dt/2) Y(dt/2) Z(dt) Y(dt/2) X(dt/2).
+
+    Each factor turns the body by phi = h (R^T L)_k / I_k about its axis k:
+    q <- q (cos(phi/2), sin(phi/2) e_k), and the body-frame components Lb = R^T L of the fixed
+    L turn the other way, Lb <- Rot_k(phi)^T Lb.  For |phi| < TINY_ANGLE the sines and cosines
+    are exactly phi and 1 in double precision (the correctly rounded values, what libm
+    returns), so the libm calls are skipped: a resting block turns by ~1e-10 rad per step.
+    The factor stays inline: Taichi 1.7.4 miscompiles a ti.func that has a template argument
+    and a runtime ``if`` when it is called twice with the same template value (X and Y here).
+    """
+    Lb = R.transpose() @ L
+    for f in ti.static(range(5)):
+        k = (0, 1, 2, 1, 0)[f]
+        k1 = (k + 1) % 3
+        k2 = (k + 2) % 3
+        phi = (0.5, 0.5, 1.0, 0.5, 0.5)[f] * dt * Lb[k] * inv_I[k]
+        c = 1.0
+        s = 0.5 * phi
+        cp = 1.0
+        sp = phi
+        if ti.abs(phi) >= TINY_ANGLE:
+            c = ti.cos(0.5 * phi)
+            s = ti.sin(0.5 * phi)
+            cp = ti.cos(phi)
+            sp = ti.sin(phi)
+        dq = vec4(c, 0.0, 0.0, 0.0)
+        dq[k + 1] = s
+        q = quat_mul(q, dq)
+        a = Lb[k1]
+        b = Lb[k2]
+        Lb[k1] = cp * a + sp * b
+        Lb[k2] = -sp * a + cp * b
     q = q.normalized()
     return q, quat_to_mat(q)
 
