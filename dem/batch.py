@@ -59,9 +59,18 @@ def run_batch(cases: list[tuple[str, Case]], out_root: str | Path, scheduler: st
     cluster = None
     if scheduler is None:
         n_workers = n_workers or os.cpu_count() or 1
-        os.environ["DEM_THREADS"] = "1"  # inherited by the worker processes
-        cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
-                               dashboard_address=None)
+        # the worker processes inherit DEM_THREADS=1 (one Taichi thread each); the calling
+        # process gets its own setting back, so a later Taichi start here is unaffected
+        saved = os.environ.get("DEM_THREADS")
+        os.environ["DEM_THREADS"] = "1"
+        try:
+            cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
+                                   dashboard_address=None)
+        finally:
+            if saved is None:
+                os.environ.pop("DEM_THREADS", None)
+            else:
+                os.environ["DEM_THREADS"] = saved
         client = Client(cluster)
     else:
         client = Client(scheduler)

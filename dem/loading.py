@@ -11,7 +11,10 @@ horizontal axis; instead of moving the table, gravity turns the other way:
 g_table = R(axis, theta)^T g.  theta(t) = min(start + rate t, max_angle), optionally in steps
 with holds and after a smooth approach to the start angle (see dem.case.TiltLoading).
 Shake: u(t) = A d sin(2 pi f t) for t <= T = cycles / f, with a(t) = u''(t); after T the table
-acceleration is zero (the table keeps the velocity it had, so u continues linearly).
+acceleration is zero (the table keeps the velocity it had, so u continues linearly).  The table
+starts with velocity A w d (w = 2 pi f) and zero acceleration: blocks at rest on the table move
+with it, so nothing jumps; a block that is free (no friction) keeps that initial velocity and
+drifts relative to the table by A w t.
 """
 
 from __future__ import annotations

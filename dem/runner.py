@@ -4,7 +4,8 @@ Output directory (contract of ../shared/DESIGN.md):
     summary.json   name, n_blocks, dt, steps, sim_time (s), wall_seconds, compile_seconds,
                    status ("ok" | "failed" | "interrupted"), error, energy balance, loading ...
     frames.npz     t [T] (s), pos [T,N,3] (m, table frame), quat [T,N,4] (w,x,y,z),
-                   base_disp [T,3] (m), vel [T,N,3] (m/s); tilt runs add tilt_angle [T] (deg)
+                   base_disp [T,3] (m), vel [T,N,3] (m/s), omega [T,N,3] (rad/s, table
+                   frame); tilt runs add tilt_angle [T] (deg)
     instruments.npz  virtual instruments sampled every run.instrument_interval (dem.instruments)
     case.json      the validated case with every default filled in (Case.model_validate_json)
 
@@ -49,14 +50,16 @@ class FrameRecorder:
 
     def __init__(self, out_dir: Path | None):
         self.out_dir = out_dir
-        self.cols: dict[str, list] = {k: [] for k in ("t", "pos", "quat", "vel", "base_disp")}
+        self.cols: dict[str, list] = {k: [] for k in ("t", "pos", "quat", "vel", "omega",
+                                                       "base_disp")}
         self.extra: dict[str, list] = {}
 
-    def add(self, t, pos, quat, vel, base_disp, **extra) -> None:
+    def add(self, t, pos, quat, vel, omega, base_disp, **extra) -> None:
         self.cols["t"].append(float(t))
         self.cols["pos"].append(np.array(pos))
         self.cols["quat"].append(np.array(quat))
         self.cols["vel"].append(np.array(vel))
+        self.cols["omega"].append(np.array(omega))
         self.cols["base_disp"].append(np.array(base_disp, dtype=float).reshape(3))
         for k, v in extra.items():
             self.extra.setdefault(k, []).append(v)
@@ -198,9 +201,14 @@ def simulate(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
         from dem.output.vtk import VtkSeries
         vtk = VtkSeries(out, scene, write_contacts=case.run.contacts)
 
+    deepest = {"depth": 0.0, "t": 0.0}
+
     def record():
         st = sim.state
         t = sim.t
+        d = sim.contacts.max_depth()
+        if d > deepest["depth"]:
+            deepest.update(depth=d, t=t)
         extra = {}
         if isinstance(loading, Tilt):
             extra["tilt_angle"] = float(loading.angle(t)[0])
@@ -208,7 +216,7 @@ def simulate(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
         if vtk is not None and len(rec.cols["t"]) % case.run.vtk_every == 0:
             vtk.add_frame(t, st.pos[:n], st.quat[:n], st.vel[:n], base,
                           contacts=sim.contacts.active_points() if case.run.contacts else None)
-        rec.add(t, st.pos[:n], st.quat[:n], st.vel[:n], base, **extra)
+        rec.add(t, st.pos[:n], st.quat[:n], st.vel[:n], st.omega[:n], base, **extra)
 
     def finish(status: str, error: str | None = None):
         summary["status"] = status
@@ -222,6 +230,12 @@ def simulate(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
         summary["n_pairs"] = sim.contacts.n_pairs
         summary["n_contact_points"] = int(sim.contacts.npts[: sim.contacts.n_pairs].sum())
         summary["energy"] = sim.energy_report()
+        e = summary["energy"]
+        # energy beyond what the loads supplied (J): > 0 would mean the scheme created energy
+        summary["energy"]["gain"] = (e["kinetic"] + e["elastic"] - e["initial"]
+                                     - e["work_gravity"] - e["work_base"])
+        summary["max_penetration_m"] = deepest["depth"]
+        summary["max_penetration_time_s"] = deepest["t"]
         if detector is not None:
             summary["collapse"] = col = detector.result()
             if col["detected"]:
@@ -303,7 +317,8 @@ def simulate(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
     bar.close()
     finish("ok")
     arrays = rec.arrays()
-    extra = {k: v for k, v in arrays.items() if k not in ("t", "pos", "quat", "vel", "base_disp")}
+    extra = {k: v for k, v in arrays.items()
+             if k not in ("t", "pos", "quat", "vel", "omega", "base_disp")}
     return RunResult(arrays["t"], arrays["pos"], arrays["quat"], arrays["vel"],
                      arrays["base_disp"], summary, extra, scene)
 

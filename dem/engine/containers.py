@@ -243,6 +243,14 @@ class Contacts:
             self.npts[...] = np.zeros(P, dtype=np.int32)
         self.n_pairs = n
 
+    def max_depth(self) -> float:
+        """Deepest penetration among the current contact points (m)."""
+        n = self.n_pairs
+        if n == 0:
+            return 0.0
+        mask = np.arange(MAXP)[None, :] < self.npts[:n, None]
+        return float(self.depth[:n][mask].max(initial=0.0))
+
     def active_points(self) -> dict[str, np.ndarray]:
         """All current contact points (table frame): point, normal, fn, ft, area, depth, pair."""
         n = self.n_pairs
