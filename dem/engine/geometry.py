@@ -166,26 +166,19 @@ def polygon_quadrature(xs: ti.template(), ys: ti.template(), n, w: ti.template()
     gcx = 0.0
     gcy = 0.0
     if n >= 3:
-        # work relative to the vertex mean to limit cancellation
-        mx = 0.0
-        my = 0.0
-        for k in range(n):
-            mx += xs[k]
-            my += ys[k]
-        mx /= n
-        my /= n
+        # relative to the first vertex o, which limits cancellation; the edges through o add
+        # nothing to the sums over edges below
+        ox = xs[0]
+        oy = ys[0]
         a2 = 0.0  # twice the signed area
         cx = 0.0
         cy = 0.0
-        j0 = 0.0  # polar second moment about the vertex mean, times 12 * sign
-        x0 = xs[0] - mx
-        y0 = ys[0] - my
-        for k in range(n):
-            k1 = k + 1
-            if k1 == n:
-                k1 = 0
-            x1 = xs[k1] - mx
-            y1 = ys[k1] - my
+        j0 = 0.0  # polar second moment about o, times 12 * sign
+        x0 = xs[1] - ox
+        y0 = ys[1] - oy
+        for k in range(2, n):
+            x1 = xs[k] - ox
+            y1 = ys[k] - oy
             cr = x0 * y1 - x1 * y0
             a2 += cr
             cx += (x0 + x1) * cr
@@ -194,25 +187,26 @@ def polygon_quadrature(xs: ti.template(), ys: ti.template(), n, w: ti.template()
             x0 = x1
             y0 = y1
         if ti.abs(a2) > 1e-24:
-            cx /= 3.0 * a2
-            cy /= 3.0 * a2
+            inv = 1.0 / (3.0 * a2)
+            cx *= inv
+            cy *= inv
             area = 0.5 * ti.abs(a2)
-            J = ti.abs(j0) / 12.0 - area * (cx * cx + cy * cy)  # about the centroid
-            gcx = mx + cx
-            gcy = my + cy
+            J = ti.abs(j0) * (1.0 / 12.0) - area * (cx * cx + cy * cy)  # about the centroid
+            gcx = ox + cx
+            gcy = oy + cy
             # median-dual weights from the centroid fan
-            rx0 = xs[0] - mx - cx  # vertex relative to the centroid
-            ry0 = ys[0] - my - cy
-            rxl = xs[n - 1] - mx - cx
-            ryl = ys[n - 1] - my - cy
+            rx0 = -cx  # vertex 0 relative to the centroid
+            ry0 = -cy
+            rxl = xs[n - 1] - ox - cx
+            ryl = ys[n - 1] - oy - cy
             tri_prev = 0.5 * ti.abs(rxl * ry0 - rx0 * ryl)
             jp = 0.0
             for k in range(n):
                 k1 = k + 1
                 if k1 == n:
                     k1 = 0
-                rx1 = xs[k1] - mx - cx
-                ry1 = ys[k1] - my - cy
+                rx1 = xs[k1] - ox - cx
+                ry1 = ys[k1] - oy - cy
                 tri = 0.5 * ti.abs(rx0 * ry1 - rx1 * ry0)
                 wk = 0.5 * (tri_prev + tri)
                 w[k] = wk
