@@ -250,13 +250,94 @@ class ShakeLoading(_Strict):
         return self.peak_acceleration / (2.0 * math.pi * self.frequency) ** 2
 
 
+class RecordLoading(_Strict):
+    """Table acceleration from a record (an earthquake, a pulse), in the table's frame.
+
+    Give either ``file`` (CSV with columns t, ax, ay and optionally az: s and m/s2; a header line
+    is allowed; a relative path is relative to the case file) or the arrays ``time``, ``ax``,
+    ``ay`` (and ``az``) inline.  Between samples the acceleration is interpolated linearly, outside
+    the record it is zero; the table starts at rest and its velocity and displacement are the
+    integrals of the acceleration (no baseline correction: a record that does not integrate to
+    zero velocity leaves the table drifting, as it would).  ``scale`` multiplies the record.
+    """
+
+    type: Literal["record"]
+    file: str | None = Field(default=None, description="CSV: t, ax, ay[, az] (s, m/s2)")
+    time: list[float] | None = Field(default=None, description="s, strictly increasing")
+    ax: list[float] | None = Field(default=None, description="m/s2")
+    ay: list[float] | None = Field(default=None, description="m/s2")
+    az: list[float] | None = Field(default=None, description="m/s2")
+    scale: float = Field(default=1.0, description="factor on the record")
+
+    @model_validator(mode="after")
+    def _source(self) -> "RecordLoading":
+        if (self.file is None) == (self.time is None):
+            raise ValueError("give either file (CSV) or time with ax, ay (inline arrays)")
+        if self.time is not None:
+            n = len(self.time)
+            if n < 2:
+                raise ValueError("time needs at least 2 samples")
+            for name in ("ax", "ay", "az"):
+                arr = getattr(self, name)
+                if arr is not None and len(arr) != n:
+                    raise ValueError(f"{name} has {len(arr)} samples, time has {n}")
+            if self.ax is None and self.ay is None and self.az is None:
+                raise ValueError("give at least one of ax, ay, az")
+            check_record_time(self.time)
+        return self
+
+    def samples(self):
+        """(t [K] s, acceleration [K,3] m/s2) with the scale applied; reads the file if given."""
+        import numpy as np
+
+        if self.file is not None:
+            t, acc = read_record_csv(self.file)
+        else:
+            t = np.asarray(self.time, dtype=float)
+            acc = np.zeros((len(t), 3))
+            for k, name in enumerate(("ax", "ay", "az")):
+                if getattr(self, name) is not None:
+                    acc[:, k] = getattr(self, name)
+        return t, self.scale * acc
+
+
+def check_record_time(t) -> None:
+    import numpy as np
+
+    t = np.asarray(t, dtype=float)
+    if not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
+        raise ValueError("time must be finite and strictly increasing")
+
+
+def read_record_csv(path):
+    """t [K], acceleration [K,3] from a CSV of t, ax, ay[, az]; raises ValueError naming the
+    problem."""
+    import numpy as np
+
+    try:
+        data = np.genfromtxt(path, delimiter=",", comments="#", dtype=float)
+    except OSError as err:
+        raise ValueError(f"cannot read {path}: {err}") from None
+    if data.ndim == 2 and np.isnan(data[0]).all():
+        data = data[1:]  # a header line
+    if data.ndim != 2 or data.shape[1] not in (3, 4) or len(data) < 2:
+        raise ValueError(f"{path}: need at least 2 rows of 3 or 4 columns (t, ax, ay[, az])")
+    if not np.all(np.isfinite(data)):
+        raise ValueError(f"{path}: non-numeric or missing values")
+    check_record_time(data[:, 0])
+    acc = np.zeros((len(data), 3))
+    acc[:, : data.shape[1] - 1] = data[:, 1:]
+    return data[:, 0], acc
+
+
 class NoLoading(_Strict):
     """Free motion from the initial state under gravity (e.g. a block released tilted)."""
 
     type: Literal["none"]
 
 
-Loading = Annotated[Union[TiltLoading, ShakeLoading, NoLoading], Field(discriminator="type")]
+Loading = Annotated[Union[TiltLoading, ShakeLoading, RecordLoading, NoLoading],
+                    Field(discriminator="type")]
 
 
 # --------------------------------------------------------------------------------------------
@@ -384,7 +465,16 @@ def load_case(path: str | Path) -> Case:
         raise CaseError(f"{path}: {err}") from None
     if not isinstance(data, dict):
         raise CaseError(f"{path}: the case must be a YAML mapping, got {type(data).__name__}")
-    return parse_case(data, node=node, source=str(path))
+    case = parse_case(data, node=node, source=str(path))
+    ld = case.loading
+    if isinstance(ld, RecordLoading) and ld.file is not None:
+        f = Path(ld.file)
+        ld.file = str(f if f.is_absolute() else path.parent / f)
+        try:
+            ld.samples()
+        except ValueError as err:
+            raise CaseError(f"{path}: loading.file: {err}") from None
+    return case
 
 
 def case_json_schema() -> str:

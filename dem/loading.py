@@ -10,6 +10,7 @@ Tilt (DESIGN.md "Model only what a scene needs"): the table turns by theta(t) ab
 horizontal axis; instead of moving the table, gravity turns the other way:
 g_table = R(axis, theta)^T g.  theta(t) = min(start + rate t, max_angle), optionally in steps
 with holds and after a smooth approach to the start angle (see dem.case.TiltLoading).
+Record: any sampled table acceleration (dem.case.RecordLoading), integrated from rest.
 Shake: u(t) = A d sin(2 pi f t) for t <= T = cycles / f, with a(t) = u''(t); after T the table
 acceleration is zero (the table keeps the velocity it had, so u continues linearly).  The table
 starts with velocity A w d (w = 2 pi f) and zero acceleration: blocks at rest on the table move
@@ -22,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from dem.case import Case, NoLoading, ShakeLoading, TiltLoading
+from dem.case import Case, NoLoading, RecordLoading, ShakeLoading, TiltLoading
 
 AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "-x": (-1.0, 0.0, 0.0), "-y": (0.0, -1.0, 0.0)}
 
@@ -142,6 +143,58 @@ class Shake(Loading):
                 "cycles": self.cycles, "end_time_s": self.t_end}
 
 
+class Record(Loading):
+    """Table acceleration from samples, linear in between and zero outside the record; the
+    velocity and displacement are its exact integrals from rest (per interval of length h with
+    slope s = (a_k+1 - a_k)/h:  v = v_k + a_k tau + s tau^2/2,  u = u_k + v_k tau + a_k tau^2/2
+    + s tau^3/6)."""
+
+    kind = "record"
+
+    def __init__(self, g0, t, acc):
+        super().__init__(g0)
+        self.t = np.asarray(t, dtype=float)
+        self.acc = np.asarray(acc, dtype=float)
+        # the table is at rest at t = 0: a record that starts later starts from zero
+        if self.t[0] > 0.0:
+            self.t = np.concatenate([[0.0], self.t])
+            self.acc = np.vstack([np.zeros((1, 3)), self.acc])
+        h = np.diff(self.t)[:, None]
+        a0, a1 = self.acc[:-1], self.acc[1:]
+        dv = 0.5 * (a0 + a1) * h
+        self.vel = np.vstack([np.zeros((1, 3)), np.cumsum(dv, axis=0)])
+        du = self.vel[:-1] * h + h**2 * (2 * a0 + a1) / 6.0
+        self.disp = np.vstack([np.zeros((1, 3)), np.cumsum(du, axis=0)])
+        self.t_end = float(self.t[-1])
+
+    def _at(self, t):
+        """Interval index k, offset tau (clipped to the record), and t past the end."""
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        tc = np.clip(t, self.t[0], self.t_end)
+        k = np.clip(np.searchsorted(self.t, tc, side="right") - 1, 0, len(self.t) - 2)
+        tau = (tc - self.t[k])[:, None]
+        h = (self.t[k + 1] - self.t[k])[:, None]
+        slope = (self.acc[k + 1] - self.acc[k]) / h
+        return k, tau, slope, np.maximum(t - self.t_end, 0.0)[:, None]
+
+    def base_accel(self, t):
+        k, tau, slope, after = self._at(t)
+        return np.where(after > 0.0, 0.0, self.acc[k] + slope * tau)
+
+    def base_vel(self, t):
+        k, tau, slope, _ = self._at(t)
+        return self.vel[k] + self.acc[k] * tau + 0.5 * slope * tau**2
+
+    def base_disp(self, t):
+        k, tau, slope, after = self._at(t)
+        u = self.disp[k] + self.vel[k] * tau + 0.5 * self.acc[k] * tau**2 + slope * tau**3 / 6.0
+        return u + after * self.vel[-1]
+
+    def describe(self):
+        return {"type": "record", "samples": len(self.t), "duration_s": self.t_end,
+                "peak_acceleration_m_s2": float(np.abs(self.acc).max())}
+
+
 def loading_from_case(case: Case) -> Loading:
     g0 = case.gravity_vector()
     ld = case.loading
@@ -150,6 +203,8 @@ def loading_from_case(case: Case) -> Loading:
                     ld.start_time)
     if isinstance(ld, ShakeLoading):
         return Shake(g0, ld.direction, ld.frequency, ld.displacement_amplitude, ld.cycles)
+    if isinstance(ld, RecordLoading):
+        return Record(g0, *ld.samples())
     if isinstance(ld, NoLoading):
         return Loading(g0)
     raise TypeError(f"unknown loading {type(ld).__name__}")

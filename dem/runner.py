@@ -27,7 +27,7 @@ import numpy as np
 from dem.case import Case, CaseError, load_case
 from dem.collapse import CollapseDetector
 from dem.instruments import InstrumentRecorder, thesis_instruments
-from dem.loading import Shake, Tilt, loading_from_case
+from dem.loading import Record, Shake, Tilt, loading_from_case
 from dem.scene import Scene, scene_from_case
 
 CHECKPOINT_SECONDS = 30.0
@@ -184,9 +184,15 @@ def simulate(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
     choice = case.run.instruments
     if choice == "auto":
         boxy = {"L1", "L2", "T1", "T2"} <= set(scene.group_names)
-        choice = "thesis" if boxy and isinstance(loading, Shake) else "none"
+        choice = "thesis" if boxy and isinstance(loading, (Shake, Record)) else "none"
     if choice == "thesis":
-        d = np.abs(loading.direction) if isinstance(loading, Shake) else np.array([0.0, 1.0, 0])
+        if isinstance(loading, Shake):
+            d = np.abs(loading.direction)
+        elif isinstance(loading, Record):
+            d = np.abs(loading.acc).max(axis=0)
+            d = np.where(d >= 0.3 * d.max(), d, 0.0)  # the axes the record really moves
+        else:
+            d = np.array([0.0, 1.0, 0.0])
         axis = "xy" if d[0] > 1e-9 and d[1] > 1e-9 else ("x" if d[0] > d[1] else "y")
         instruments = InstrumentRecorder(thesis_instruments(scene, axis), scene)
 
