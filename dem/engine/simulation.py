@@ -152,50 +152,33 @@ class Simulation:
         self._loads[:k, 0] = g
         self._loads[:k, 1] = a
         self.flags[:] = 0
-        m, st, c = self.model, self.state, self.contacts
         if self.mode == "serial":
-            stepk.advance_serial(
-                k, c.n_pairs, self.dt, self._loads, self.params, self.flags, self.energy,
+            stepk.advance_serial(k, self.contacts.n_pairs, self.dt, *self._kernel_arrays())
+            done = int(self.flags[2])
+        else:
+            stepk.advance_parallel(self.contacts.n_pairs, self.model.n_bodies, self.dt,
+                                   *self._kernel_arrays())
+            done = 1
+        self.step_count += done
+        return done
+
+    def _kernel_arrays(self) -> tuple:
+        """The array arguments shared by both stepping kernels, in their order."""
+        m, st, c = self.model, self.state, self.contacts
+        return (self._loads, self.params, self.flags, self.energy,
                 m.half, m.mass, m.inv_mass, m.inv_inertia, m.radius, m.material, m.mat_pair,
                 st.pos, st.quat, st.vel, st.angmom, st.omega, st.rot, st.force, st.torque,
                 c.pairs, c.adj_ptr, c.adj, c.ref_pos, c.ref_quat, c.code, c.npts, c.normal,
                 c.loc, c.shear, c.point, c.depth, c.area, c.fn, c.ft, c.wrench)
-            done = int(self.flags[2])
-        else:
-            stepk.contact_parallel(
-                c.n_pairs, self.dt, self.energy, m.half, m.inv_mass, m.material, m.mat_pair,
-                st.pos, st.vel, st.omega, st.rot, c.pairs, c.code, c.npts, c.normal, c.loc,
-                c.shear, c.point, c.depth, c.area, c.fn, c.ft, c.wrench)
-            stepk.integrate_parallel(
-                m.n_bodies, self.dt, self._loads[0, 0], self._loads[0, 1], self.params, self.flags, self.energy, m.mass,
-                m.inv_mass, m.inv_inertia, m.radius, st.pos, st.quat, st.vel, st.angmom,
-                st.omega, st.rot, st.force, st.torque, c.wrench, c.adj_ptr, c.adj, c.ref_pos,
-                c.ref_quat)
-            done = 1
-        self.step_count += done
-        return done
 
     def _warm_up(self) -> None:
         """Compile every kernel (or load it from Taichi's offline cache) with zero work."""
         m, st, c = self.model, self.state, self.contacts
         self._loads = ti_nd_vec3((SERIAL_CHUNK, 2))
         if self.mode == "serial":
-            stepk.advance_serial(
-                0, 0, self.dt, self._loads, self.params, self.flags, self.energy,
-                m.half, m.mass, m.inv_mass, m.inv_inertia, m.radius, m.material, m.mat_pair,
-                st.pos, st.quat, st.vel, st.angmom, st.omega, st.rot, st.force, st.torque,
-                c.pairs, c.adj_ptr, c.adj, c.ref_pos, c.ref_quat, c.code, c.npts, c.normal,
-                c.loc, c.shear, c.point, c.depth, c.area, c.fn, c.ft, c.wrench)
+            stepk.advance_serial(0, 0, self.dt, *self._kernel_arrays())
         else:
-            stepk.contact_parallel(
-                0, self.dt, self.energy, m.half, m.inv_mass, m.material, m.mat_pair,
-                st.pos, st.vel, st.omega, st.rot, c.pairs, c.code, c.npts, c.normal, c.loc,
-                c.shear, c.point, c.depth, c.area, c.fn, c.ft, c.wrench)
-            stepk.integrate_parallel(
-                0, self.dt, np.zeros(3), np.zeros(3), self.params, self.flags, self.energy,
-                m.mass, m.inv_mass, m.inv_inertia, m.radius, st.pos, st.quat, st.vel,
-                st.angmom, st.omega, st.rot, st.force, st.torque, c.wrench, c.adj_ptr, c.adj,
-                c.ref_pos, c.ref_quat)
+            stepk.advance_parallel(0, 0, self.dt, *self._kernel_arrays())
         depth = ti_nd_f64(1)
         stepk.probe_contacts(0, depth, m.half, st.pos, st.rot, c.pairs)
         stepk.elastic_energy(0, m.material, m.mat_pair, c.pairs, c.npts, c.depth, c.area,

@@ -12,10 +12,10 @@ The broad phase (neighbour list) runs on the host between kernel launches, when 
 more than half the skin (see :mod:`dem.engine.broadphase`).
 
 Two kernels run the same stages:
-- :func:`advance_serial` runs many steps in one launch on one thread (no launch overhead per
-  step; on this 2-core machine a Taichi parallel loop costs ~80 us to launch, more than a whole
-  step of a 150-block wall);
-- :func:`advance_parallel` runs one step with parallel loops, for large scenes.
+- :func:`advance_serial` runs many steps in one launch on one thread (a launch costs ~0.35 ms
+  on the 2-core test machine, mostly Taichi's handling of the 35 array arguments: about three
+  steps of a 150-block wall);
+- :func:`advance_parallel` runs one step as two parallel loops, for large scenes.
 Both sum contact forces per body in the same fixed order (CSR gather, no atomics), so they give
 bit-identical trajectories.
 
@@ -340,46 +340,41 @@ def advance_serial(
 
 
 @ti.kernel
-def contact_parallel(
-    n_pairs: ti.i32, dt: ti.f64, energy: nd(dtype=ti.f64, ndim=1),
-    model_half: nd(dtype=vec3, ndim=1), model_inv_mass: nd(dtype=ti.f64, ndim=1),
-    model_material: nd(dtype=ti.i32, ndim=1), model_mat_pair: nd(dtype=vec4, ndim=2),
-    st_pos: nd(dtype=vec3, ndim=1), st_vel: nd(dtype=vec3, ndim=1),
+def advance_parallel(
+    n_pairs: ti.i32, n_bodies: ti.i32, dt: ti.f64, loads: nd(dtype=vec3, ndim=2),
+    params: nd(dtype=ti.f64, ndim=1), flags: nd(dtype=ti.i32, ndim=1),
+    energy: nd(dtype=ti.f64, ndim=1),
+    model_half: nd(dtype=vec3, ndim=1), model_mass: nd(dtype=ti.f64, ndim=1),
+    model_inv_mass: nd(dtype=ti.f64, ndim=1), model_inv_inertia: nd(dtype=vec3, ndim=1),
+    model_radius: nd(dtype=ti.f64, ndim=1), model_material: nd(dtype=ti.i32, ndim=1),
+    model_mat_pair: nd(dtype=vec4, ndim=2),
+    st_pos: nd(dtype=vec3, ndim=1), st_quat: nd(dtype=vec4, ndim=1),
+    st_vel: nd(dtype=vec3, ndim=1), st_angmom: nd(dtype=vec3, ndim=1),
     st_omega: nd(dtype=vec3, ndim=1), st_rot: nd(dtype=ti.math.mat3, ndim=1),
-    c_pairs: nd(dtype=ti.math.ivec2, ndim=1), c_code: nd(dtype=ti.i32, ndim=1),
+    st_force: nd(dtype=vec3, ndim=1), st_torque: nd(dtype=vec3, ndim=1),
+    c_pairs: nd(dtype=ti.math.ivec2, ndim=1), c_adj_ptr: nd(dtype=ti.i32, ndim=1),
+    c_adj: nd(dtype=ti.i32, ndim=1), c_ref_pos: nd(dtype=vec3, ndim=1),
+    c_ref_quat: nd(dtype=vec4, ndim=1), c_code: nd(dtype=ti.i32, ndim=1),
     c_npts: nd(dtype=ti.i32, ndim=1), c_normal: nd(dtype=vec3, ndim=1),
     c_loc: nd(dtype=vec3, ndim=2), c_shear: nd(dtype=vec3, ndim=2),
     c_point: nd(dtype=vec3, ndim=2), c_depth: nd(dtype=ti.f64, ndim=2),
     c_area: nd(dtype=ti.f64, ndim=2), c_fn: nd(dtype=ti.f64, ndim=2),
     c_ft: nd(dtype=vec3, ndim=2), c_wrench: nd(dtype=vec3, ndim=2),
 ):
-    """Contact stage of one step, parallel over pairs."""
+    """One step (loads[0]) as two parallel loops, over pairs then over bodies.
+
+    The array arguments are those of :func:`advance_serial`: one launch per step, whose cost
+    is mostly Taichi's handling of the 35 array arguments (~15 us each on the test machine).
+    """
     for p in range(n_pairs):
         contact_stage_pair(p, dt, model_half, model_inv_mass, model_material, model_mat_pair,
                            st_pos, st_vel, st_omega, st_rot, c_pairs, c_code, c_npts, c_normal,
                            c_loc, c_shear, c_point, c_depth, c_area, c_fn, c_ft, c_wrench,
                            energy)
-
-
-@ti.kernel
-def integrate_parallel(
-    n_bodies: ti.i32, dt: ti.f64, g: vec3, a_base: vec3, params: nd(dtype=ti.f64, ndim=1),
-    flags: nd(dtype=ti.i32, ndim=1), energy: nd(dtype=ti.f64, ndim=1),
-    model_mass: nd(dtype=ti.f64, ndim=1), model_inv_mass: nd(dtype=ti.f64, ndim=1),
-    model_inv_inertia: nd(dtype=vec3, ndim=1), model_radius: nd(dtype=ti.f64, ndim=1),
-    st_pos: nd(dtype=vec3, ndim=1), st_quat: nd(dtype=vec4, ndim=1),
-    st_vel: nd(dtype=vec3, ndim=1), st_angmom: nd(dtype=vec3, ndim=1),
-    st_omega: nd(dtype=vec3, ndim=1), st_rot: nd(dtype=ti.math.mat3, ndim=1),
-    st_force: nd(dtype=vec3, ndim=1), st_torque: nd(dtype=vec3, ndim=1),
-    c_wrench: nd(dtype=vec3, ndim=2), c_adj_ptr: nd(dtype=ti.i32, ndim=1),
-    c_adj: nd(dtype=ti.i32, ndim=1), c_ref_pos: nd(dtype=vec3, ndim=1),
-    c_ref_quat: nd(dtype=vec4, ndim=1),
-):
-    """Integrate stage of one step, parallel over bodies."""
     for b in range(n_bodies):
-        integrate_stage_body(b, dt, g, a_base, params, model_mass, model_inv_mass,
-                             model_inv_inertia, model_radius, st_pos, st_quat, st_vel,
-                             st_angmom, st_omega, st_rot, st_force, st_torque, c_wrench,
+        integrate_stage_body(b, dt, loads[0, 0], loads[0, 1], params, model_mass,
+                             model_inv_mass, model_inv_inertia, model_radius, st_pos, st_quat,
+                             st_vel, st_angmom, st_omega, st_rot, st_force, st_torque, c_wrench,
                              c_adj_ptr, c_adj, c_ref_pos, c_ref_quat, flags, energy)
 
 
