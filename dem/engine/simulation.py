@@ -29,7 +29,12 @@ from dem.scene import Scene
 LoadFn = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
 
 SERIAL_CHUNK = 2000  # steps per launch of the serial kernel (launch cost ~0.3 ms)
-PARALLEL_MIN_BODIES = 1500  # auto mode: below this the serial kernel is faster (measured)
+# auto mode: below this the serial kernel is faster.  Measured on the shared 2-core test machine
+# (benchmarks/RESULTS.md, engine throughput): the parallel kernel does not beat the serial one up
+# to 3078 bricks there, since a job gets about one core while others run; with two free cores
+# it would win from ~1000 bricks (~0.4 ms launch; its loops on one thread run about as fast as
+# the serial kernel).  solver.mode: parallel forces it.
+PARALLEL_MIN_BODIES = 4000
 
 
 class Simulation:
