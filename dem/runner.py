@@ -242,14 +242,14 @@ def simulate(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
                                      - e["work_gravity"] - e["work_base"])
         summary["max_penetration_m"] = deepest["depth"]
         summary["max_penetration_time_s"] = deepest["t"]
-        if detector is not None:
-            summary["collapse"] = col = detector.result()
-            if col["detected"]:
-                from postprocess.tilt import classify
+        if detector is not None and rec.cols["t"]:
+            from postprocess.tilt import tilt_results
 
-                summary["mechanism"] = classify(
-                    case, scene, rec.cols["pos"][0], rec.cols["quat"][0], rec.cols["pos"][-1],
-                    rec.cols["quat"][-1], col["moved_blocks"], loading.load_direction)
+            c = rec.cols
+            summary.update(tilt_results(case, scene, np.asarray(c["t"]),
+                                        np.asarray(rec.extra["tilt_angle"]), np.asarray(c["pos"]),
+                                        np.asarray(c["quat"]), np.asarray(c["vel"]),
+                                        np.asarray(c["omega"])))
         if instruments is not None:
             summary["instruments"] = {"file": "instruments.npz",
                                       "interval_s": case.run.instrument_interval,

@@ -3,25 +3,24 @@
 Inputs are the initial and final poses of the blocks (table frame) and the mask of blocks that
 moved (see :mod:`dem.collapse`).  Definitions follow the thesis' descriptions.
 
-In plane (Fig 3.1, 3.12): each moving block either *slides* (translates, rotation ~ 0) or
-*overturns* (rotates about the axis normal to the wall).  A block counts as overturning when its
-rotation accounts for at least 30 % of its displacement about a pivot at the table,
-|theta| z / |dx| >= 0.3.  Mechanism: "sliding" if overturning blocks are < 20 % of the moving
+In plane (Fig 3.1, 3.12): each moving block either *slides* (translates; bricks dragged along may
+tip backwards) or *overturns* (rotates about the axis normal to the wall with its top moving
+leeward).  A block counts as overturning when its leeward rotation accounts for at least 30 % of
+its displacement about a pivot at the table, theta z / |dx| >= 0.3 (theta signed, > 0 leeward).  Mechanism: "sliding" if overturning blocks are < 20 % of the moving
 mass, "overturning" if > 80 %, "mixed" otherwise.  Main crack: in every course holding both
 moving and resting bricks, the windward edge of the most windward moving brick; a least-squares
 line through these points gives the crack angle, measured from the vertical (tan = horizontal
 run / rise) like the stagger angle atan(s/h).
 
-Out of plane (Fig 3.14): the facade's moving bricks give, in each column of the facade, the
-lowest course that collapsed (the crack line); side-wall ("wing") bricks that moved show which
-corners joined.
-  A   no wing brick moves (or there are no wings); the crack line is horizontal
-  B1  wing bricks move on one side only and the crack line is horizontal (within one course)
-  D   wing bricks move on one side only and the crack line is diagonal (descends towards the
-      better connected side by two courses or more)
-  B2  wing bricks move on both sides
-  G   B2 whose crack line is an arch: the middle of the facade collapses at least three courses
-      deeper than both ends
+Out of plane (Fig 3.14): bricks turning with the facade's top course (about its overturning
+axis) give, in each column of the facade, the lowest course that collapsed (the crack line);
+side-wall ("wing") bricks that turn with it show which corners joined.  The shape of the crack
+line decides first (depths per column, in courses from the top):
+  horizontal  depths within one course of each other:
+      A   no wing brick joined (or no wings);  B1  wings joined on one side;  B2  on both sides
+  diagonal    the two ends differ by two courses or more: D (from one edge to the other)
+  arch        both ends at least two courses shallower than the deepest column:
+      G   arch three courses deep or more, wings joined on both sides;  B2 otherwise
 """
 
 from __future__ import annotations
@@ -42,7 +41,8 @@ def in_plane_mechanism(scene, pos0, quat0, pos, quat, moving, load_dir, wall_nor
     """Classify an in-plane collapse.
 
     load_dir     unit vector of the lateral load (towards the leeward side)
-    wall_normal  unit vector normal to the wall plane (the overturning axis)
+    wall_normal  unit vector normal to the wall plane, z x load_dir: a positive rotation about
+                 it moves the top leeward (overturning)
     """
     moving = np.asarray(moving, dtype=bool)
     d = np.asarray(load_dir, float)
@@ -52,7 +52,7 @@ def in_plane_mechanism(scene, pos0, quat0, pos, quat, moving, load_dir, wall_nor
     height = np.maximum(pos0[:, 2], 1e-9)
     dnorm = np.linalg.norm(disp, axis=1)
     with np.errstate(divide="ignore", invalid="ignore"):
-        share = np.where(dnorm > 0, np.abs(theta) * height / dnorm, 0.0)
+        share = np.where(dnorm > 0, theta * height / dnorm, 0.0)
     over = moving & (share >= 0.3)
     m = scene.mass
     moving_mass = m[moving].sum()
@@ -106,49 +106,69 @@ def in_plane_mechanism(scene, pos0, quat0, pos, quat, moving, load_dir, wall_nor
     }
 
 
-def out_of_plane_mechanism(scene, pos0, moving) -> dict:
-    """Classify an out-of-plane collapse of a facade (group "facade") with wings."""
-    moving = np.asarray(moving, dtype=bool)
+def out_of_plane_mechanism(scene, pos0, quat0, pos, quat, load_dir,
+                           facade_group: str = "facade") -> dict:
+    """Classify an out-of-plane collapse of a facade with wings from the brick rotations.
+
+    Each brick's rotation about the facade's overturning axis (z x load direction; positive when
+    its top moves with the load) is compared with the rotation of the facade's top course,
+    theta_top (median).  A brick turns with the collapsing portion when its rotation is at least
+    theta_top / 2.  Crack line: in each column of the facade, the lowest course from which every
+    course up to the top turns with it.  Wing bricks that turn with it have joined.
+    Best applied at incipient collapse (dem.runner uses the first frame with 10 mm of motion).
+    """
     names = list(scene.group_names)
     gid = {n: i for i, n in enumerate(names)}
-    fac = scene.group == gid.get("facade", -1)
+    fac = scene.group == gid.get(facade_group, -1)
     wings = {side: scene.group == gid[f"wing-{side}"] for side in ("left", "right")
              if f"wing-{side}" in gid}
+    axis = np.cross([0.0, 0.0, 1.0], np.asarray(load_dir, float))
+    axis /= np.linalg.norm(axis)
+    theta = _rotvecs(quat0, quat) @ axis
     n_courses = int(scene.course[fac].max()) + 1 if fac.any() else 0
-    wing_moved = {side: int((mask & moving).sum()) for side, mask in wings.items()}
-    # crack profile: lowest collapsed course in each column of the facade
-    x = pos0[fac, 0]
-    lo, hi = x.min(), x.max()
-    n_bins = max(3, int(round((hi - lo) / np.median(scene.size[fac, 0]))) + 1)
-    edges = np.linspace(lo - 1e-9, hi + 1e-9, n_bins + 1)
+    top = fac & (scene.course == n_courses - 1)
+    theta_top = float(np.median(theta[top])) if top.any() else 0.0
+    turning = theta >= 0.5 * theta_top if theta_top > 0 else np.zeros(len(theta), bool)
+    wing_joined = {side: int((mask & turning).sum()) for side, mask in wings.items()}
+    # crack profile along the facade (columns one brick length wide)
+    along = np.abs(axis)  # the facade runs along its overturning axis
+    x = pos0[fac] @ along
     fac_idx = np.flatnonzero(fac)
-    profile = []
+    lo, hi = x.min(), x.max()
+    n_bins = max(3, int(round((hi - lo) / np.median(np.abs(scene.size[fac] @ along)))) + 1)
+    edges = np.linspace(lo - 1e-9, hi + 1e-9, n_bins + 1)
+    depth = []
     for b in range(n_bins):
         inb = fac_idx[(x >= edges[b]) & (x < edges[b + 1])]
-        mv = inb[moving[inb]]
-        profile.append(int(scene.course[mv].min()) if len(mv) else n_courses)
-    profile = np.array(profile)
-    depth = n_courses - profile  # collapsed courses in each column (from the top)
-    collapsed_courses = sorted({int(c) for c in scene.course[fac & moving]})
-    sides = [s for s, n in wing_moved.items() if n > 0]
+        lowest = n_courses  # lowest course of the turning portion in this column
+        for c in range(n_courses - 1, -1, -1):
+            row = inb[scene.course[inb] == c]
+            if len(row) and turning[row].all():
+                lowest = c
+            elif len(row):
+                break
+        depth.append(n_courses - lowest)
+    depth = np.array(depth)
+    sides = [s for s, n in wing_joined.items() if n > 0]
     horizontal = depth.max() - depth.min() <= 1
-    ends = min(depth[0], depth[-1])
-    arch = depth[1:-1].max(initial=0) - max(depth[0], depth[-1]) >= 3 if n_bins > 2 else False
-    if not (fac & moving).any():
+    diagonal = not horizontal and abs(int(depth[0]) - int(depth[-1])) >= 2
+    arch_depth = int(depth.max()) - max(int(depth[0]), int(depth[-1]))
+    if theta_top <= 0 or depth.max() == 0:
         mech = "none"
-    elif not sides:
-        mech = "A"
-    elif len(sides) == 1:
-        mech = "B1" if horizontal else "D"
+    elif horizontal:
+        mech = {0: "A", 1: "B1"}.get(len(sides), "B2")
+    elif diagonal:
+        mech = "D"
     else:
-        mech = "G" if arch else "B2"
+        mech = "G" if arch_depth >= 3 and len(sides) == 2 else "B2"
     return {
         "mechanism": mech,
-        "collapsed_courses": len(collapsed_courses),
+        "collapsed_courses": int(depth.max()),
         "facade_courses": n_courses,
-        "crack_profile_lowest_course": profile.tolist(),
-        "wing_bricks_moved": wing_moved,
-        "n_moving": int(moving.sum()),
-        "min_depth_at_ends": int(ends),
-        "moving_mass_fraction": float(scene.mass[moving].sum() / scene.mass.sum()),
+        "crack_depth_per_column": depth.tolist(),
+        "crack_shape": "horizontal" if horizontal else ("diagonal" if diagonal else "arch"),
+        "wing_bricks_joined": wing_joined,
+        "facade_rotation_mrad": 1e3 * theta_top,
+        "n_turning": int(turning.sum()),
+        "turning_mass_fraction": float(scene.mass[turning].sum() / scene.mass.sum()),
     }

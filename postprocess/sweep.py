@@ -467,15 +467,10 @@ def post_sweep(path) -> tuple[dict, int]:
 
 def post_tilt(run_dir) -> dict:
     """Collapse and mechanism of a tilt run, recomputed from frames.npz and case.json
-    (dem.collapse.CollapseDetector replayed over the recorded frames, then
-    postprocess.tilt.classify); written to analysis.json."""
-    import dataclasses
-    import inspect
-
-    from dem.collapse import CollapseDetector
-    from dem.loading import loading_from_case
+    (postprocess.tilt.tilt_results, the same function the run loop uses); written to
+    analysis.json."""
     from postprocess.shake import ShakeAnalysisError, _write_json, angular_velocity, load_run
-    from postprocess.tilt import classify
+    from postprocess.tilt import tilt_results
 
     run_dir = Path(run_dir)
     case, scene = load_run(run_dir)
@@ -485,28 +480,11 @@ def post_tilt(run_dir) -> dict:
     fr = np.load(path)
     if "tilt_angle" not in fr.files:
         raise ShakeAnalysisError(f"{path}: no tilt_angle array (not a tilt run?)")
-    cs = case.loading.collapse
-    # the detector's settings are the case's collapse fields of the same names (by keyword, so
-    # the replay follows dem.collapse as it evolves); speeds need the angular velocity, which
-    # frames.npz does not hold: it is taken from successive orientations
-    fields = [f.name for f in dataclasses.fields(CollapseDetector)]
-    kwargs = {k: getattr(cs, k) for k in fields if hasattr(cs, k)}
-    det = CollapseDetector(scene.position.copy(), scene.quat.copy(),
-                           0.5 * np.linalg.norm(scene.size, axis=1), **kwargs)
-    t, ang, pos, quat = fr["t"], fr["tilt_angle"], fr["pos"], fr["quat"]
-    wants_speed = "vel" in inspect.signature(det.update).parameters
-    if wants_speed:
-        vel = fr["vel"] if "vel" in fr.files else np.gradient(pos, t, axis=0)
-        omega = angular_velocity(t, quat)
-    for k in range(1, len(t)):
-        extra = (vel[k], omega[k]) if wants_speed else ()
-        det.update(float(t[k]), float(ang[k]), pos[k], quat[k], *extra)
-    col = det.result()
-    out = {"kind": "tilt", "case": case.name, "collapse": col, "mechanism": None}
-    if col["detected"]:
-        loading = loading_from_case(case)
-        out["mechanism"] = classify(case, scene, pos[0], quat[0], pos[-1], quat[-1],
-                                    col["moved_blocks"], loading.load_direction)
+    vel = fr["vel"] if "vel" in fr.files else np.gradient(fr["pos"], fr["t"], axis=0)
+    omega = fr["omega"] if "omega" in fr.files else angular_velocity(fr["t"], fr["quat"])
+    res = tilt_results(case, scene, fr["t"], fr["tilt_angle"], fr["pos"], fr["quat"], vel, omega)
+    out = {"kind": "tilt", "case": case.name, "collapse": res["collapse"],
+           "mechanism": res.get("mechanism")}
     _write_json(run_dir / "analysis.json", out)
     return out
 

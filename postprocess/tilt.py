@@ -28,16 +28,36 @@ def wall_geometry(case) -> dict | None:
             "s_over_h": s / h}
 
 
-def classify(case, scene, pos0, quat0, pos, quat, moved, load_dir) -> dict:
-    """Mechanism (in plane or out of plane) and, for walls loaded in plane, eq 3-1..3-3."""
-    moved_mask = np.zeros(scene.n_blocks, dtype=bool)
-    moved_mask[np.asarray(moved, dtype=int)] = True
+CLASSIFY_MOTION = 0.01  # m: mechanisms are read when a block has first moved this much
+MOVING_FRACTION = 0.3  # a block belongs to the collapsing portion if it moved this fraction of the
+                       # largest motion at that frame
+
+
+def classification_frame(scene, pos, quat, level: float = CLASSIFY_MOTION) -> int:
+    """Index of the first frame at which some block moved ``level`` (incipient collapse: the
+    mechanism has formed but not yet spread), or the last frame."""
+    from dem.collapse import motion_measure
+
+    r = 0.5 * np.linalg.norm(scene.size, axis=1)
+    for k in range(len(pos)):
+        if motion_measure(pos[0], quat[0], pos[k], quat[k], r).max() >= level:
+            return k
+    return len(pos) - 1
+
+
+def classify(case, scene, pos0, quat0, pos, quat, load_dir) -> dict:
+    """Mechanism (in plane or out of plane) from the poses at one frame (see
+    classification_frame) and, for walls loaded in plane, eq 3-1..3-3."""
+    from dem.collapse import motion_measure
+
+    m = motion_measure(pos0, quat0, pos, quat, 0.5 * np.linalg.norm(scene.size, axis=1))
+    moved_mask = m >= MOVING_FRACTION * m.max() if m.max() > 0 else np.zeros(len(m), bool)
     names = list(scene.group_names)
     load_dir = np.asarray(load_dir, float)
-    out: dict = {}
+    out: dict = {"max_motion_m": float(m.max())}
     if "facade" in names:
         out["kind"] = "out-of-plane"
-        out.update(out_of_plane_mechanism(scene, pos0, moved_mask))
+        out.update(out_of_plane_mechanism(scene, pos0, quat0, pos, quat, load_dir))
         return out
     geom = wall_geometry(case)
     if geom is None:
@@ -47,8 +67,8 @@ def classify(case, scene, pos0, quat0, pos, quat, moved, load_dir) -> dict:
     in_plane = abs(load_dir[0]) > 0.7  # builder walls run along x
     if not in_plane:
         out["kind"] = "out-of-plane"
-        scene_as_facade = _as_facade(scene)
-        out.update(out_of_plane_mechanism(scene_as_facade, pos0, moved_mask))
+        out.update(out_of_plane_mechanism(scene, pos0, quat0, pos, quat, load_dir,
+                                          facade_group=spec_group(case)))
         return out
     out["kind"] = "in-plane"
     normal = np.cross([0.0, 0.0, 1.0], load_dir)
@@ -60,9 +80,30 @@ def classify(case, scene, pos0, quat0, pos, quat, moved, load_dir) -> dict:
     return out
 
 
-def _as_facade(scene):
-    """A lone wall tilted out of plane is a facade without wings."""
-    from dataclasses import replace
+def tilt_results(case, scene, t, angle, pos, quat, vel, omega) -> dict:
+    """Collapse (dem.collapse rule, replayed on the frames) and mechanism of a tilt run.
 
-    names = ["facade" if n == "wall" else n for n in scene.group_names]
-    return replace(scene, group_names=names)
+    Used by the run loop for summary.json and by ``dem post``: the same frames give the same
+    answer.  Arrays: t [T], angle [T] (deg), pos/vel/omega [T,N,3], quat [T,N,4].
+    """
+    from dem.collapse import CollapseDetector
+    from dem.loading import loading_from_case
+
+    cs = case.loading.collapse
+    det = CollapseDetector(pos[0], quat[0], 0.5 * np.linalg.norm(scene.size, axis=1),
+                           cs.onset_speed, cs.confirm, cs.after, cs.stop)
+    for k in range(len(t)):
+        det.update(float(t[k]), float(angle[k]), pos[k], quat[k], vel[k], omega[k])
+    out = {"collapse": det.result()}
+    if out["collapse"]["detected"]:
+        k = classification_frame(scene, pos, quat)
+        mech = classify(case, scene, pos[0], quat[0], pos[k], quat[k],
+                        loading_from_case(case).load_direction)
+        mech["frame_time_s"] = float(t[k])
+        out["mechanism"] = mech
+    return out
+
+
+def spec_group(case) -> str:
+    """Group name of a case's built wall (a lone wall tilted out of plane is a facade)."""
+    return case.scene.wall.group if case.scene.wall is not None else "wall"

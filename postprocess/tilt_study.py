@@ -170,17 +170,17 @@ def report(out: Path) -> None:
             if lam is not None else f"| {n} | {r.get('n_blocks')} | no collapse | | | | | | | | | |")
     # ---- out-of-plane table
     lines += ["", "## Out of plane", "",
-              "| run | bricks | lambda | mechanism | collapsed courses | wing bricks moved "
-              "(left/right) | thesis |", "|---|---|---|---|---|---|---|"]
+              "| run | bricks | lambda | mechanism | crack line (depth per column, courses) | "
+              "wing bricks joined (left/right) | thesis |", "|---|---|---|---|---|---|---|"]
     for n, r in sorted(res.items()):
         m = r.get("mechanism") or {}
         if m.get("kind") != "out-of-plane" or n.startswith("rate-"):
             continue
         key = next((k for k in THESIS_MECHANISM_OOP if k in n), None)
-        w = m.get("wing_bricks_moved", {})
+        w = m.get("wing_bricks_joined", {})
         lines.append(f"| {n} | {r['n_blocks']} | {_lam(r):.3f} | {m['mechanism']} | "
-                     f"{m['collapsed_courses']} / {m['facade_courses']} | "
-                     f"{w.get('left', '-')}/{w.get('right', '-')} | "
+                     f"{m['crack_shape']} {m['crack_depth_per_column']} of "
+                     f"{m['facade_courses']} | {w.get('left', '-')}/{w.get('right', '-')} | "
                      f"{THESIS_MECHANISM_OOP.get(key, '')} |")
     # ---- rate study
     lines += ["", "## Convergence with the tilt rate", "",

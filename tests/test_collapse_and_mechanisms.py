@@ -85,7 +85,7 @@ def test_planted_sliding_portion_is_sliding_with_bond_angle_crack():
     scene, pos0, quat0, moving = _planted_wall()
     pos = pos0.copy()
     pos[moving, 0] += 0.02  # rigid translation along the load
-    res = in_plane_mechanism(scene, pos0, quat0, pos, quat0, moving, [1, 0, 0], [0, -1, 0],
+    res = in_plane_mechanism(scene, pos0, quat0, pos, quat0, moving, [1, 0, 0], [0, 1, 0],
                              stagger=0.0525, course_height=0.035)
     assert res["mechanism"] == "sliding"
     assert res["crack"]["rises_towards_windward"]
@@ -95,12 +95,12 @@ def test_planted_sliding_portion_is_sliding_with_bond_angle_crack():
 def test_planted_overturning_portion_is_overturning():
     scene, pos0, quat0, moving = _planted_wall()
     toe = np.array([pos0[:, 0].max() + 0.0525, 0.0, 0.0])
-    theta = 0.08  # rad, about -y: the top moves towards +x
+    theta = 0.08  # rad, about +y: the top moves towards +x (leeward)
     rot = Rotation.from_rotvec([0.0, theta, 0.0])
     pos, quat = pos0.copy(), quat0.copy()
     pos[moving] = toe + rot.apply(pos0[moving] - toe)
     quat[moving] = _quats(np.tile([0.0, theta, 0.0], (moving.sum(), 1)))
-    res = in_plane_mechanism(scene, pos0, quat0, pos, quat, moving, [1, 0, 0], [0, -1, 0])
+    res = in_plane_mechanism(scene, pos0, quat0, pos, quat, moving, [1, 0, 0], [0, 1, 0])
     assert res["mechanism"] == "overturning"
     assert res["overturning_mass_fraction"] > 0.8
 
@@ -111,7 +111,7 @@ def test_planted_mixed_portion_is_mixed():
     lee = moving & (pos0[:, 0] > pos0[:, 0].max() - 0.06)  # the leeward column overturns
     pos[moving, 0] += 0.02
     quat[lee] = _quats(np.tile([0.0, 0.2, 0.0], (lee.sum(), 1)))
-    res = in_plane_mechanism(scene, pos0, quat0, pos, quat, moving, [1, 0, 0], [0, -1, 0])
+    res = in_plane_mechanism(scene, pos0, quat0, pos, quat, moving, [1, 0, 0], [0, 1, 0])
     assert res["mechanism"] == "mixed"
     assert res["overturning_columns"] == 1
 
@@ -120,10 +120,15 @@ def _facade(left, right):
     return build_facade("large", 5, 9, left=Wing(3, left), right=Wing(3, right))
 
 
-def _moving(scene, rule):
+def _turning(scene, rule, theta=0.02):
+    """Quaternions with the bricks selected by rule(group, x, course) turned by theta about +x
+    (the overturning axis of a facade loaded towards -y: its top moves outwards)."""
     names = scene.group_names
     g = np.array([names[i] for i in scene.group])
-    return rule(g, scene.position[:, 0], scene.course)
+    sel = rule(g, scene.position[:, 0], scene.course)
+    quat = np.tile(IDENT, (scene.n_blocks, 1))
+    quat[sel] = _quats(np.tile([theta, 0.0, 0.0], (sel.sum(), 1)))
+    return quat
 
 
 def test_out_of_plane_a_b1_d_b2_g_from_planted_patterns():
@@ -141,8 +146,17 @@ def test_out_of_plane_a_b1_d_b2_g_from_planted_patterns():
         "G": lambda g, x, c: ((g == "facade") & (c >= 8 - 7 * np.sin(np.pi * np.clip(u(x), 0, 1))))
         | ((g != "facade") & (c >= 8)),
     }
+    quat0 = np.tile(IDENT, (sc.n_blocks, 1))
     for expected, rule in cases.items():
-        res = out_of_plane_mechanism(sc, sc.position, _moving(sc, rule))
+        res = out_of_plane_mechanism(sc, sc.position, quat0, sc.position, _turning(sc, rule),
+                                     [0.0, -1.0, 0.0])
         assert res["mechanism"] == expected, (expected, res)
-    res = out_of_plane_mechanism(sc, sc.position, _moving(sc, cases["A"]))
-    assert res["collapsed_courses"] == 3
+    res = out_of_plane_mechanism(sc, sc.position, quat0, sc.position, _turning(sc, cases["A"]),
+                                 [0.0, -1.0, 0.0])
+    assert res["collapsed_courses"] == 3 and res["crack_shape"] == "horizontal"
+    # bricks turning the other way (wings tilting inwards) do not join the collapse
+    q = _turning(sc, cases["A"])
+    wing = np.array([sc.group_names[i].startswith("wing") for i in sc.group])
+    q[wing] = _quats(np.tile([-0.005, 0.0, 0.0], (wing.sum(), 1)))
+    assert out_of_plane_mechanism(sc, sc.position, quat0, sc.position, q,
+                                  [0.0, -1.0, 0.0])["mechanism"] == "A"
