@@ -135,7 +135,9 @@ class Material(_Strict):
         default=None, gt=0.0, description="ks, Pa/m (default 0.4 kn)"
     )
     damping: float = Field(
-        default=0.1, ge=0.0, lt=1.0, description="viscous contact damping, fraction of critical"
+        default=0.5, ge=0.0, lt=1.0,
+        description="viscous contact damping, fraction of critical (0.5: near-plastic impacts "
+        "of masonry units, normal restitution 0.16; see docs/engine.md)",
     )
     base_friction: float | None = Field(
         default=None, ge=0.0, description="friction against the table (default: friction)"

@@ -10,7 +10,7 @@ about 1 um at the default stiffness).
 import numpy as np
 import pytest
 
-from engine_helpers import constant_loads, energy_gain, make_sim, stretcher_wall
+from engine_helpers import constant_loads, energy_gain, make_sim, rotation_angle, stretcher_wall
 
 BRICK = [0.105, 0.05, 0.035]
 M_BRICK = 0.336
@@ -71,7 +71,9 @@ def test_half_supported_end_brick_tips_over():
     top = {"size": BRICK, "position": [0.6 * 0.105, 0, 0.0525], "mass": M_BRICK}
     sim = make_sim([support, top], friction=0.81)
     deepest = _run_checked(sim, 1.0)
-    assert sim.state.pos[1, 2] < 0.04  # fell below its starting height (0.0525 m)
+    # it tipped off (turned by more than 30 deg) and came down (it may end leaning on the support)
+    assert rotation_angle(sim.state.quat[1], np.array([1.0, 0, 0, 0])) > np.radians(30)
+    assert sim.state.pos[1, 2] < 0.0525 - 0.005
     assert deepest < 1e-3
     _assert_energy_bounded(sim)
 
@@ -103,3 +105,21 @@ def test_serial_and_parallel_kernels_agree_bitwise():
     assert np.abs(runs[0][0] - start).max() > 1e-3  # the dropped brick moved
     assert np.array_equal(runs[0][0], runs[1][0])
     assert np.array_equal(runs[0][1], runs[1][1])
+
+
+def test_light_plank_landing_flat_lifts_its_area_cap_and_shortens_the_step():
+    """A light plank (0.4 x 0.04 x 0.01 m, 96 g) among bricks: its faces are capped at a brick's
+    face in the critical-step bound (dem.engine.timestep.face_area_caps), so it does not set dt
+    while it touches things on small patches.  Dropped flat on the table, its patch exceeds the
+    cap: the cap is lifted, dt shrinks, and the run stays sound."""
+    bricks = [{"size": BRICK, "position": [0.3 + 0.12 * k, 0, 0.0175], "mass": M_BRICK}
+              for k in range(10)]
+    plank = {"size": [0.4, 0.04, 0.01], "position": [0, 0, 0.01], "density": 600}
+    sim = make_sim(bricks + [plank], friction=0.81)
+    assert np.isfinite(sim.area_cap[10]) and not np.isfinite(sim.area_cap[:10]).any()
+    dt0 = sim.dt
+    _run_checked(sim, 0.2)
+    assert len(sim.dt_changes) == 1 and sim.dt_changes[0]["blocks"] == [10]
+    assert sim.dt < dt0
+    assert sim.dt == pytest.approx(sim.solver.safety * sim.dt_crit)
+    _assert_energy_bounded(sim)

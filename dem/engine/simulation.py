@@ -21,8 +21,8 @@ from dem import ti_runtime
 from dem.engine import step as stepk
 from dem.engine.broadphase import candidate_pairs
 from dem.engine.containers import Contacts, Model, State
-from dem.engine.errors import CapacityError, InputError, InstabilityError
-from dem.engine.timestep import critical_time_step
+from dem.engine.errors import CapacityError, InputError, InstabilityError, SimulationError
+from dem.engine.timestep import critical_time_step, face_area_caps, full_face_areas
 from dem.scene import Scene
 
 # loads(t [K]) -> (gravity [K,3], base acceleration [K,3]), both in the table frame, m/s^2
@@ -52,9 +52,15 @@ class Simulation:
         self.contacts = Contacts(self.model.n_bodies, capacity)
         movable = ~self.model.fixed_np
         movable[self.model.table] = False
-        self.dt_crit = critical_time_step(
+        self._movable = movable
+        self._material = material
+        # face areas in the critical-step bound, capped for light blocks with large faces; a
+        # contact patch larger than its cap lifts the cap and recomputes dt (_check_caps)
+        self._face_area, self.area_cap = face_area_caps(
             2 * self.model.half_np, self.model.mass_np, self.model.inertia_np, movable,
-            material.normal_stiffness, material.ks, material.damping)
+            material.normal_stiffness, material.ks, solver.safety)
+        self.dt_changes: list[dict] = []
+        self.dt_crit = self._critical_step()
         if solver.dt is not None:
             if solver.dt > self.dt_crit:
                 raise InputError(
@@ -68,6 +74,7 @@ class Simulation:
         hmin = float(self.model.half_np[: self.n_blocks].min())
         self.skin = float(solver.skin) if solver.skin is not None else 0.1 * hmin
         self.step_count = 0
+        self._t_anchor, self._step_anchor = 0.0, 0  # t = t_anchor + (step - step_anchor) dt
         self.n_rebuilds = 0
         self.mode = solver.mode
         if self.mode == "auto":
@@ -90,7 +97,54 @@ class Simulation:
     # ------------------------------------------------------------------------------------
     @property
     def t(self) -> float:
-        return self.step_count * self.dt
+        return self._t_anchor + (self.step_count - self._step_anchor) * self.dt
+
+    def _critical_step(self) -> float:
+        m, mat = self.model, self._material
+        return critical_time_step(2 * m.half_np, m.mass_np, m.inertia_np, self._movable,
+                                  mat.normal_stiffness, mat.ks, mat.damping, self._face_area)
+
+    def _check_caps(self) -> None:
+        """Lift the area cap of any body whose contact patch outgrew it, and shorten dt.
+
+        Caps are only set where the capped bound is within 0.5 / safety^2 of the full one
+        (dem.engine.timestep.face_area_caps), so the step in use was still stable; from here on
+        the full faces of those bodies count."""
+        capped = np.isfinite(self.area_cap)
+        c = self.contacts
+        n = c.n_pairs
+        if not capped.any() or n == 0:
+            return
+        pairs = c.pairs[:n]
+        watch = np.flatnonzero(capped[pairs[:, 0]] | capped[pairs[:, 1]])
+        if len(watch) == 0:
+            return
+        mask = np.arange(c.area.shape[1])[None, :] < c.npts[watch, None]
+        area = (c.area[watch] * mask).sum(axis=1)
+        limit = np.minimum(self.area_cap[pairs[watch, 0]], self.area_cap[pairs[watch, 1]])
+        over = watch[area > limit]
+        if len(over) == 0:
+            return
+        bodies = np.unique(pairs[over].ravel())
+        bodies = bodies[capped[bodies]]
+        self.area_cap[bodies] = np.inf
+        self._face_area[bodies] = full_face_areas(2 * self.model.half_np[bodies])
+        old = self.dt
+        self.dt_crit = self._critical_step()
+        if self.solver.dt is not None:
+            if self.solver.dt > self.dt_crit:
+                raise SimulationError(
+                    f"at t = {self.t:.4f} s block(s) {bodies.tolist()} made a contact patch "
+                    f"larger than assumed: the critical step is now {self.dt_crit:.3g} s, below "
+                    f"solver.dt = {self.solver.dt:.3g} s; leave solver.dt out (automatic) or "
+                    f"lower it")
+            return
+        new = float(self.solver.safety * self.dt_crit)
+        if new < old:
+            self._t_anchor, self._step_anchor = self.t, self.step_count
+            self.dt = new
+            self.dt_changes.append({"t": self._t_anchor, "step": self.step_count, "old_dt": old,
+                                    "new_dt": new, "blocks": bodies.tolist()})
 
     def rebuild(self) -> None:
         """Broad phase: new neighbour list, history carried over for pairs that stay."""
@@ -148,11 +202,12 @@ class Simulation:
                 self._raise_instability(flags)
             if flags[0] & stepk.REBUILD:
                 self.rebuild()
+            self._check_caps()
             if on_chunk is not None:
                 on_chunk(done)
 
     def _launch(self, k: int, loads: LoadFn) -> int:
-        t = (self.step_count + np.arange(k)) * self.dt
+        t = self.t + np.arange(k) * self.dt
         g, a = loads(t)
         self._loads[:k, 0] = g
         self._loads[:k, 1] = a
