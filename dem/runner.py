@@ -233,6 +233,8 @@ def simulate(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
         run_s = summary["wall_seconds"] - summary["compile_seconds"]
         summary["brick_steps_per_second"] = n * sim.step_count / run_s if run_s > 0 else None
         summary["neighbour_rebuilds"] = sim.n_rebuilds
+        summary["dt"] = sim.dt
+        summary["dt_changes"] = sim.dt_changes
         summary["n_pairs"] = sim.contacts.n_pairs
         summary["n_contact_points"] = int(sim.contacts.npts[: sim.contacts.n_pairs].sum())
         summary["energy"] = sim.energy_report()
