@@ -394,6 +394,11 @@ class SolverSpec(_Strict):
         default="auto", description="serial multi-step kernel or one parallel kernel per step"
     )
     threads: int | None = Field(default=None, ge=1, description="CPU threads (default: all)")
+    precision: Literal["f64", "f32"] = Field(
+        default="f64",
+        description="floating point of the engine (f32 only for speed/error studies: one "
+        "precision per process)",
+    )
 
 
 class Case(_Strict):

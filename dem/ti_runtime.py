@@ -50,6 +50,13 @@ def init(threads: int | None = None, precision: str = "f64", debug: bool = False
     return _settings
 
 
+def real_dtype():
+    """numpy dtype of the engine's real arrays: float64, or float32 with precision "f32"."""
+    import numpy as np
+
+    return np.float32 if _settings is not None and _settings["precision"] == "f32" else np.float64
+
+
 def settings() -> dict | None:
     """The settings of the current Taichi runtime, or None before :func:`init`."""
     return _settings

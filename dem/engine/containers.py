@@ -58,6 +58,7 @@ import numpy as np
 import taichi as ti
 
 from dem.engine.geometry import MAXP
+from dem.ti_runtime import real_dtype
 from dem.scene import Scene
 
 vec3 = ti.math.vec3
@@ -68,13 +69,16 @@ ivec2 = ti.math.ivec2
 MAT_BLOCK, MAT_TABLE = 0, 1
 
 
-_ELEM = {vec3: ((3,), np.float64), vec4: ((4,), np.float64), mat3: ((3, 3), np.float64),
-         ivec2: ((2,), np.int32), ti.f64: ((), np.float64), ti.i32: ((), np.int32)}
+REAL = "real"  # the engine's floating type: f64, or f32 with solver.precision = "f32"
+_ELEM = {vec3: ((3,), REAL), vec4: ((4,), REAL), mat3: ((3, 3), REAL), ivec2: ((2,), np.int32),
+         REAL: ((), REAL), ti.i32: ((), np.int32)}
 
 
 def _nd(dtype, shape) -> np.ndarray:
     """A zeroed numpy array laid out as the Taichi ndarray type ``dtype`` of ``shape``."""
     elem, npdt = _ELEM[dtype]
+    if npdt == REAL:
+        npdt = real_dtype()
     return np.zeros(tuple(np.atleast_1d(shape)) + elem, dtype=npdt)
 
 
@@ -95,14 +99,17 @@ class Model:
         inv_mass = np.where(self.fixed_np, 0.0, 1.0 / self.mass_np)
         inv_inertia = np.where(self.fixed_np[:, None], 0.0, 1.0 / self.inertia_np)
 
-        self.half = self.half_np
-        self.mass = self.mass_np
-        self.inv_mass = np.ascontiguousarray(inv_mass)
-        self.inertia = self.inertia_np
-        self.inv_inertia = np.ascontiguousarray(inv_inertia)
-        self.radius = self.radius_np
+        # kernel arrays in the engine's real type (the *_np float64 copies serve the host)
+        real = real_dtype()
+        as_real = lambda a: np.ascontiguousarray(a, dtype=real)  # noqa: E731
+        self.half = as_real(self.half_np)
+        self.mass = as_real(self.mass_np)
+        self.inv_mass = as_real(inv_mass)
+        self.inertia = as_real(self.inertia_np)
+        self.inv_inertia = as_real(inv_inertia)
+        self.radius = as_real(self.radius_np)
         self.material = self.material_np
-        self.mat_pair = self.mat_pair_np
+        self.mat_pair = as_real(self.mat_pair_np)
 
     @classmethod
     def from_scene(cls, scene: Scene, material) -> "Model":
@@ -190,9 +197,9 @@ class Contacts:
         self.loc = _nd(vec3, (P, K))
         self.shear = _nd(vec3, (P, K))
         self.point = _nd(vec3, (P, K))
-        self.depth = _nd(ti.f64, (P, K))
-        self.area = _nd(ti.f64, (P, K))
-        self.fn = _nd(ti.f64, (P, K))
+        self.depth = _nd(REAL, (P, K))
+        self.area = _nd(REAL, (P, K))
+        self.fn = _nd(REAL, (P, K))
         self.ft = _nd(vec3, (P, K))
         self.wrench = _nd(vec3, (P, 3))
         self.code[...] = np.full(P, -1, dtype=np.int32)

@@ -39,7 +39,7 @@ import taichi as ti
 from dem.engine.mathutil import vec3
 
 MAXP = 9  # face polygon: 4 corners, clipped by 4 sides (<= 8) then by d >= 0 (<= 9)
-VP = ti.types.vector(MAXP + 1, ti.f64)  # one spare slot for the clipping passes
+VP = ti.types.vector(MAXP + 1, float)  # one spare slot for the clipping passes
 
 NO_CONTACT = -1
 
@@ -55,7 +55,7 @@ def sat_overlaps(pA, RA, hA, pB, RB, hB):
     (0, C[k, 2], -C[k, 1]) in B's frame for m = 0 (cyclic for the others), so no cross product
     is formed; the projections on the unnormalised L are divided by |L| once.
     """
-    ov = ti.Vector([0.0] * 15, dt=ti.f64)
+    ov = ti.Vector([0.0] * 15, dt=float)
     d = pB - pA
     dA = RA.transpose() @ d
     dB = RB.transpose() @ d

@@ -39,7 +39,7 @@ PARALLEL_MIN_BODIES = 4000
 
 class Simulation:
     def __init__(self, scene: Scene, material, solver, gravity=(0.0, 0.0, -9.81)):
-        ti_runtime.init(threads=solver.threads)
+        ti_runtime.init(threads=solver.threads, precision=solver.precision)
         self.scene = scene
         self.solver = solver
         self.n_blocks = scene.n_blocks
@@ -80,8 +80,8 @@ class Simulation:
         if self.mode == "auto":
             self.mode = "parallel" if self.model.n_bodies >= PARALLEL_MIN_BODIES else "serial"
         self.flags = ti_nd_i32(4)
-        self.energy = ti_nd_f64(stepk.N_ENERGY)
-        self.params = ti_nd_f64(stepk.N_PARAMS)
+        self.energy = ti_nd_real(stepk.N_ENERGY)
+        self.params = ti_nd_real(stepk.N_PARAMS)
         params = np.zeros(stepk.N_PARAMS)
         params[stepk.P_SKIN] = self.skin
         params[stepk.P_MAX_SPEED] = solver.max_speed
@@ -174,7 +174,7 @@ class Simulation:
         c = self.contacts
         if c.n_pairs == 0:
             return
-        depth = ti_nd_f64(c.capacity)
+        depth = ti_nd_real(c.capacity)
         stepk.probe_contacts(c.n_pairs, depth, self.model.half, self.state.pos, self.state.rot,
                              c.pairs)
         d = depth[: c.n_pairs]
@@ -239,7 +239,7 @@ class Simulation:
             stepk.advance_serial(0, 0, self.dt, *self._kernel_arrays())
         else:
             stepk.advance_parallel(0, 0, self.dt, *self._kernel_arrays())
-        depth = ti_nd_f64(1)
+        depth = ti_nd_real(1)
         stepk.probe_contacts(0, depth, m.half, st.pos, st.rot, c.pairs)
         stepk.elastic_energy(0, m.material, m.mat_pair, c.pairs, c.npts, c.depth, c.area,
                              c.shear)
@@ -308,9 +308,9 @@ def ti_nd_i32(n):
     return np.zeros(n, dtype=np.int32)
 
 
-def ti_nd_f64(n):
-    return np.zeros(n, dtype=np.float64)
+def ti_nd_real(n):
+    return np.zeros(n, dtype=ti_runtime.real_dtype())
 
 
 def ti_nd_vec3(shape):
-    return np.zeros(tuple(np.atleast_1d(shape)) + (3,), dtype=np.float64)
+    return np.zeros(tuple(np.atleast_1d(shape)) + (3,), dtype=ti_runtime.real_dtype())

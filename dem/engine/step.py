@@ -297,12 +297,12 @@ def integrate_stage_body(b, dt, g, a_base, params: ti.template(), model_mass: ti
 
 @ti.kernel
 def advance_serial(
-    n_steps: ti.i32, n_pairs: ti.i32, dt: ti.f64, loads: nd(dtype=vec3, ndim=2),
-    params: nd(dtype=ti.f64, ndim=1), flags: nd(dtype=ti.i32, ndim=1),
-    energy: nd(dtype=ti.f64, ndim=1),
-    model_half: nd(dtype=vec3, ndim=1), model_mass: nd(dtype=ti.f64, ndim=1),
-    model_inv_mass: nd(dtype=ti.f64, ndim=1), model_inv_inertia: nd(dtype=vec3, ndim=1),
-    model_radius: nd(dtype=ti.f64, ndim=1), model_material: nd(dtype=ti.i32, ndim=1),
+    n_steps: ti.i32, n_pairs: ti.i32, dt: float, loads: nd(dtype=vec3, ndim=2),
+    params: nd(ndim=1), flags: nd(dtype=ti.i32, ndim=1),
+    energy: nd(ndim=1),
+    model_half: nd(dtype=vec3, ndim=1), model_mass: nd(ndim=1),
+    model_inv_mass: nd(ndim=1), model_inv_inertia: nd(dtype=vec3, ndim=1),
+    model_radius: nd(ndim=1), model_material: nd(dtype=ti.i32, ndim=1),
     model_mat_pair: nd(dtype=vec4, ndim=2),
     st_pos: nd(dtype=vec3, ndim=1), st_quat: nd(dtype=vec4, ndim=1),
     st_vel: nd(dtype=vec3, ndim=1), st_angmom: nd(dtype=vec3, ndim=1),
@@ -313,8 +313,8 @@ def advance_serial(
     c_ref_quat: nd(dtype=vec4, ndim=1), c_code: nd(dtype=ti.i32, ndim=1),
     c_npts: nd(dtype=ti.i32, ndim=1), c_normal: nd(dtype=vec3, ndim=1),
     c_loc: nd(dtype=vec3, ndim=2), c_shear: nd(dtype=vec3, ndim=2),
-    c_point: nd(dtype=vec3, ndim=2), c_depth: nd(dtype=ti.f64, ndim=2),
-    c_area: nd(dtype=ti.f64, ndim=2), c_fn: nd(dtype=ti.f64, ndim=2),
+    c_point: nd(dtype=vec3, ndim=2), c_depth: nd(ndim=2),
+    c_area: nd(ndim=2), c_fn: nd(ndim=2),
     c_ft: nd(dtype=vec3, ndim=2), c_wrench: nd(dtype=vec3, ndim=2),
 ):
     """Run up to n_steps steps on one thread; stop after a step that raised a flag.
@@ -341,12 +341,12 @@ def advance_serial(
 
 @ti.kernel
 def advance_parallel(
-    n_pairs: ti.i32, n_bodies: ti.i32, dt: ti.f64, loads: nd(dtype=vec3, ndim=2),
-    params: nd(dtype=ti.f64, ndim=1), flags: nd(dtype=ti.i32, ndim=1),
-    energy: nd(dtype=ti.f64, ndim=1),
-    model_half: nd(dtype=vec3, ndim=1), model_mass: nd(dtype=ti.f64, ndim=1),
-    model_inv_mass: nd(dtype=ti.f64, ndim=1), model_inv_inertia: nd(dtype=vec3, ndim=1),
-    model_radius: nd(dtype=ti.f64, ndim=1), model_material: nd(dtype=ti.i32, ndim=1),
+    n_pairs: ti.i32, n_bodies: ti.i32, dt: float, loads: nd(dtype=vec3, ndim=2),
+    params: nd(ndim=1), flags: nd(dtype=ti.i32, ndim=1),
+    energy: nd(ndim=1),
+    model_half: nd(dtype=vec3, ndim=1), model_mass: nd(ndim=1),
+    model_inv_mass: nd(ndim=1), model_inv_inertia: nd(dtype=vec3, ndim=1),
+    model_radius: nd(ndim=1), model_material: nd(dtype=ti.i32, ndim=1),
     model_mat_pair: nd(dtype=vec4, ndim=2),
     st_pos: nd(dtype=vec3, ndim=1), st_quat: nd(dtype=vec4, ndim=1),
     st_vel: nd(dtype=vec3, ndim=1), st_angmom: nd(dtype=vec3, ndim=1),
@@ -357,8 +357,8 @@ def advance_parallel(
     c_ref_quat: nd(dtype=vec4, ndim=1), c_code: nd(dtype=ti.i32, ndim=1),
     c_npts: nd(dtype=ti.i32, ndim=1), c_normal: nd(dtype=vec3, ndim=1),
     c_loc: nd(dtype=vec3, ndim=2), c_shear: nd(dtype=vec3, ndim=2),
-    c_point: nd(dtype=vec3, ndim=2), c_depth: nd(dtype=ti.f64, ndim=2),
-    c_area: nd(dtype=ti.f64, ndim=2), c_fn: nd(dtype=ti.f64, ndim=2),
+    c_point: nd(dtype=vec3, ndim=2), c_depth: nd(ndim=2),
+    c_area: nd(ndim=2), c_fn: nd(ndim=2),
     c_ft: nd(dtype=vec3, ndim=2), c_wrench: nd(dtype=vec3, ndim=2),
 ):
     """One step (loads[0]) as two parallel loops, over pairs then over bodies.
@@ -380,7 +380,7 @@ def advance_parallel(
 
 @ti.kernel
 def probe_contacts(
-    n_pairs: ti.i32, out_depth: nd(dtype=ti.f64, ndim=1),
+    n_pairs: ti.i32, out_depth: nd(ndim=1),
     model_half: nd(dtype=vec3, ndim=1), st_pos: nd(dtype=vec3, ndim=1),
     st_rot: nd(dtype=ti.math.mat3, ndim=1), c_pairs: nd(dtype=ti.math.ivec2, ndim=1),
 ):
@@ -409,8 +409,8 @@ def probe_contacts(
 def elastic_energy(n_pairs: ti.i32, model_material: nd(dtype=ti.i32, ndim=1),
                    model_mat_pair: nd(dtype=vec4, ndim=2),
                    c_pairs: nd(dtype=ti.math.ivec2, ndim=1), c_npts: nd(dtype=ti.i32, ndim=1),
-                   c_depth: nd(dtype=ti.f64, ndim=2), c_area: nd(dtype=ti.f64, ndim=2),
-                   c_shear: nd(dtype=vec3, ndim=2)) -> ti.f64:
+                   c_depth: nd(ndim=2), c_area: nd(ndim=2),
+                   c_shear: nd(dtype=vec3, ndim=2)) -> float:
     """Energy stored in the joint springs (J): sum of kn A d^2 / 2 + ks A |u|^2 / 2."""
     e = 0.0
     for p in range(n_pairs):
