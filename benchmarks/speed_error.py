@@ -1,0 +1,267 @@
+"""What each solver knob buys and costs (issue 7): speed against error, on a tilt case and a
+Model II shake case.
+
+    python benchmarks/speed_error.py                  # all knobs, both cases (~1-2 h, 2 cores)
+    python benchmarks/speed_error.py --case tilt-ip   # one case
+    python benchmarks/speed_error.py --report         # rebuild the table/plot from the saved json
+
+Cases (short versions of the thesis runs, so that every knob can be tried):
+  tilt-ip   in-plane small-brick wall 5 x 7 (38 blocks), brought smoothly to 30 deg in 1 s, then
+            2 deg/s; result: collapse load factor lambda
+  tilt-oop  out-of-plane large-brick facade 5 x 9 without wings (49 blocks), 2 deg/s from 0;
+            result: lambda
+  shake-m2  Model II (217 blocks), y, 2.8 Hz, 1.53 m/s2 (thesis group 3), 4 cycles; result:
+            amplitude and phase (first harmonic over the last two cycles) of the displacement
+            of the facade's top-centre instrument (ds-centre) relative to the table
+Every variant runs in a fresh process (thread count and precision are per process) and reports
+wall-clock, CPU time (the machine is shared: CPU time is the steadier figure), brick-steps per
+second and its error against the converged reference of its case (same physical parameters,
+safety 0.05, i.e. dt 4x smaller than the default, f64).  Joint stiffness and damping are physical
+parameters: their rows show how much the result depends on them, not a numerical error.
+Writes benchmarks/speed_error.json, benchmarks/speed_error.md and benchmarks/speed_error.png.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import subprocess
+import sys
+import time
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent
+
+CASES = {
+    "tilt-ip": {
+        "name": "tilt-ip", "scene": {"wall": {"brick": "small", "length": 5, "courses": 7}},
+        "material": {"friction": 0.81, "base_friction": 1.5},
+        "loading": {"type": "tilt", "axis": "y", "rate": 2.0, "start_angle": 30.0,
+                    "start_time": 1.0, "max_angle": 45.0, "collapse": {"after": 0.3}},
+        "run": {"duration": 8.5, "output_interval": 0.01, "vtk": False, "snapshot": False},
+    },
+    "tilt-oop": {
+        "name": "tilt-oop", "scene": {"facade": {"brick": "large", "length": 5, "courses": 9}},
+        "material": {"friction": 0.56},
+        "loading": {"type": "tilt", "axis": "x", "rate": 2.0, "max_angle": 30.0,
+                    "collapse": {"after": 0.3}},
+        "run": {"duration": 8.0, "output_interval": 0.01, "vtk": False, "snapshot": False},
+    },
+    "shake-m2": {
+        "name": "shake-m2", "scene": {"box_model": {"model": "II"}},
+        "material": {"friction": 0.81, "base_friction": 1.5},
+        "loading": {"type": "shake", "direction": [0, 1, 0], "frequency": 2.8,
+                    "peak_acceleration": 1.53, "cycles": 4},
+        "run": {"duration": 4 / 2.8, "output_interval": 0.02, "vtk": False, "snapshot": False},
+    },
+}
+
+# variant name -> changes (dotted keys); "reference" is the converged run of each case
+VARIANTS = {
+    "reference": {"solver.safety": 0.05},
+    "default": {},
+    "safety 0.1": {"solver.safety": 0.1},
+    "safety 0.3": {"solver.safety": 0.3},
+    "safety 0.4": {"solver.safety": 0.4},
+    "safety 0.6": {"solver.safety": 0.6},
+    "kn 2e9": {"material.normal_stiffness": 2e9},
+    "kn 1e10": {"material.normal_stiffness": 1e10},
+    "kn 2e10": {"material.normal_stiffness": 2e10},
+    "damping 0.1": {"material.damping": 0.1},
+    "damping 0.3": {"material.damping": 0.3},
+    "damping 0.7": {"material.damping": 0.7},
+    "output 0.002 s": {"run.output_interval": 0.002},
+    "output 0.05 s": {"run.output_interval": 0.05},
+    "skin x0.3": {"solver.skin_factor": 0.3},
+    "skin x3": {"solver.skin_factor": 3.0},
+    "f32": {"solver.precision": "f32"},
+    "parallel kernel, 2 threads": {"solver.mode": "parallel", "solver.threads": 2},
+    "parallel kernel, 1 thread": {"solver.mode": "parallel", "solver.threads": 1},
+}
+
+
+def _apply(case: dict, changes: dict) -> dict:
+    case = json.loads(json.dumps(case))
+    for key, value in changes.items():
+        if key == "solver.skin_factor":
+            continue  # resolved in the child (needs the default skin)
+        node = case
+        *path, last = key.split(".")
+        for p in path:
+            node = node.setdefault(p, {})
+        node[last] = value
+    return case
+
+
+def run_variant(case_dict: dict, changes: dict) -> dict:
+    """Child-process body: run one variant, return timing and result."""
+    from dem.case import parse_case
+    from dem.runner import simulate
+
+    case = parse_case(_apply(case_dict, changes))
+    if "solver.skin_factor" in changes:
+        from dem.scene import scene_from_case
+
+        sc = scene_from_case(case, check=False)
+        case.solver.skin = changes["solver.skin_factor"] * 0.1 * float(0.5 * sc.size.min())
+    cpu0 = resource.getrusage(resource.RUSAGE_SELF)
+    t0 = time.perf_counter()
+    res = simulate(case, progress=False)
+    wall = time.perf_counter() - t0
+    cpu1 = resource.getrusage(resource.RUSAGE_SELF)
+    s = res.summary
+    run_s = wall - s["compile_seconds"]
+    cpu = (cpu1.ru_utime - cpu0.ru_utime) + (cpu1.ru_stime - cpu0.ru_stime)
+    out = {"wall_s": wall, "run_s": run_s, "cpu_s": cpu, "compile_s": s["compile_seconds"],
+           "steps": s["steps"], "n_blocks": s["n_blocks"], "dt": s["dt"],
+           "brick_steps_per_s": s["n_blocks"] * s["steps"] / run_s, "status": s["status"],
+           "energy_gain_rel": s["energy"]["gain"] / max(abs(s["energy"]["work_gravity"])
+                                                        + abs(s["energy"]["work_base"]), 1e-30)}
+    if "collapse" in s:
+        out["lambda"] = s["collapse"].get("load_factor")
+    if case.loading.type == "shake":
+        out.update(_top_response(res, case))
+    return out
+
+
+def _top_response(res, case) -> dict:
+    """Amplitude (m) and phase (deg) of ds-centre, first harmonic over the last two cycles."""
+    from dem.instruments import InstrumentRecorder, thesis_instruments
+
+    # instruments.npz is only written with an output dir; recompute ds-centre from the frames
+    inst = [i for i in thesis_instruments(res.scene, "y") if i.name == "ds-centre"][0]
+    rec = InstrumentRecorder([inst], res.scene)
+    for k in range(len(res.t)):
+        rec.sample(res.t[k], res.pos[k], res.quat[k], res.vel[k], np.zeros_like(res.vel[k]),
+                   np.zeros(3), np.zeros(3))
+    t = np.asarray(rec.rows["t"])
+    y = np.asarray(rec.rows["disp"])[:, 0, 1]
+    f = case.loading.frequency
+    m = t >= t[-1] - 2.0 / f
+    w = 2 * np.pi * f
+    A = np.column_stack([np.ones(m.sum()), t[m], np.sin(w * t[m]), np.cos(w * t[m])])
+    c = np.linalg.lstsq(A, y[m], rcond=None)[0]
+    return {"amplitude_m": float(np.hypot(c[2], c[3])),
+            "phase_deg": float(np.degrees(np.arctan2(c[3], c[2])))}
+
+
+def _child(case_name: str, variant: str) -> dict:
+    env = dict(os.environ)
+    threads = VARIANTS[variant].get("solver.threads")
+    env["DEM_THREADS"] = str(threads or 1)
+    code = (f"import json, sys; sys.path.insert(0, {str(HERE)!r}); "
+            f"from speed_error import run_variant, CASES, VARIANTS; "
+            f"print('RESULT', json.dumps(run_variant(CASES[{case_name!r}], "
+            f"VARIANTS[{variant!r}])))")
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
+                         cwd=ROOT)
+    for line in out.stdout.splitlines():
+        if line.startswith("RESULT "):
+            return {"case": case_name, "variant": variant, **json.loads(line[7:])}
+    return {"case": case_name, "variant": variant, "status": "failed",
+            "error": out.stderr[-1500:]}
+
+
+def _errors(rows: list[dict]) -> None:
+    """Add the error of every row against its case's reference."""
+    ref = {r["case"]: r for r in rows if r["variant"] == "reference" and r.get("status") == "ok"}
+    for r in rows:
+        R = ref.get(r["case"])
+        if R is None or r.get("status") != "ok":
+            continue
+        if "lambda" in r and r["lambda"] is not None and R.get("lambda"):
+            r["error"] = abs(r["lambda"] - R["lambda"]) / R["lambda"]
+        if "amplitude_m" in r and R.get("amplitude_m"):
+            r["error"] = abs(r["amplitude_m"] - R["amplitude_m"]) / R["amplitude_m"]
+            dphi = (r["phase_deg"] - R["phase_deg"] + 180) % 360 - 180
+            r["phase_error_deg"] = abs(dphi)
+
+
+def report(rows: list[dict]) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    _errors(rows)
+    lines = ["# Speed against error (issue 7)", "",
+             "Command: `python benchmarks/speed_error.py` (this file is written by it).  "
+             "Machine: the project's 2-core test machine (shared; CPU time is the steadier "
+             "figure).  Error: relative to the converged reference of each case (safety 0.05); "
+             "tilt: collapse load factor; shake: amplitude of the facade top-centre displacement "
+             "relative to the table (phase error in degrees).  kn and damping rows are physical "
+             "parameters (dependence, not numerical error).", ""]
+    fig, axs = plt.subplots(1, len(CASES), figsize=(5 * len(CASES), 4))
+    for ax, case in zip(np.atleast_1d(axs), CASES):
+        sub = [r for r in rows if r["case"] == case]
+        if not sub:
+            continue
+        res_key = "amplitude_m" if case.startswith("shake") else "lambda"
+        lines += [f"## {case}", "",
+                  f"| variant | dt (s) | wall (s) | CPU (s) | brick-steps/s (CPU) | "
+                  f"{'amplitude (mm)' if res_key == 'amplitude_m' else 'lambda'} | error "
+                  f"{'| phase error (deg) ' if res_key == 'amplitude_m' else ''}| energy gain |",
+                  "|---|---|---|---|---|---|---|" + ("---|" if res_key == "amplitude_m" else "")]
+        for r in sub:
+            if r.get("status") != "ok":
+                lines.append(f"| {r['variant']} | failed: {r.get('error', '')[-120:]!r} |")
+                continue
+            val = r.get(res_key)
+            val_s = (f"{1e3 * val:.4f}" if res_key == "amplitude_m" else f"{val:.4f}") \
+                if val is not None else "-"
+            err = r.get("error")
+            bps = r["n_blocks"] * r["steps"] / max(r["cpu_s"] - r["compile_s"], 1e-9)
+            lines.append(
+                f"| {r['variant']} | {r['dt']:.3g} | {r['wall_s']:.0f} | {r['cpu_s']:.0f} | "
+                f"{bps:.3g} | {val_s} | {f'{100 * err:.2f} %' if err is not None else '-'} "
+                + (f"| {r.get('phase_error_deg', 0):.2f} " if res_key == "amplitude_m" else "")
+                + f"| {r['energy_gain_rel']:.1e} |")
+            if err is not None and r["variant"] != "reference":
+                ax.scatter(r["cpu_s"], max(err, 1e-5), s=14)
+                ax.annotate(r["variant"], (r["cpu_s"], max(err, 1e-5)), fontsize=6)
+        lines.append("")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("CPU time (s)")
+        ax.set_ylabel("relative error")
+        ax.set_title(case)
+    fig.tight_layout()
+    fig.savefig(HERE / "speed_error.png", dpi=120)
+    lines += ["![speed vs error](speed_error.png)", ""]
+    (HERE / "speed_error.md").write_text("\n".join(lines))
+    (HERE / "speed_error.json").write_text(json.dumps(rows, indent=1))
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+    ap.add_argument("--case", action="append", choices=list(CASES))
+    ap.add_argument("--variant", action="append", choices=list(VARIANTS))
+    ap.add_argument("--jobs", type=int, default=2, help="variants run at once (one core each)")
+    ap.add_argument("--report", action="store_true", help="only rebuild from speed_error.json")
+    args = ap.parse_args()
+    path = HERE / "speed_error.json"
+    rows = json.loads(path.read_text()) if path.exists() else []
+    if not args.report:
+        todo = [(c, v) for c in (args.case or CASES) for v in (args.variant or VARIANTS)]
+        done_keys = {(r["case"], r["variant"]) for r in rows}
+        rows = [r for r in rows if (r["case"], r["variant"]) not in set(todo)]
+        del done_keys
+        print(f"{len(todo)} runs, {args.jobs} at a time", flush=True)
+        with ThreadPoolExecutor(args.jobs) as pool:
+            for r in pool.map(lambda cv: _child(*cv), todo):
+                print(f"{r['case']:9s} {r['variant']:28s} {r.get('status')} "
+                      f"wall {r.get('wall_s', 0):.0f} s  lambda {r.get('lambda')} "
+                      f"amp {r.get('amplitude_m')}", flush=True)
+                rows.append(r)
+                path.write_text(json.dumps(rows, indent=1))
+    report(rows)
+
+
+if __name__ == "__main__":
+    main()
