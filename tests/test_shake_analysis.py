@@ -352,7 +352,7 @@ def test_dem_sweep_survives_a_failed_point_and_dem_post_reaggregates(tmp_path):
     out = tmp_path / "sweep"
     r = CliRunner().invoke(app, ["sweep", str(case), "--out", str(out), "--frequencies", "3,4",
                                  "--range", "20:20:1", "--margin", "0", "--workers", "2",
-                                 "--max-steps", "40000"])
+                                 "--max-steps", "400000"])
     assert r.exit_code == 1, r.output
     assert "FAILED" in r.output and "20 Hz" in r.output
     data = json.loads((out / "sweep.json").read_text())
