@@ -1,4 +1,5 @@
-"""Stability suite of hard cases (issue 7): run with ``pytest -m stability`` (about 7 min on the 2-core machine).
+"""Stability suite of hard cases (issue 7): run with ``pytest -m stability`` (about 7 min on the
+2-core machine).
 
 Every case must finish without NaN (the engine stops a run on NaN or runaway speed), without
 energy beyond what the loads supplied (kinetic + elastic - initial - work of gravity and of the
