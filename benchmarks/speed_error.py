@@ -183,6 +183,28 @@ def _errors(rows: list[dict]) -> None:
             r["phase_error_deg"] = abs(dphi)
 
 
+DEFAULTS = """## The defaults and why (dem/case.py)
+
+* `solver.safety` 0.3: every step from 0.05 to 0.4 gives the reference's result (tilt lambda to
+  0.0 % and 0.5 %, the Model II amplitude to 0.05 %, its phase to 0.01 deg): the error left is
+  the collapse detection's, not the integrator's.  0.6 breaks the out-of-plane tilt (the resting
+  facade jitters and is taken as collapsing at once, lambda = 0).  0.3 is the fastest setting
+  with a factor 2 of margin below that failure; `pytest -m stability` passes at it.
+* `material.normal_stiffness` 5e9 Pa/m, `shear_stiffness` 0.4 kn, `damping` 0.5: physical
+  parameters, chosen once for every model on physical grounds (docs/engine.md), not from these
+  tables.  What they cost: lambda moves 1.5-6 % per factor 2 of kn (the elastic joints let the
+  walls lean before they go), and Model II's sub-rocking response is the elastic deformation of
+  the joints, so its amplitude goes as 1/kn.  A stiffer joint also costs dt ~ 1/sqrt(kn).
+* `run.output_interval` 0.01 s and the neighbour-list skin (0.05 of the smallest edge): no effect
+  on the results beyond the resolution of the collapse time by the frames (0.05 s: 0.3 %);
+  frames every 0.002 s cost 10-30 % more time.
+* f64: f32 is not faster (the contact stage is latency-bound, not memory-bound) and it is wrong:
+  the resting walls jitter, energy is created, lambda is 10 % and 40 % low.
+* Serial kernel: the parallel (per-step) kernel is 3-20 x slower at these sizes, on 1 or 2
+  threads (launch overhead per step; it is used from 4000 blocks, PARALLEL_MIN_BODIES).
+* Not built: sleeping blocks and a planar mode (nothing to measure for them here)."""
+
+
 def report(rows: list[dict]) -> None:
     import matplotlib
 
@@ -196,7 +218,7 @@ def report(rows: list[dict]) -> None:
              "figure).  Error: relative to the converged reference of each case (safety 0.05); "
              "tilt: collapse load factor; shake: amplitude of the facade top-centre displacement "
              "relative to the table (phase error in degrees).  kn and damping rows are physical "
-             "parameters (dependence, not numerical error).", ""]
+             "parameters (dependence, not numerical error).", "", DEFAULTS, ""]
     fig, axs = plt.subplots(1, len(CASES), figsize=(5 * len(CASES), 4))
     for ax, case in zip(np.atleast_1d(axs), CASES):
         sub = [r for r in rows if r["case"] == case]
