@@ -86,3 +86,27 @@ def in_plane_limit(mu: float, s_over_h: float, l_over_h: float, n: int = 20001) 
         mech = "sliding" if ls < lo else "overturning"
     return LimitAnalysis(ls, float(np.degrees(alpha[i_s])), lo, float(np.degrees(alpha[i_o])),
                          lc, mech)
+
+
+def elastic_tipping_factor(b: float, h: float, density: float, kn: float,
+                           g: float = 9.81) -> float:
+    """Load factor tan(theta) at which a block (or a wall tipping as one body about its base) of
+    thickness b [m] in the tipping direction, height h [m] and density [kg/m3] tips on a penalty
+    joint of normal stiffness kn [Pa/m] (docs/engine.md section 5):
+
+        tan theta = b/h - (6 rho g b cos theta / (kn h))^(1/3)
+
+    (the rigid value b/h minus the rotation the elastic joint allows before the heel lifts and
+    the triangular pressure block runs out of width).  Solved by fixed-point iteration on theta
+    (the offset depends on theta through cos theta only: a contraction).
+    """
+    if min(b, h, density, kn) <= 0:
+        raise ValueError("b, h, density and kn must be > 0")
+    lam = b / h
+    for _ in range(50):
+        cos_t = 1.0 / np.sqrt(1.0 + lam * lam)
+        new = b / h - (6.0 * density * g * b * cos_t / (kn * h)) ** (1.0 / 3.0)
+        if abs(new - lam) < 1e-14:
+            break
+        lam = new
+    return float(lam)

@@ -47,3 +47,21 @@ def test_thesis_worked_example(l_over_h, overturning, mechanism):
     assert la.lambda_overturning == pytest.approx(overturning, abs=0.035)
     assert la.mechanism == mechanism
     assert la.alpha_overturning_deg == pytest.approx(56.3, abs=0.5)
+
+
+def test_elastic_tipping_factor_limits_and_equation():
+    """docs/engine.md section 5: rigid limit b/h; the root satisfies its equation; a 2000 kg/m3
+    block 0.1 x 0.3 m loses 0.020 of b/h at kn = 5e9 Pa/m and 0.0033 at 1e12 (the cube root:
+    the offset scales as kn^(-1/3))."""
+    from postprocess.limit_analysis import elastic_tipping_factor
+
+    b, h, rho = 0.1, 0.3, 2000.0
+    assert elastic_tipping_factor(b, h, rho, 1e20) == pytest.approx(b / h, abs=1e-5)
+    for kn, offset in ((5e9, 0.020), (1e12, 0.0033)):
+        lam = elastic_tipping_factor(b, h, rho, kn)
+        cos_t = 1 / np.sqrt(1 + lam**2)
+        assert lam == pytest.approx(b / h - (6 * rho * 9.81 * b * cos_t / (kn * h)) ** (1 / 3),
+                                    abs=1e-12)
+        assert b / h - lam == pytest.approx(offset, rel=0.03)
+    with pytest.raises(ValueError):
+        elastic_tipping_factor(b, -h, rho, 5e9)
