@@ -238,10 +238,6 @@ def simulate(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
         summary["n_pairs"] = sim.contacts.n_pairs
         summary["n_contact_points"] = int(sim.contacts.npts[: sim.contacts.n_pairs].sum())
         summary["energy"] = sim.energy_report()
-        e = summary["energy"]
-        # energy beyond what the loads supplied (J): > 0 would mean the scheme created energy
-        summary["energy"]["gain"] = (e["kinetic"] + e["elastic"] - e["initial"]
-                                     - e["work_gravity"] - e["work_base"])
         summary["max_penetration_m"] = deepest["depth"]
         summary["max_penetration_time_s"] = deepest["t"]
         if detector is not None and rec.cols["t"]:

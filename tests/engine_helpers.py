@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from dem.builders import build_wall
 from dem.case import parse_case
 from dem.engine import Simulation
 from dem.scene import blocks_to_scene
@@ -65,30 +66,12 @@ def rotation_angle(quat, quat0):
     return 2.0 * np.arccos(np.clip(c, 0.0, 1.0))
 
 
-def stretcher_wall(n_bricks=9, n_courses=15, L=0.105, T=0.05, H=0.035, mass=0.336):
-    """Dry stretcher-bond wall laid flat along x, half bricks at the ends of every other course.
-
-    Counted by hand: odd courses (1st, 3rd ...) n_bricks full bricks, even courses
-    n_bricks - 1 full + 2 halves; 9 x 15 gives 8 * 9 + 7 * 10 = 142 blocks.
-    """
-    blocks = []
-    for c in range(n_courses):
-        z = (c + 0.5) * H
-        if c % 2 == 0:
-            for k in range(n_bricks):
-                blocks.append({"size": [L, T, H], "position": [(k + 0.5) * L, 0.0, z],
-                               "mass": mass})
-        else:
-            blocks.append({"size": [L / 2, T, H], "position": [L / 4, 0.0, z], "mass": mass / 2})
-            for k in range(n_bricks - 1):
-                blocks.append({"size": [L, T, H], "position": [(k + 1) * L, 0.0, z],
-                               "mass": mass})
-            blocks.append({"size": [L / 2, T, H], "position": [n_bricks * L - L / 4, 0.0, z],
-                           "mass": mass / 2})
-    return blocks
-
-
-def energy_gain(sim):
-    """Mechanical energy beyond what the loads supplied (J); > 0 means energy was created."""
-    e = sim.energy_report()
-    return e["kinetic"] + e["elastic"] - e["initial"] - e["work_gravity"] - e["work_base"]
+def stretcher_wall(n_bricks=9, n_courses=15):
+    """The builder's small-brick stretcher-bond wall (dem.builders.build_wall: half bricks at the
+    ends of every other course, 9 x 15 = 142 blocks, counts tested in test_builders.py) as
+    explicit block dicts, shifted so that the wall starts at x = 0."""
+    wall = build_wall("small", length=n_bricks, courses=n_courses)
+    assert np.allclose(wall.quat, [1.0, 0.0, 0.0, 0.0])  # laid flat, axis-aligned
+    pos = wall.position - [(wall.position[:, 0] - 0.5 * wall.size[:, 0]).min(), 0.0, 0.0]
+    return [{"size": sz.tolist(), "position": p.tolist(), "mass": float(m)}
+            for sz, p, m in zip(wall.size, pos, wall.mass)]

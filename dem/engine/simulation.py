@@ -279,9 +279,10 @@ class Simulation:
     def energy_report(self) -> dict[str, float]:
         """Energy balance since t = 0 (J).
 
-        kinetic + elastic - initial = work_gravity + work_base - dissipation - residual, where
+        kinetic + elastic - initial = work_gravity + work_base - dissipation + residual, where
         ``residual`` is what the explicit scheme created (> 0) or lost beyond the modelled
-        dissipation (< 0); it is the number to watch.
+        dissipation (< 0); ``gain`` = kinetic + elastic - initial - work supplied is the energy
+        beyond what the loads supplied (> 0: the scheme created energy).
         """
         e = self.energy
         kin = self.kinetic_energy()
@@ -301,6 +302,7 @@ class Simulation:
             "dissipated_friction": float(e[stepk.E_FRICTION]),
             "dissipated_local_damping": float(e[stepk.E_LOCAL_DAMPING]),
             "residual": float(residual),
+            "gain": float(kin + el - self.energy_initial - supplied),
         }
 
 
