@@ -55,8 +55,7 @@ def _measure(length, courses, mode, steps, repeats):
         rates.append(steps * sim.n_blocks / (time.perf_counter() - t1))
         cpu_rates.append(steps * sim.n_blocks / (time.process_time() - c1))
     c = sim.contacts
-    nbytes = sum(a.nbytes for obj in (sim.model, sim.state, c) for a in vars(obj).values()
-                 if hasattr(a, "nbytes"))
+    nbytes = sum(obj.nbytes() for obj in (sim.model, sim.state, c, sim.control))
     return {
         "blocks": sim.n_blocks, "mode": sim.mode, "pairs": c.n_pairs,
         "contact_points": int(c.npts[: c.n_pairs].sum()), "dt": sim.dt,
@@ -82,101 +81,76 @@ def _stages(repeats):
     g = np.array([0.0, 0.0, -9.81])
     loads = lambda t: (np.tile(g, (len(t), 1)), np.zeros((len(t), 3)))  # noqa: E731
     sim.advance(500, loads)
-    nd = ti.types.ndarray
-    vec3 = ti.math.vec3
+
+    from dem.engine.containers import ContactArgs, ControlArgs, ModelArgs, StateArgs
 
     @ti.kernel
-    def sat(reps: ti.i32, n_pairs: ti.i32, half: nd(dtype=vec3, ndim=1),
-            pos: nd(dtype=vec3, ndim=1), rot: nd(dtype=ti.math.mat3, ndim=1),
-            pairs: nd(dtype=ti.math.ivec2, ndim=1), codes: nd(dtype=ti.i32, ndim=1)) -> ti.f64:
+    def sat(reps: ti.i32, n_pairs: ti.i32, model: ModelArgs, state: StateArgs,
+            contacts: ContactArgs) -> ti.f64:
         acc = 0.0
         ti.loop_config(serialize=True)
         for _ in range(reps):
             for p in range(n_pairs):
-                i, j = pairs[p][0], pairs[p][1]
-                hmin = ti.min(half[i].min(), half[j].min())
-                ov = geometry.sat_overlaps(pos[i], rot[i], half[i], pos[j], rot[j], half[j])
-                code, smallest = geometry.choose_axis(ov, codes[p], 1e-3 * hmin)
-                acc += code + smallest
+                i, j = contacts.pairs[p][0], contacts.pairs[p][1]
+                hmin = ti.min(model.half[i].min(), model.half[j].min())
+                ov = geometry.sat_overlaps(state.pos[i], state.rot[i], model.half[i],
+                                           state.pos[j], state.rot[j], model.half[j])
+                axis, smallest = geometry.choose_axis(ov, contacts.code[p], 1e-3 * hmin)
+                acc += axis + smallest
         return acc
 
     @ti.kernel
-    def narrow(reps: ti.i32, n_pairs: ti.i32, half: nd(dtype=vec3, ndim=1),
-               pos: nd(dtype=vec3, ndim=1), rot: nd(dtype=ti.math.mat3, ndim=1),
-               pairs: nd(dtype=ti.math.ivec2, ndim=1), codes: nd(dtype=ti.i32, ndim=1)) -> ti.f64:
+    def narrow(reps: ti.i32, n_pairs: ti.i32, model: ModelArgs, state: StateArgs,
+               contacts: ContactArgs) -> ti.f64:
         acc = 0.0
         ti.loop_config(serialize=True)
         for _ in range(reps):
             for p in range(n_pairs):
-                i, j = pairs[p][0], pairs[p][1]
-                hmin = ti.min(half[i].min(), half[j].min())
-                px = geometry.VP(0.0)
-                py = geometry.VP(0.0)
-                pz = geometry.VP(0.0)
-                dep = geometry.VP(0.0)
-                w = geometry.VP(0.0)
-                code, n, npts, shrink, centroid = geometry.box_contact(
-                    pos[i], rot[i], half[i], pos[j], rot[j], half[j], codes[p], 1e-3 * hmin,
-                    hmin * hmin, px, py, pz, dep, w)
-                for q in range(npts):
+                i, j = contacts.pairs[p][0], contacts.pairs[p][1]
+                hmin = ti.min(model.half[i].min(), model.half[j].min())
+                px = geometry.point_buffer()
+                py = geometry.point_buffer()
+                pz = geometry.point_buffer()
+                dep = geometry.point_buffer()
+                w = geometry.point_buffer()
+                axis, n, n_points, shrink, centroid = geometry.box_contact(
+                    state.pos[i], state.rot[i], model.half[i], state.pos[j], state.rot[j],
+                    model.half[j], contacts.code[p], 1e-3 * hmin, hmin * hmin, px, py, pz,
+                    dep, w)
+                for q in range(n_points):
                     acc += px[q] + py[q] + pz[q] + dep[q] * w[q]
-                acc += code + n[0] + shrink + centroid[2]
+                acc += axis + n[0] + shrink + centroid[2]
         return acc
 
     @ti.kernel
-    def contact(reps: ti.i32, n_pairs: ti.i32, dt: ti.f64, energy: nd(dtype=ti.f64, ndim=1),
-                half: nd(dtype=vec3, ndim=1), inv_mass: nd(dtype=ti.f64, ndim=1),
-                material: nd(dtype=ti.i32, ndim=1), mat_pair: nd(dtype=ti.math.vec4, ndim=2),
-                pos: nd(dtype=vec3, ndim=1), vel: nd(dtype=vec3, ndim=1),
-                omega: nd(dtype=vec3, ndim=1), rot: nd(dtype=ti.math.mat3, ndim=1),
-                pairs: nd(dtype=ti.math.ivec2, ndim=1), code: nd(dtype=ti.i32, ndim=1),
-                npts: nd(dtype=ti.i32, ndim=1), normal: nd(dtype=vec3, ndim=1),
-                loc: nd(dtype=vec3, ndim=2), shear: nd(dtype=vec3, ndim=2),
-                point: nd(dtype=vec3, ndim=2), depth: nd(dtype=ti.f64, ndim=2),
-                area: nd(dtype=ti.f64, ndim=2), fn: nd(dtype=ti.f64, ndim=2),
-                ft: nd(dtype=vec3, ndim=2), wrench: nd(dtype=vec3, ndim=2)):
+    def contact(reps: ti.i32, n_pairs: ti.i32, dt: ti.f64, model: ModelArgs, state: StateArgs,
+                contacts: ContactArgs, control: ControlArgs):
         ti.loop_config(serialize=True)
         for _ in range(reps):
             for p in range(n_pairs):
-                step.contact_stage_pair(p, dt, half, inv_mass, material, mat_pair, pos, vel,
-                                        omega, rot, pairs, code, npts, normal, loc, shear,
-                                        point, depth, area, fn, ft, wrench, energy)
+                step.contact_stage(p, dt, model, state, contacts, control)
 
     @ti.kernel
-    def integrate(reps: ti.i32, n_bodies: ti.i32, dt: ti.f64, g: vec3,
-                  params: nd(dtype=ti.f64, ndim=1), flags: nd(dtype=ti.i32, ndim=1),
-                  energy: nd(dtype=ti.f64, ndim=1), mass: nd(dtype=ti.f64, ndim=1),
-                  inv_mass: nd(dtype=ti.f64, ndim=1), inv_inertia: nd(dtype=vec3, ndim=1),
-                  radius: nd(dtype=ti.f64, ndim=1), pos: nd(dtype=vec3, ndim=1),
-                  quat: nd(dtype=ti.math.vec4, ndim=1), vel: nd(dtype=vec3, ndim=1),
-                  angmom: nd(dtype=vec3, ndim=1), omega: nd(dtype=vec3, ndim=1),
-                  rot: nd(dtype=ti.math.mat3, ndim=1), force: nd(dtype=vec3, ndim=1),
-                  torque: nd(dtype=vec3, ndim=1), wrench: nd(dtype=vec3, ndim=2),
-                  adj_ptr: nd(dtype=ti.i32, ndim=1), adj: nd(dtype=ti.i32, ndim=1),
-                  ref_pos: nd(dtype=vec3, ndim=1), ref_quat: nd(dtype=ti.math.vec4, ndim=1)):
+    def integrate(reps: ti.i32, n_bodies: ti.i32, dt: ti.f64, model: ModelArgs,
+                  state: StateArgs, contacts: ContactArgs, control: ControlArgs):
         ti.loop_config(serialize=True)
         for _ in range(reps):
             for b in range(n_bodies):
-                step.integrate_stage_body(b, dt, g, vec3(0.0), params, mass, inv_mass,
-                                          inv_inertia, radius, pos, quat, vel, angmom, omega,
-                                          rot, force, torque, wrench, adj_ptr, adj, ref_pos,
-                                          ref_quat, flags, energy)
+                step.integrate_stage(b, 0, dt, model, state, contacts, control)
 
+    from dem.engine.containers import Control
     m, c = sim.model, copy.deepcopy(sim.contacts)
     st = copy.deepcopy(sim.state)
+    c._args = st._args = None  # the copies need their own argpacks
+    ctl = Control(sim.skin, 50.0, 0.0)
+    ctl.loads[0, 0] = g
     P, B = c.n_pairs, m.n_bodies
-    energy, flags, params = np.zeros(8), np.zeros(4, np.int32), sim.params.copy()
     runs = {  # name: (per, reps, launch)
-        "sat": (P, 400, lambda r: sat(r, P, m.half, st.pos, st.rot, c.pairs, c.code)),
-        "narrow": (P, 200, lambda r: narrow(r, P, m.half, st.pos, st.rot, c.pairs, c.code)),
-        "contact": (P, 100, lambda r: contact(
-            r, P, sim.dt, energy, m.half, m.inv_mass, m.material, m.mat_pair, st.pos, st.vel,
-            st.omega, st.rot, c.pairs, c.code, c.npts, c.normal, c.loc, c.shear, c.point,
-            c.depth, c.area, c.fn, c.ft, c.wrench)),
-        "integrate": (B, 300, lambda r: integrate(
-            r, B, sim.dt, g, params, flags, energy, m.mass, m.inv_mass, m.inv_inertia,
-            m.radius, st.pos, st.quat, st.vel, st.angmom, st.omega, st.rot, st.force,
-            st.torque, c.wrench, c.adj_ptr, c.adj, c.ref_pos, c.ref_quat)),
+        "sat": (P, 400, lambda r: sat(r, P, m.args, st.args, c.args)),
+        "narrow": (P, 200, lambda r: narrow(r, P, m.args, st.args, c.args)),
+        "contact": (P, 100, lambda r: contact(r, P, sim.dt, m.args, st.args, c.args, ctl.args)),
+        "integrate": (B, 300, lambda r: integrate(r, B, sim.dt, m.args, st.args, c.args,
+                                                  ctl.args)),
         "step": (1, 200, lambda r: sim.advance(r, loads)),
     }
     out = {}

@@ -1,94 +1,179 @@
-"""The three containers of a simulation, one writer each (MuJoCo mjModel/mjData, Warp Model/State).
+"""The four containers of a simulation, one writer each (MuJoCo mjModel/mjData, Newton's Model /
+State / Control / Contacts).
 
-All arrays are numpy arrays passed to the kernels as ``ti.types.ndarray`` arguments: on the CPU
-Taichi uses them in place (zero copy), kernels compile once for every scene size, and the host
-reads them without the ~0.3 ms copy a Taichi ndarray costs.  Element shapes: vec3 -> [..., 3],
-vec4 -> [..., 4], mat3 -> [..., 3, 3]; ``dtype`` f64 unless noted.  Bodies are the N
-blocks of the scene in case order, followed by the table (index N), a large fixed box whose top
-face is the plane z = 0.
+Each container is a table of named fields (``FIELDS`` below: one line per field with its element
+type, shape, unit, writer and meaning; the table is the documentation, the allocation and the
+kernel signature at once: adding a field is one line here).  The fields are numpy arrays: on the
+CPU Taichi uses them in place (zero copy), so the host reads them without a copy, and kernels
+compile once for every scene size (the offline cache keeps working).  They are passed to the
+kernels as one Taichi argpack per container (``container.args``), so a kernel takes
+``(model, state, contacts, control)`` and a stage reads ``state.pos[b]``.
 
-Model (static; written once by :meth:`Model.from_scene`)
-| field        | shape        | dtype | unit    | meaning                                           |
-|--------------|--------------|-------|---------|---------------------------------------------------|
-| half         | [B] vec3     | f64   | m       | half extents along the body axes                  |
-| mass         | [B]          | f64   | kg      | (table and fixed boxes: their nominal mass)        |
-| inv_mass     | [B]          | f64   | 1/kg    | 0 for fixed bodies                                |
-| inertia      | [B] vec3     | f64   | kg m^2  | principal moments (body axes)                     |
-| inv_inertia  | [B] vec3     | f64   | 1/(kg m^2) | 0 for fixed bodies                             |
-| radius       | [B]          | f64   | m       | bounding-sphere radius |half|                      |
-| material     | [B]          | i32   | -       | 0 blocks, 1 table                                  |
-| mat_pair     | [M, M] vec4  | f64   | -, Pa/m, Pa/m, - | (mu, kn, ks, damping ratio) per material pair |
+Arrays are allocated once and only ever written in place (``a[...] = ...``): the argpacks and
+the cached launch contexts of :mod:`dem.engine.launch` hold their addresses.
 
-State (dynamic; written by the integrate stage, and by :meth:`State.from_scene` at t = 0)
-| field    | shape     | unit     | meaning                                                  |
-|----------|-----------|----------|----------------------------------------------------------|
-| pos      | [B] vec3  | m        | centre, table frame                                      |
-| quat     | [B] vec4  | -        | orientation (w, x, y, z), body -> table                  |
-| vel      | [B] vec3  | m/s      | velocity relative to the table                           |
-| angmom   | [B] vec3  | kg m^2/s | angular momentum about the centre, table frame           |
-| omega    | [B] vec3  | rad/s    | angular velocity, table frame (derived from quat, angmom) |
-| rot      | [B] mat3  | -        | rotation matrix of quat (derived)                        |
-| force    | [B] vec3  | N        | total force of the last step (diagnostic)                |
-| torque   | [B] vec3  | N m      | total torque about the centre of the last step           |
-
-Contacts (history and neighbour list)
-| field    | shape          | unit | writer      | meaning                                       |
-|----------|----------------|------|-------------|-----------------------------------------------|
-| pairs    | [P] ivec2      | -    | broad phase | body indices (i, j), i < j                    |
-| adj_ptr  | [B+1]          | -    | broad phase | CSR: pairs of body b are adj[adj_ptr[b]:adj_ptr[b+1]] |
-| adj      | [2P]           | -    | broad phase | 2 * pair + side (side 0: b is i, 1: b is j)  |
-| ref_pos  | [B] vec3       | m    | broad phase | poses at the last rebuild (skin criterion)    |
-| ref_quat | [B] vec4       | -    | broad phase |                                               |
-| code     | [P]            | -    | narrow phase| sticky contact axis (see geometry.py), -1 none |
-| npts     | [P]            | -    | narrow phase| contact points of the pair this step          |
-| normal   | [P] vec3       | -    | narrow phase| unit normal from i to j                       |
-| loc      | [P, K] vec3    | m    | contact law | point position in body i's frame (history key)|
-| shear    | [P, K] vec3    | m    | contact law | elastic shear displacement (history)          |
-| point    | [P, K] vec3    | m    | contact law | point position, table frame                   |
-| depth    | [P, K]         | m    | contact law | penetration                                   |
-| area     | [P, K]         | m^2  | contact law | tributary area (weight)                        |
-| fn       | [P, K]         | N    | contact law | normal force on j                             |
-| ft       | [P, K] vec3    | N    | contact law | shear force on j                              |
-| wrench   | [P, 3] vec3    | N, N m | contact law | force on i, torque on i, torque on j (force on j = -force on i) |
+Element types: real (the engine's floating type: f64, or f32 with solver.precision = "f32"),
+vec3 [..., 3], vec4 [..., 4], mat3 [..., 3, 3], i32, ivec2 [..., 2].  Shapes: B bodies (the N
+blocks of the scene in case order, then the table, index N: a large fixed box whose top face is
+the plane z = 0), P pair capacity, K = MAXP points per pair, S = steps per serial launch.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 import taichi as ti
 
 from dem.engine.geometry import MAXP
-from dem.ti_runtime import real_dtype
 from dem.scene import Scene
-
-vec3 = ti.math.vec3
-vec4 = ti.math.vec4
-mat3 = ti.math.mat3
-ivec2 = ti.math.ivec2
+from dem.ti_runtime import real_dtype
 
 MAT_BLOCK, MAT_TABLE = 0, 1
+SERIAL_CHUNK = 2000  # steps per launch of the serial kernel (S)
+
+# status bits (control.status)
+REBUILD = 1      # a body moved more than half the skin: rebuild the neighbour list
+NONFINITE = 2    # a body's state became NaN or inf
+RUNAWAY = 4      # a body moved faster than max_speed
+STOP = NONFINITE | RUNAWAY
 
 
-REAL = "real"  # the engine's floating type: f64, or f32 with solver.precision = "f32"
-_ELEM = {vec3: ((3,), REAL), vec4: ((4,), REAL), mat3: ((3, 3), REAL), ivec2: ((2,), np.int32),
-         REAL: ((), REAL), ti.i32: ((), np.int32)}
+@dataclass(frozen=True)
+class FieldDef:
+    name: str
+    elem: str        # real, vec3, vec4, mat3, i32, ivec2
+    dims: tuple      # symbolic: "B", "P", "K", "S", or an int
+    unit: str
+    writer: str
+    meaning: str
 
 
-def _nd(dtype, shape) -> np.ndarray:
-    """A zeroed numpy array laid out as the Taichi ndarray type ``dtype`` of ``shape``."""
-    elem, npdt = _ELEM[dtype]
-    if npdt == REAL:
-        npdt = real_dtype()
-    return np.zeros(tuple(np.atleast_1d(shape)) + elem, dtype=npdt)
+def _f(name, elem, dims, unit, writer, meaning):
+    return FieldDef(name, elem, tuple(dims), unit, writer, meaning)
 
 
-class Model:
+MODEL_FIELDS = (
+    _f("half", "vec3", "B", "m", "Model.from_scene", "half extents along the body axes"),
+    _f("mass", "real", "B", "kg", "Model.from_scene", "mass (table: a nominal 1e6)"),
+    _f("inv_mass", "real", "B", "1/kg", "Model.from_scene", "0 for fixed bodies"),
+    _f("inertia", "vec3", "B", "kg m^2", "Model.from_scene", "principal moments (body axes)"),
+    _f("inv_inertia", "vec3", "B", "1/(kg m^2)", "Model.from_scene", "0 for fixed bodies"),
+    _f("radius", "real", "B", "m", "Model.from_scene", "bounding-sphere radius |half|"),
+    _f("material", "i32", "B", "-", "Model.from_scene", "0 blocks, 1 table"),
+    _f("mat_pair", "vec4", ("M", "M"), "-, Pa/m, Pa/m, -", "Model.from_scene",
+       "(mu, kn, ks, damping ratio) per material pair, read by pair_properties"),
+)
+
+STATE_FIELDS = (
+    _f("pos", "vec3", "B", "m", "integrate_stage", "centre, table frame"),
+    _f("quat", "vec4", "B", "-", "integrate_stage", "orientation (w, x, y, z), body -> table"),
+    _f("vel", "vec3", "B", "m/s", "integrate_stage", "velocity relative to the table"),
+    _f("angmom", "vec3", "B", "kg m^2/s", "integrate_stage",
+       "angular momentum about the centre, table frame"),
+    _f("omega", "vec3", "B", "rad/s", "integrate_stage",
+       "angular velocity, table frame (derived from quat, angmom)"),
+    _f("rot", "mat3", "B", "-", "integrate_stage", "rotation matrix of quat (derived)"),
+    _f("force", "vec3", "B", "N", "integrate_stage", "total force of the last step (diagnostic)"),
+    _f("torque", "vec3", "B", "N m", "integrate_stage",
+       "total torque about the centre of the last step (diagnostic)"),
+)
+
+CONTACT_FIELDS = (
+    _f("pairs", "ivec2", "P", "-", "broad phase", "body indices (i, j), i < j"),
+    _f("adj_ptr", "i32", ("B+1",), "-", "broad phase",
+       "CSR: pairs of body b are adj[adj_ptr[b]:adj_ptr[b+1]]"),
+    _f("adj", "i32", ("2P",), "-", "broad phase", "2 * pair + side (side 0: b is i, 1: b is j)"),
+    _f("ref_pos", "vec3", "B", "m", "broad phase", "poses at the last rebuild (skin criterion)"),
+    _f("ref_quat", "vec4", "B", "-", "broad phase", "orientations at the last rebuild"),
+    _f("code", "i32", "P", "-", "narrow phase", "sticky contact axis (geometry.py), -1 none"),
+    _f("npts", "i32", "P", "-", "narrow phase", "contact points of the pair this step"),
+    _f("normal", "vec3", "P", "-", "narrow phase", "unit normal from i to j"),
+    _f("loc", "vec3", ("P", "K"), "m", "contact law", "point in body i's frame (history key)"),
+    _f("shear", "vec3", ("P", "K"), "m", "contact law", "elastic shear displacement (history)"),
+    _f("point", "vec3", ("P", "K"), "m", "contact law", "point position, table frame"),
+    _f("depth", "real", ("P", "K"), "m", "contact law", "penetration"),
+    _f("area", "real", ("P", "K"), "m^2", "contact law", "tributary area (weight)"),
+    _f("fn", "real", ("P", "K"), "N", "contact law", "normal force on j"),
+    _f("ft", "vec3", ("P", "K"), "N", "contact law", "shear force on j"),
+    _f("wrench", "vec3", ("P", 3), "N, N m", "contact law",
+       "force on i, torque on i, torque on j (force on j = -force on i)"),
+)
+
+# energy terms accumulated since t = 0 (J); the names are those of summary.json's "energy"
+ENERGY_TERMS = ("work_gravity", "work_base", "dissipated_normal_damping",
+                "dissipated_shear_damping", "dissipated_friction", "dissipated_local_damping")
+
+CONTROL_FIELDS = (
+    _f("loads", "vec3", ("S", 2), "m/s^2", "Simulation._launch",
+       "per step of a launch: (gravity, base acceleration), table frame"),
+    _f("skin", "real", (1,), "m", "Simulation", "neighbour-list skin"),
+    _f("max_speed", "real", (1,), "m/s", "Simulation", "a faster body stops the run"),
+    _f("local_damping", "real", (1,), "-", "Simulation", "Cundall local damping coefficient"),
+    _f("status", "i32", (1,), "-", "integrate_stage", "bits REBUILD | NONFINITE | RUNAWAY"),
+    _f("bad_body", "i32", (1,), "-", "integrate_stage", "a body that raised NONFINITE/RUNAWAY"),
+    _f("steps_done", "i32", (1,), "-", "advance_serial", "steps done by the last launch"),
+) + tuple(_f(name, "real", (1,), "J", "contact / integrate stages", "energy term since t = 0")
+          for name in ENERGY_TERMS)
+
+_ELEM = {"real": (None, ()), "vec3": (ti.math.vec3, (3,)), "vec4": (ti.math.vec4, (4,)),
+         "mat3": (ti.math.mat3, (3, 3)), "i32": (ti.i32, ()), "ivec2": (ti.math.ivec2, (2,))}
+
+
+def _argpack_type(fields):
+    """The Taichi argpack of a field table: one ndarray member per field.  The element types
+    only give the element shape here; the scalar type is the numpy array's (f64 or f32)."""
+    members = {}
+    for f in fields:
+        dtype, _ = _ELEM[f.elem]
+        ndim = len(f.dims)
+        members[f.name] = (ti.types.ndarray(ndim=ndim) if dtype is None
+                           else ti.types.ndarray(dtype=dtype, ndim=ndim))
+    return ti.types.argpack(**members)
+
+
+ModelArgs = _argpack_type(MODEL_FIELDS)
+StateArgs = _argpack_type(STATE_FIELDS)
+ContactArgs = _argpack_type(CONTACT_FIELDS)
+ControlArgs = _argpack_type(CONTROL_FIELDS)
+
+
+def _allocate(obj, fields, sizes: dict) -> None:
+    for f in fields:
+        shape = tuple(sizes[d] if isinstance(d, str) else d for d in f.dims)
+        _, elem_shape = _ELEM[f.elem]
+        npdt = real_dtype() if f.elem in ("real", "vec3", "vec4", "mat3") else np.int32
+        setattr(obj, f.name, np.zeros(shape + elem_shape, dtype=npdt))
+
+
+class _Container:
+    FIELDS: tuple = ()
+    ARGS = None
+
+    @property
+    def args(self):
+        """The argpack handed to the kernels (built once: the arrays never move)."""
+        if getattr(self, "_args", None) is None:
+            self._args = self.ARGS(**{f.name: getattr(self, f.name) for f in self.FIELDS})
+        return self._args
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        return {f.name: getattr(self, f.name) for f in self.FIELDS}
+
+    def nbytes(self) -> int:
+        return sum(a.nbytes for a in self.arrays().values())
+
+
+class Model(_Container):
     """Static description of the bodies and their contact materials."""
+
+    FIELDS, ARGS = MODEL_FIELDS, ModelArgs
 
     def __init__(self, half, mass, inertia, fixed, material, mat_pair, n_blocks):
         self.n_blocks = int(n_blocks)
         self.n_bodies = len(half)
         self.table = self.n_blocks
+        # float64 copies for the host (broad phase, time step, energy)
         self.half_np = np.ascontiguousarray(half, dtype=np.float64)
         self.mass_np = np.ascontiguousarray(mass, dtype=np.float64)
         self.inertia_np = np.ascontiguousarray(inertia, dtype=np.float64)
@@ -96,20 +181,15 @@ class Model:
         self.mat_pair_np = np.ascontiguousarray(mat_pair, dtype=np.float64)
         self.material_np = np.asarray(material, dtype=np.int32)
         self.radius_np = np.linalg.norm(self.half_np, axis=1)
-        inv_mass = np.where(self.fixed_np, 0.0, 1.0 / self.mass_np)
-        inv_inertia = np.where(self.fixed_np[:, None], 0.0, 1.0 / self.inertia_np)
-
-        # kernel arrays in the engine's real type (the *_np float64 copies serve the host)
-        real = real_dtype()
-        as_real = lambda a: np.ascontiguousarray(a, dtype=real)  # noqa: E731
-        self.half = as_real(self.half_np)
-        self.mass = as_real(self.mass_np)
-        self.inv_mass = as_real(inv_mass)
-        self.inertia = as_real(self.inertia_np)
-        self.inv_inertia = as_real(inv_inertia)
-        self.radius = as_real(self.radius_np)
-        self.material = self.material_np
-        self.mat_pair = as_real(self.mat_pair_np)
+        _allocate(self, MODEL_FIELDS, {"B": self.n_bodies, "M": len(self.mat_pair_np)})
+        self.half[...] = self.half_np
+        self.mass[...] = self.mass_np
+        self.inv_mass[...] = np.where(self.fixed_np, 0.0, 1.0 / self.mass_np)
+        self.inertia[...] = self.inertia_np
+        self.inv_inertia[...] = np.where(self.fixed_np[:, None], 0.0, 1.0 / self.inertia_np)
+        self.radius[...] = self.radius_np
+        self.material[...] = self.material_np
+        self.mat_pair[...] = self.mat_pair_np
 
     @classmethod
     def from_scene(cls, scene: Scene, material) -> "Model":
@@ -138,19 +218,13 @@ class Model:
         return model
 
 
-class State:
+class State(_Container):
     """Pose and velocity of every body."""
 
+    FIELDS, ARGS = STATE_FIELDS, StateArgs
+
     def __init__(self, n_bodies: int):
-        B = n_bodies
-        self.pos = _nd(vec3, B)
-        self.quat = _nd(vec4, B)
-        self.vel = _nd(vec3, B)
-        self.angmom = _nd(vec3, B)
-        self.omega = _nd(vec3, B)
-        self.rot = _nd(mat3, B)
-        self.force = _nd(vec3, B)
-        self.torque = _nd(vec3, B)
+        _allocate(self, STATE_FIELDS, {"B": n_bodies})
 
     @classmethod
     def from_scene(cls, scene: Scene, model: Model) -> "State":
@@ -179,30 +253,33 @@ class State:
                 for name in ("pos", "quat", "vel", "omega", "angmom")}
 
 
-class Contacts:
+class Control(_Container):
+    """Step control: the loads of the steps of a launch, run parameters, status flags and the
+    energy sums (J since t = 0).  Named fields, no slot numbers (CONTROL_FIELDS)."""
+
+    FIELDS, ARGS = CONTROL_FIELDS, ControlArgs
+
+    def __init__(self, skin: float, max_speed: float, local_damping: float):
+        _allocate(self, CONTROL_FIELDS, {"S": SERIAL_CHUNK})
+        self.skin[0] = skin
+        self.max_speed[0] = max_speed
+        self.local_damping[0] = local_damping
+
+    def energy(self) -> dict[str, float]:
+        return {name: float(getattr(self, name)[0]) for name in ENERGY_TERMS}
+
+
+class Contacts(_Container):
     """Neighbour list, contact points and their shear history."""
 
+    FIELDS, ARGS = CONTACT_FIELDS, ContactArgs
+
     def __init__(self, n_bodies: int, capacity: int):
-        P, B, K = int(capacity), int(n_bodies), MAXP
-        self.capacity = P
+        self.capacity = int(capacity)
         self.n_pairs = 0
-        self.pairs = _nd(ivec2, P)
-        self.adj_ptr = _nd(ti.i32, B + 1)
-        self.adj = _nd(ti.i32, 2 * P)
-        self.ref_pos = _nd(vec3, B)
-        self.ref_quat = _nd(vec4, B)
-        self.code = _nd(ti.i32, P)
-        self.npts = _nd(ti.i32, P)
-        self.normal = _nd(vec3, P)
-        self.loc = _nd(vec3, (P, K))
-        self.shear = _nd(vec3, (P, K))
-        self.point = _nd(vec3, (P, K))
-        self.depth = _nd(REAL, (P, K))
-        self.area = _nd(REAL, (P, K))
-        self.fn = _nd(REAL, (P, K))
-        self.ft = _nd(vec3, (P, K))
-        self.wrench = _nd(vec3, (P, 3))
-        self.code[...] = np.full(P, -1, dtype=np.int32)
+        _allocate(self, CONTACT_FIELDS, {"P": self.capacity, "B": int(n_bodies), "K": MAXP,
+                                         "B+1": int(n_bodies) + 1, "2P": 2 * self.capacity})
+        self.code[...] = -1
 
     # -- history transfer across neighbour-list rebuilds ------------------------------------
     HISTORY = ("code", "npts", "loc", "shear")
@@ -246,8 +323,8 @@ class Contacts:
             for name in self.HISTORY:
                 getattr(self, name)[...] = new[name]
         else:
-            self.code[...] = np.full(P, -1, dtype=np.int32)
-            self.npts[...] = np.zeros(P, dtype=np.int32)
+            self.code[...] = -1
+            self.npts[...] = 0
         self.n_pairs = n
 
     def max_depth(self) -> float:

@@ -39,7 +39,15 @@ import taichi as ti
 from dem.engine.mathutil import vec3
 
 MAXP = 9  # face polygon: 4 corners, clipped by 4 sides (<= 8) then by d >= 0 (<= 9)
-VP = ti.types.vector(MAXP + 1, float)  # one spare slot for the clipping passes
+
+
+@ti.func
+def point_buffer():
+    """A zeroed buffer of MAXP + 1 reals (one spare slot for the clipping passes).
+
+    Made inside the kernel, so its type is the engine's real type when the kernel compiles
+    (a ``ti.types.vector(..., float)`` made at import, before ``ti.init``, would be f32)."""
+    return ti.Vector([0.0] * (MAXP + 1))
 
 NO_CONTACT = -1
 
@@ -257,10 +265,10 @@ def face_contact(pR, RR, hR, k, sgn, pI, RI, hI, px: ti.template(), py: ti.templ
     b1 = vec3(RI[0, m1], RI[1, m1], RI[2, m1]) * hI[m1]
     b2 = vec3(RI[0, m2], RI[1, m2], RI[2, m2]) * hI[m2]
     ci = pI + nI * hI[m]
-    xs = VP(0.0)
-    ys = VP(0.0)
-    xt = VP(0.0)  # second pair of buffers for the clipping passes
-    yt = VP(0.0)
+    xs = point_buffer()
+    ys = point_buffer()
+    xt = point_buffer()  # second pair of buffers for the clipping passes
+    yt = point_buffer()
     for q in ti.static(range(4)):
         s1 = 1.0 if q == 0 or q == 3 else -1.0
         s2 = 1.0 if q < 2 else -1.0
@@ -342,7 +350,7 @@ def box_contact(pA, RA, hA, pB, RB, hB, prev_code, margin, edge_area, px: ti.tem
                 py: ti.template(), pz: ti.template(), dep: ti.template(), w: ti.template()):
     """Full narrow phase for one pair.
 
-    Writes the points, depths and weights to the buffers (px, py, pz, dep, w: VP, zero beyond
+    Writes the points, depths and weights to the buffers (px, py, pz, dep, w: point buffers, zero beyond
     the points) and returns (code, n, npts, shrink, centroid); n points from A to B whatever
     the reference face; see :func:`face_contact` for shrink and centroid.
     """

@@ -48,12 +48,16 @@ def normal_law(kn_area, depth, depth_rate, cn):
 
 @ti.func
 def rotate_into_plane(u, n):
-    """Turn a stored shear displacement into the plane normal to n, keeping its length."""
+    """Turn a stored shear displacement into the plane normal to n, keeping its length.
+
+    A displacement (nearly) along n has no in-plane direction to keep: its projection is then
+    round-off, which must not be blown up to the full length (it would point along n), so the
+    history is dropped (zero) when the projection is below 1e-12 of the length."""
     mag = u.norm()
     ut = u - u.dot(n) * n
     mt = ut.norm()
     res = vec3(0.0)
-    if mt > 1e-300:
+    if mt > 1e-12 * mag:
         res = ut * (mag / mt)
     return res
 

@@ -20,7 +20,9 @@ import numpy as np
 from dem import ti_runtime
 from dem.engine import step as stepk
 from dem.engine.broadphase import candidate_pairs
-from dem.engine.containers import Contacts, Model, State
+from dem.engine.containers import (NONFINITE, REBUILD, SERIAL_CHUNK, STOP, Contacts, Control,
+                                   Model, State)
+from dem.engine.launch import CachedLaunch
 from dem.engine.errors import CapacityError, InputError, InstabilityError, SimulationError
 from dem.engine.timestep import critical_time_step, face_area_caps, full_face_areas
 from dem.scene import Scene
@@ -28,7 +30,6 @@ from dem.scene import Scene
 # loads(t [K]) -> (gravity [K,3], base acceleration [K,3]), both in the table frame, m/s^2
 LoadFn = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
 
-SERIAL_CHUNK = 2000  # steps per launch of the serial kernel (launch cost ~0.3 ms)
 # auto mode: below this the serial kernel is faster.  Measured on the shared 2-core test machine
 # (benchmarks/RESULTS.md, engine throughput): the parallel kernel does not beat the serial one up
 # to 3078 bricks there, since a job gets about one core while others run; with two free cores
@@ -38,8 +39,10 @@ PARALLEL_MIN_BODIES = 4000
 
 
 class Simulation:
-    def __init__(self, scene: Scene, material, solver, gravity=(0.0, 0.0, -9.81)):
+    def __init__(self, scene: Scene, material, solver, gravity=(0.0, 0.0, -9.81),
+                 fast_launch: bool = True):
         ti_runtime.init(threads=solver.threads, precision=solver.precision)
+        self.fast_launch = fast_launch
         self.scene = scene
         self.solver = solver
         self.n_blocks = scene.n_blocks
@@ -79,14 +82,7 @@ class Simulation:
         self.mode = solver.mode
         if self.mode == "auto":
             self.mode = "parallel" if self.model.n_bodies >= PARALLEL_MIN_BODIES else "serial"
-        self.flags = ti_nd_i32(4)
-        self.energy = ti_nd_real(stepk.N_ENERGY)
-        self.params = ti_nd_real(stepk.N_PARAMS)
-        params = np.zeros(stepk.N_PARAMS)
-        params[stepk.P_SKIN] = self.skin
-        params[stepk.P_MAX_SPEED] = solver.max_speed
-        params[stepk.P_LOCAL_DAMPING] = solver.local_damping
-        self.params[:] = params
+        self.control = Control(self.skin, solver.max_speed, solver.local_damping)
         t0 = time.perf_counter()
         self._warm_up()
         self.compile_seconds = time.perf_counter() - t0
@@ -175,8 +171,7 @@ class Simulation:
         if c.n_pairs == 0:
             return
         depth = ti_nd_real(c.capacity)
-        stepk.probe_contacts(c.n_pairs, depth, self.model.half, self.state.pos, self.state.rot,
-                             c.pairs)
+        stepk.probe_contacts(c.n_pairs, depth, self.model.args, self.state.args, c.args)
         d = depth[: c.n_pairs]
         worst = int(np.argmax(d))
         if d[worst] > tolerance:
@@ -197,10 +192,10 @@ class Simulation:
             k = min(n_steps - done_total, SERIAL_CHUNK if self.mode == "serial" else 1)
             done = self._launch(k, loads)
             done_total += done
-            flags = self.flags
-            if flags[0] & stepk.STOP:
-                self._raise_instability(flags)
-            if flags[0] & stepk.REBUILD:
+            status = int(self.control.status[0])
+            if status & STOP:
+                self._raise_instability()
+            if status & REBUILD:
                 self.rebuild()
             self._check_caps()
             if on_chunk is not None:
@@ -209,47 +204,48 @@ class Simulation:
     def _launch(self, k: int, loads: LoadFn) -> int:
         t = self.t + np.arange(k) * self.dt
         g, a = loads(t)
-        self._loads[:k, 0] = g
-        self._loads[:k, 1] = a
-        self.flags[:] = 0
+        ctl = self.control
+        ctl.loads[:k, 0] = g
+        ctl.loads[:k, 1] = a
+        ctl.status[0] = 0
+        ctl.bad_body[0] = 0
         if self.mode == "serial":
-            stepk.advance_serial(k, self.contacts.n_pairs, self.dt, *self._kernel_arrays())
-            done = int(self.flags[2])
+            self._advance(k, self.contacts.n_pairs, self.dt)
+            done = int(ctl.steps_done[0])
         else:
-            stepk.advance_parallel(self.contacts.n_pairs, self.model.n_bodies, self.dt,
-                                   *self._kernel_arrays())
+            self._advance(self.contacts.n_pairs, self.dt)
             done = 1
         self.step_count += done
         return done
 
-    def _kernel_arrays(self) -> tuple:
-        """The array arguments shared by both stepping kernels, in their order."""
-        m, st, c = self.model, self.state, self.contacts
-        return (self._loads, self.params, self.flags, self.energy,
-                m.half, m.mass, m.inv_mass, m.inv_inertia, m.radius, m.material, m.mat_pair,
-                st.pos, st.quat, st.vel, st.angmom, st.omega, st.rot, st.force, st.torque,
-                c.pairs, c.adj_ptr, c.adj, c.ref_pos, c.ref_quat, c.code, c.npts, c.normal,
-                c.loc, c.shear, c.point, c.depth, c.area, c.fn, c.ft, c.wrench)
+    def containers(self) -> tuple:
+        """The argpacks of (Model, State, Contacts, Control), as the kernels take them."""
+        return (self.model.args, self.state.args, self.contacts.args, self.control.args)
 
     def _warm_up(self) -> None:
-        """Compile every kernel (or load it from Taichi's offline cache) with zero work."""
-        m, st, c = self.model, self.state, self.contacts
-        self._loads = ti_nd_vec3((SERIAL_CHUNK, 2))
+        """Compile every kernel (or load it from Taichi's offline cache) with zero work, and
+        record the stepping kernel's launch (dem.engine.launch: later launches skip Taichi's
+        per-call argument handling unless ``fast_launch`` is False)."""
+        m, st, c = self.model.args, self.state.args, self.contacts.args
         if self.mode == "serial":
-            stepk.advance_serial(0, 0, self.dt, *self._kernel_arrays())
+            scalars, kernel = (0, 0, float(self.dt)), stepk.advance_serial
         else:
-            stepk.advance_parallel(0, 0, self.dt, *self._kernel_arrays())
+            scalars, kernel = (0, float(self.dt)), stepk.advance_parallel
+        if self.fast_launch:
+            self._advance = CachedLaunch(kernel, scalars, *self.containers())
+        else:
+            kernel(*scalars, *self.containers())
+            self._advance = lambda *sc: kernel(*sc, *self.containers())
         depth = ti_nd_real(1)
-        stepk.probe_contacts(0, depth, m.half, st.pos, st.rot, c.pairs)
-        stepk.elastic_energy(0, m.material, m.mat_pair, c.pairs, c.npts, c.depth, c.area,
-                             c.shear)
+        stepk.probe_contacts(0, depth, m, st, c)
+        stepk.elastic_energy(0, m, c)
 
-    def _raise_instability(self, flags) -> None:
-        b = int(flags[1])
+    def _raise_instability(self) -> None:
+        b = int(self.control.bad_body[0])
         st = self.state
         v = st.vel[b]
         x = st.pos[b]
-        what = "became NaN/inf" if flags[0] & stepk.NONFINITE else (
+        what = "became NaN/inf" if self.control.status[0] & NONFINITE else (
             f"moves faster than solver.max_speed = {self.solver.max_speed} m/s")
         raise InstabilityError(
             f"block {b} {what} at step {self.step_count} (t = {self.t:.5f} s): position "
@@ -270,8 +266,7 @@ class Simulation:
         c, m = self.contacts, self.model
         if c.n_pairs == 0:
             return 0.0
-        return float(stepk.elastic_energy(c.n_pairs, m.material, m.mat_pair, c.pairs, c.npts,
-                                          c.depth, c.area, c.shear))
+        return float(stepk.elastic_energy(c.n_pairs, m.args, c.args))
 
     def mechanical_energy(self) -> float:
         return self.kinetic_energy() + self.elastic_energy()
@@ -284,35 +279,22 @@ class Simulation:
         dissipation (< 0); ``gain`` = kinetic + elastic - initial - work supplied is the energy
         beyond what the loads supplied (> 0: the scheme created energy).
         """
-        e = self.energy
+        e = self.control.energy()
         kin = self.kinetic_energy()
         el = self.elastic_energy()
-        diss = e[stepk.E_DAMP_NORMAL] + e[stepk.E_DAMP_SHEAR] + e[stepk.E_FRICTION] + \
-            e[stepk.E_LOCAL_DAMPING]
-        supplied = e[stepk.E_WORK_GRAVITY] + e[stepk.E_WORK_BASE]
+        diss = sum(v for name, v in e.items() if name.startswith("dissipated_"))
+        supplied = e["work_gravity"] + e["work_base"]
         residual = kin + el - self.energy_initial - supplied + diss
         return {
             "kinetic": kin,
             "elastic": el,
             "initial": self.energy_initial,
-            "work_gravity": float(e[stepk.E_WORK_GRAVITY]),
-            "work_base": float(e[stepk.E_WORK_BASE]),
-            "dissipated_normal_damping": float(e[stepk.E_DAMP_NORMAL]),
-            "dissipated_shear_damping": float(e[stepk.E_DAMP_SHEAR]),
-            "dissipated_friction": float(e[stepk.E_FRICTION]),
-            "dissipated_local_damping": float(e[stepk.E_LOCAL_DAMPING]),
+            **e,
             "residual": float(residual),
             "gain": float(kin + el - self.energy_initial - supplied),
         }
 
 
-def ti_nd_i32(n):
-    return np.zeros(n, dtype=np.int32)
-
-
 def ti_nd_real(n):
     return np.zeros(n, dtype=ti_runtime.real_dtype())
 
-
-def ti_nd_vec3(shape):
-    return np.zeros(tuple(np.atleast_1d(shape)) + (3,), dtype=ti_runtime.real_dtype())
