@@ -3,6 +3,8 @@
     python benchmarks/engine_speed.py            # full table (a few minutes)
     python benchmarks/engine_speed.py --quick    # threads/modes on the 142-block wall only
     python benchmarks/engine_speed.py --stages   # cost of each stage on the 142-block wall
+    python benchmarks/engine_speed.py --launch   # cost of a kernel launch, and of a parallel loop
+    python benchmarks/engine_speed.py --scaling --threads 1 2   # serial vs parallel by size
 
 Prints, for 1 and 2 threads and both kernels (serial multi-step, parallel per step):
 brick-steps per second (median of --repeats runs of --steps steps, after a warm-up) by the wall
@@ -31,6 +33,8 @@ import time
 
 # ~bricks: (length, courses)
 WALLS = {50: (5, 10), 200: (10, 19), 800: (20, 38), 1600: (28, 57), 3200: (40, 76)}
+SCALING = {142: (9, 15), 300: (14, 22), 500: (18, 28), 800: (20, 38), 1600: (28, 57),
+           3200: (40, 76)}
 
 
 def _measure(length, courses, mode, steps, repeats):
@@ -141,7 +145,6 @@ def _stages(repeats):
     from dem.engine.containers import Control
     m, c = sim.model, copy.deepcopy(sim.contacts)
     st = copy.deepcopy(sim.state)
-    c._args = st._args = None  # the copies need their own argpacks
     ctl = Control(sim.skin, 50.0, 0.0)
     ctl.loads[0, 0] = g
     P, B = c.n_pairs, m.n_bodies
@@ -163,6 +166,69 @@ def _stages(repeats):
             times.append((time.process_time() - c0) / reps / per)
         out[name] = (float(np.median(times)), float(np.min(times)))
     out["pairs"], out["bodies"] = P, B
+    return out
+
+
+def _launch_cost(repeats):
+    """Runs inside the child process: microseconds per launch of the stepping kernels with no
+    work (n_steps = 0 / n_pairs = 0 and no bodies), through Taichi's own call and through the
+    cached launch context, and per parallel loop of a trivial kernel (the thread pool's
+    dispatch)."""
+    import numpy as np
+    import taichi as ti
+
+    from dem.builders import build_wall
+    from dem.case import Material, SolverSpec
+    from dem.engine import Simulation, step
+    from dem.engine.launch import CachedLaunch
+
+    sim = Simulation(build_wall("small", length=9, courses=15), Material(friction=0.81),
+                     SolverSpec(mode="serial"))
+    packs = sim.containers()
+
+    def per_call(fn, n=300):
+        fn()
+        times = []
+        for _ in range(5 * repeats):
+            t0 = time.perf_counter()
+            for _ in range(n):
+                fn()
+            times.append((time.perf_counter() - t0) / n * 1e6)
+        return float(np.median(times))
+
+    out = {}
+    out["serial, Taichi call"] = per_call(lambda: step.advance_serial(0, 0, 1e-5, *packs))
+    fast = CachedLaunch(step.advance_serial, (0, 0, 1e-5), *packs)
+    out["serial, cached launch"] = per_call(lambda: fast(0, 0, 1e-5), 3000)
+    # the parallel kernel with no pairs still integrates the bodies: give it none by launching
+    # the probe kernel (one parallel loop over 0 pairs) instead
+    depth = np.zeros(1)
+    out["probe (1 parallel loop, 0 pairs), Taichi call"] = per_call(
+        lambda: step.probe_contacts(0, depth, depth, *packs[:3]))
+    probe = CachedLaunch(step.probe_contacts, (0,), depth, depth, *packs[:3])
+    out["probe (1 parallel loop, 0 pairs), cached launch"] = per_call(lambda: probe(0), 3000)
+    a = np.zeros(64)
+
+    @ti.kernel
+    def loops(n: ti.i32, x: ti.types.ndarray(ndim=1)):
+        for i in range(n):
+            x[i] += 1.0
+        for i in range(n):
+            x[i] += 1.0
+
+    @ti.kernel
+    def serial_loops(n: ti.i32, x: ti.types.ndarray(ndim=1)):
+        ti.loop_config(serialize=True)
+        for i in range(n):
+            x[i] += 1.0
+        ti.loop_config(serialize=True)
+        for i in range(n):
+            x[i] += 1.0
+
+    two = CachedLaunch(loops, (8,), a)
+    ser = CachedLaunch(serial_loops, (8,), a)
+    out["2 parallel loops of 8 iterations, cached launch"] = per_call(lambda: two(8), 3000)
+    out["2 serialized loops of 8 iterations, cached launch"] = per_call(lambda: ser(8), 3000)
     return out
 
 
@@ -190,6 +256,10 @@ def main():
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--stages", action="store_true")
+    ap.add_argument("--launch", action="store_true")
+    ap.add_argument("--scaling", action="store_true")
+    ap.add_argument("--threads", type=int, nargs="+", default=[1, 2])
+    ap.add_argument("--sizes", type=int, nargs="+", default=list(SCALING))
     args = ap.parse_args()
     print(f"# engine_speed  python {sys.version.split()[0]}, {os.cpu_count()} cores, "
           f"{time.strftime('%Y-%m-%d %H:%M')}")
@@ -207,6 +277,33 @@ def main():
                 ("step", "serial step", "us", 1e6)):
             med, low = r[name]
             print(f"| {what} | {med * scale:.0f} {unit} | {low * scale:.0f} {unit} |")
+        return
+    if args.launch:
+        for threads in args.threads:
+            r = _child(f"_launch_cost({args.repeats})", threads)
+            print(f"\n## Launch cost, {threads} thread(s) (us per launch, median)")
+            print("| launch | us |")
+            print("|---|---|")
+            for name, us in r.items():
+                print(f"| {name} | {us:.1f} |")
+        return
+    if args.scaling:
+        print("\n## Serial kernel against parallel kernel by wall size (brick-steps/s, wall "
+              "clock; per CPU-s in brackets)")
+        print("| bricks | pairs | serial | " + " | ".join(f"parallel, {t} thr" for t in args.threads)
+              + " | best parallel / serial |")
+        print("|---|---|---|" + "---|" * len(args.threads) + "---|")
+        for target in args.sizes:
+            length, courses = SCALING[target]
+            steps = max(100, args.steps * 150 // target)
+            ser = run_child(length, courses, "serial", 1, steps, args.repeats)
+            par = [run_child(length, courses, "parallel", t, steps, args.repeats)
+                   for t in args.threads]
+            best = max(p["brick_steps_per_s"] for p in par) / ser["brick_steps_per_s"]
+            print(f"| {ser['blocks']} | {ser['pairs']} | {ser['brick_steps_per_s']:.3g} "
+                  f"({ser['brick_steps_per_cpu_s']:.3g}) | " + " | ".join(
+                      f"{p['brick_steps_per_s']:.3g} ({p['brick_steps_per_cpu_s']:.3g})"
+                      for p in par) + f" | {best:.2f} |", flush=True)
         return
     print("\n## 9 x 15 stretcher wall at rest (142 blocks)")
     print("| threads | kernel | brick-steps/s (median) | min - max | per CPU-s | pairs "

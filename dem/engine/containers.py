@@ -9,6 +9,10 @@ compile once for every scene size (the offline cache keeps working).  They are p
 kernels as one Taichi argpack per container (``container.args``), so a kernel takes
 ``(model, state, contacts, control)`` and a stage reads ``state.pos[b]``.
 
+Taichi 1.7.4 takes a local variable at kernel level (not inside a ti.func) named like an
+argpack member for that kernel argument ("Kernel argument 'area' is immutable"): name kernel
+locals differently from the fields below.
+
 Arrays are allocated once and only ever written in place (``a[...] = ...``): the argpacks and
 the cached launch contexts of :mod:`dem.engine.launch` hold their addresses.
 
@@ -156,6 +160,12 @@ class _Container:
         if getattr(self, "_args", None) is None:
             self._args = self.ARGS(**{f.name: getattr(self, f.name) for f in self.FIELDS})
         return self._args
+
+    def __getstate__(self):
+        """Copies (copy.deepcopy, pickle) get their own argpack, built on first use."""
+        state = dict(self.__dict__)
+        state["_args"] = None
+        return state
 
     def arrays(self) -> dict[str, np.ndarray]:
         return {f.name: getattr(self, f.name) for f in self.FIELDS}

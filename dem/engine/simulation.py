@@ -57,11 +57,26 @@ class Simulation:
         movable[self.model.table] = False
         self._movable = movable
         self._material = material
+        hmin = float(self.model.half_np[: self.n_blocks].min())
+        self.skin = float(solver.skin) if solver.skin is not None else 0.1 * hmin
+        self.step_count = 0
+        self._t_anchor, self._step_anchor = 0.0, 0  # t = t_anchor + (step - step_anchor) dt
+        self.dt = 0.0  # set below, once the contacts at the start are known
+        self.n_rebuilds = 0
+        self.mode = solver.mode
+        if self.mode == "auto":
+            self.mode = "parallel" if self.model.n_bodies >= PARALLEL_MIN_BODIES else "serial"
+        self.control = Control(self.skin, solver.max_speed, solver.local_damping)
+        t0 = time.perf_counter()
+        self._warm_up()
+        self.compile_seconds = time.perf_counter() - t0
+        self.rebuild()
+        patch = self.check_initial_overlaps(solver.overlap_tolerance)
         # face areas in the critical-step bound, capped for light blocks with large faces; a
         # contact patch larger than its cap lifts the cap and recomputes dt (_check_caps)
         self._face_area, self.area_cap = face_area_caps(
             2 * self.model.half_np, self.model.mass_np, self.model.inertia_np, movable,
-            material.normal_stiffness, material.ks, solver.safety)
+            material.normal_stiffness, material.ks, solver.safety, patch)
         self.dt_changes: list[dict] = []
         self.dt_crit = self._critical_step()
         if solver.dt is not None:
@@ -74,20 +89,6 @@ class Simulation:
             self.dt = float(solver.dt)
         else:
             self.dt = float(solver.safety * self.dt_crit) if np.isfinite(self.dt_crit) else 1e-4
-        hmin = float(self.model.half_np[: self.n_blocks].min())
-        self.skin = float(solver.skin) if solver.skin is not None else 0.1 * hmin
-        self.step_count = 0
-        self._t_anchor, self._step_anchor = 0.0, 0  # t = t_anchor + (step - step_anchor) dt
-        self.n_rebuilds = 0
-        self.mode = solver.mode
-        if self.mode == "auto":
-            self.mode = "parallel" if self.model.n_bodies >= PARALLEL_MIN_BODIES else "serial"
-        self.control = Control(self.skin, solver.max_speed, solver.local_damping)
-        t0 = time.perf_counter()
-        self._warm_up()
-        self.compile_seconds = time.perf_counter() - t0
-        self.rebuild()
-        self.check_initial_overlaps(solver.overlap_tolerance)
         self.energy_initial = self.mechanical_energy()
 
     # ------------------------------------------------------------------------------------
@@ -101,11 +102,12 @@ class Simulation:
                                   mat.normal_stiffness, mat.ks, mat.damping, self._face_area)
 
     def _check_caps(self) -> None:
-        """Lift the area cap of any body whose contact patch outgrew it, and shorten dt.
+        """Raise the area cap of any body whose contact patch outgrew it, and shorten dt.
 
-        Caps are only set where the capped bound is within 0.5 / safety^2 of the full one
-        (dem.engine.timestep.face_area_caps), so the step in use was still stable; from here on
-        the full faces of those bodies count."""
+        Caps are never below the smallest cap whose bound is within 0.5 / safety^2 of the
+        full-face one (dem.engine.timestep.face_area_caps), so the step in use was still stable;
+        the new cap is twice the patch that exceeded the old one (the whole faces, no cap, once
+        that reaches the block's largest face)."""
         capped = np.isfinite(self.area_cap)
         c = self.contacts
         n = c.n_pairs
@@ -123,8 +125,14 @@ class Simulation:
             return
         bodies = np.unique(pairs[over].ravel())
         bodies = bodies[capped[bodies]]
-        self.area_cap[bodies] = np.inf
-        self._face_area[bodies] = full_face_areas(2 * self.model.half_np[bodies])
+        patch = np.zeros(self.model.n_bodies)
+        for side in (0, 1):
+            np.maximum.at(patch, pairs[over, side], area[np.isin(watch, over)])
+        full = full_face_areas(2 * self.model.half_np[bodies])
+        new_cap = 2.0 * patch[bodies]
+        new_cap = np.where(new_cap >= full.max(axis=(1, 2)), np.inf, new_cap)
+        self.area_cap[bodies] = new_cap
+        self._face_area[bodies] = np.minimum(full, new_cap[:, None, None])
         old = self.dt
         self.dt_crit = self._critical_step()
         if self.solver.dt is not None:
@@ -140,7 +148,8 @@ class Simulation:
             self._t_anchor, self._step_anchor = self.t, self.step_count
             self.dt = new
             self.dt_changes.append({"t": self._t_anchor, "step": self.step_count, "old_dt": old,
-                                    "new_dt": new, "blocks": bodies.tolist()})
+                                    "new_dt": new, "blocks": bodies.tolist(),
+                                    "new_area_cap_m2": [float(x) for x in new_cap]})
 
     def rebuild(self) -> None:
         """Broad phase: new neighbour list, history carried over for pairs that stay."""
@@ -166,12 +175,16 @@ class Simulation:
         c.ref_quat[...] = quat
         self.n_rebuilds += 1
 
-    def check_initial_overlaps(self, tolerance: float) -> None:
+    def check_initial_overlaps(self, tolerance: float) -> np.ndarray:
+        """Raise if two bodies overlap by more than ``tolerance`` at the start; returns each
+        body's largest contact patch area (m^2) at the start."""
         c = self.contacts
+        patch = np.zeros(self.model.n_bodies)
         if c.n_pairs == 0:
-            return
+            return patch
         depth = ti_nd_real(c.capacity)
-        stepk.probe_contacts(c.n_pairs, depth, self.model.args, self.state.args, c.args)
+        area = ti_nd_real(c.capacity)
+        stepk.probe_contacts(c.n_pairs, depth, area, self.model.args, self.state.args, c.args)
         d = depth[: c.n_pairs]
         worst = int(np.argmax(d))
         if d[worst] > tolerance:
@@ -181,6 +194,10 @@ class Simulation:
                 f"{name(i)} and {name(j)} overlap by {d[worst] * 1e3:.3f} mm at the start "
                 f"(tolerance solver.overlap_tolerance = {tolerance * 1e3:.3f} mm); "
                 f"{int((d > tolerance).sum())} pair(s) overlap in all")
+        pairs = c.pairs[: c.n_pairs]
+        for side in (0, 1):
+            np.maximum.at(patch, pairs[:, side], area[: c.n_pairs])
+        return patch
 
     # ------------------------------------------------------------------------------------
     def advance(self, n_steps: int, loads: LoadFn, on_chunk: Callable[[int], None] | None = None
@@ -237,7 +254,7 @@ class Simulation:
             kernel(*scalars, *self.containers())
             self._advance = lambda *sc: kernel(*sc, *self.containers())
         depth = ti_nd_real(1)
-        stepk.probe_contacts(0, depth, m, st, c)
+        stepk.probe_contacts(0, depth, depth, m, st, c)
         stepk.elastic_energy(0, m, c)
 
     def _raise_instability(self) -> None:

@@ -324,9 +324,11 @@ def advance_parallel(n_pairs: ti.i32, dt: float, model: ModelArgs, state: StateA
 
 
 @ti.kernel
-def probe_contacts(n_pairs: ti.i32, out_depth: ti.types.ndarray(ndim=1), model: ModelArgs,
-                   state: StateArgs, contacts: ContactArgs):
-    """Largest penetration (m) of every pair, without touching the history (overlap checks)."""
+def probe_contacts(n_pairs: ti.i32, out_depth: ti.types.ndarray(ndim=1),
+                   out_area: ti.types.ndarray(ndim=1), model: ModelArgs, state: StateArgs,
+                   contacts: ContactArgs):
+    """Largest penetration (m) and patch area (m^2) of every pair, without touching the
+    history (overlap checks, area caps of the critical step)."""
     for p in range(n_pairs):
         i = contacts.pairs[p][0]
         j = contacts.pairs[p][1]
@@ -344,9 +346,12 @@ def probe_contacts(n_pairs: ti.i32, out_depth: ti.types.ndarray(ndim=1), model: 
             state.pos[i], state.rot[i], hA, state.pos[j], state.rot[j], hB, -1, 1e-3 * hmin,
             hmin * hmin, px, py, pz, dep, w)
         dmax = 0.0
+        patch_area = 0.0
         for q in range(n_points):
             dmax = ti.max(dmax, dep[q])
+            patch_area += w[q]
         out_depth[p] = dmax
+        out_area[p] = patch_area
 
 
 @ti.kernel

@@ -19,11 +19,17 @@ dt_crit = min over movable blocks; the default step is ``safety * dt_crit``.
 
 Capped faces.  A light block with a large face (a timber roof beam, 0.158 kg on 525 x 30 mm)
 would set dt for the whole scene although it only ever touches the walls on small patches.
-:func:`face_area_caps` caps the contact area of such faces at the largest face of a typical block
-(the 90th percentile over the movable blocks), but only where the capped bound underestimates the
-block's worst-case stiffness by less than ``0.5 / safety^2``: if a patch ever exceeds its cap
-(the beam falls flat on the table), the step in use is still below the true critical step, and
-the simulation then lifts the cap and recomputes the step (dem.engine.simulation).
+:func:`face_area_caps` caps the contact area of such faces (blocks with a face larger than the
+largest face of a typical block, the 90th percentile over the movable blocks) at the smallest
+area for which the capped bound underestimates the block's worst-case stiffness by at most
+``0.5 / safety^2``, but never below the block's largest contact patch at the start.  Stability
+argument: whatever patch a block later makes, even whole faces, the step in use stays below
+sqrt(0.5) of the true critical step.  When a patch exceeds its cap, the simulation raises the
+cap to twice that patch (whole faces once that reaches the largest face) and shortens the step
+(dem.engine.simulation); any cap above the smallest allowed one keeps the argument.  Until
+2026-11 the cap was the typical face itself; for the box models' roof beams (which touch the
+walls and the steel blocks on 30 x 50 mm patches) that left the beams setting dt at 3.2e-5 s
+against the bricks' 4.95e-5 s (benchmarks/RESULTS.md, issue 10).
 """
 
 from __future__ import annotations
@@ -74,9 +80,11 @@ def critical_time_step(size: np.ndarray, mass: np.ndarray, inertia: np.ndarray,
     return float(2.0 / np.sqrt(w2.max()) * (np.sqrt(1.0 + zeta**2) - zeta))
 
 
-def face_area_caps(size, mass, inertia, movable, kn, ks, safety) -> tuple[np.ndarray, np.ndarray]:
+def face_area_caps(size, mass, inertia, movable, kn, ks, safety,
+                   patch=None) -> tuple[np.ndarray, np.ndarray]:
     """Face areas to use in the bound (see module docstring) and a per-block cap (m^2; inf for
-    blocks left uncapped).  Returns (face_area [N,3,2], cap [N])."""
+    blocks left uncapped).  ``patch`` [N]: each block's largest contact patch at the start (m^2;
+    default 0).  Returns (face_area [N,3,2], cap [N])."""
     size = np.asarray(size, dtype=float)
     full = full_face_areas(size)
     cap = np.full(len(size), np.inf)
@@ -84,10 +92,26 @@ def face_area_caps(size, mass, inertia, movable, kn, ks, safety) -> tuple[np.nda
     if movable.sum() < 2:
         return full, cap
     typical = float(np.percentile(full[movable].max(axis=(1, 2)), 90))
-    capped = np.minimum(full, typical)
+    ratio = 0.5 / safety**2
     w_full = _omega2(size, mass, inertia, full, kn, ks)
-    w_cap = _omega2(size, mass, inertia, capped, kn, ks)
-    ok = movable & (full.max(axis=(1, 2)) > typical) & (w_full <= 0.5 / safety**2 * w_cap)
-    face_area = np.where(ok[:, None, None], capped, full)
-    cap[ok] = typical
+
+    def allowed(c):  # [N] caps c: the capped bound is within `ratio` of the full one
+        return w_full <= ratio * _omega2(size, mass, inertia, np.minimum(full, c[:, None, None]),
+                                         kn, ks)
+
+    eligible = movable & (full.max(axis=(1, 2)) > typical)
+    ok = eligible & allowed(np.full(len(size), typical))
+    # the smallest allowed cap in [largest start patch, typical]: the capped bound grows with
+    # the cap, so bisect (40 halvings: 1e-12 of the interval)
+    lo = np.zeros(len(size)) if patch is None else np.minimum(np.asarray(patch, float), typical)
+    hi = np.full(len(size), typical)
+    start_ok = allowed(lo)
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        good = allowed(mid)
+        hi = np.where(good, mid, hi)
+        lo = np.where(good, lo, mid)
+    cap_value = np.where(start_ok, lo, hi)
+    face_area = np.where(ok[:, None, None], np.minimum(full, cap_value[:, None, None]), full)
+    cap[ok] = cap_value[ok]
     return face_area, cap
