@@ -71,6 +71,8 @@ Mechanism labels (:func:`mechanism_labels`, the thesis' words in Section 4.3):
 
 from __future__ import annotations
 
+from dem.atomic import savefig as _atomic_savefig
+
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -423,7 +425,7 @@ def plot_elevation(path, scene, portion: ExcitedPortion, title: str = "") -> Non
     fig.suptitle(f"{title}\nexcited {s['n_excited']} bricks: upper {s['n_upper']} (red), "
                  f"lower {s['n_lower']} (orange)", fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    _atomic_savefig(fig, path, dpi=110)
     plt.close(fig)
 
 
@@ -440,4 +442,7 @@ def write_vtu(path, scene, portion: ExcitedPortion) -> None:
         np.nan_to_num(portion.trans_phase_deg).astype(np.float32)
     grid.cell_data["rotation_amplitude"] = portion.rot_amp.astype(np.float32)
     grid.cell_data["rotation_phase_deg"] = np.nan_to_num(portion.rot_phase_deg).astype(np.float32)
-    grid.save(str(path), binary=True)
+    from dem.atomic import atomic_path
+
+    with atomic_path(path) as tmp:
+        grid.save(str(tmp), binary=True)

@@ -91,9 +91,10 @@ Mechanism labels (Section 4.3, observations): see :func:`postprocess.excited.mec
 
 from __future__ import annotations
 
+from dem.atomic import savefig as _atomic_savefig
+
 import json
 import math
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -631,7 +632,7 @@ def plot_time_histories(path, sig: ShakeSignals, q: dict, win: SteadyWindow | No
     for ax in axs[-1]:
         ax.set_xlabel("t (s)   (green: steady-state window)")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    _atomic_savefig(fig, path, dpi=110)
     plt.close(fig)
 
 
@@ -652,7 +653,7 @@ def plot_spectrum(path, sig: ShakeSignals, q: dict, win: SteadyWindow, title="")
     axs[-1, 0].set_xlabel("frequency (Hz)   (dashed: excitation)")
     axs[0, 0].set_title(title)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    _atomic_savefig(fig, path, dpi=110)
     plt.close(fig)
 
 
@@ -666,7 +667,7 @@ def plot_hysteresis(path, t, disp, force, win: SteadyWindow, title=""):
     ax.set_title(title)
     ax.grid(alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    _atomic_savefig(fig, path, dpi=110)
     plt.close(fig)
 
 
@@ -684,7 +685,7 @@ def plot_energy(path, t, e44, t_blocks, e_blocks, win, title=""):
     ax.legend()
     ax.grid(alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    _atomic_savefig(fig, path, dpi=110)
     plt.close(fig)
 
 
@@ -872,7 +873,7 @@ def _clean(o):
 
 
 def _write_json(path: Path, data: dict) -> None:
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps(_clean(json.loads(json.dumps(data, default=_json_default))),
-                              indent=1))
-    os.replace(tmp, path)
+    from dem.atomic import write_text
+
+    write_text(path, json.dumps(_clean(json.loads(json.dumps(data, default=_json_default))),
+                                indent=1))

@@ -42,12 +42,17 @@ def snapshot_png(
     path.parent.mkdir(parents=True, exist_ok=True)
     pos = np.asarray(pos, dtype=np.float64).reshape(scene.n_blocks, 3)
     quat = np.asarray(quat, dtype=np.float64).reshape(scene.n_blocks, 4)
-    try:
-        _pyvista(path, scene, pos, quat, scalars, title, scalar_name, window_size)
-        return "pyvista"
-    except Exception:  # noqa: BLE001 - no OpenGL: draw with matplotlib instead
-        _matplotlib(path, scene, pos, quat, scalars, title, window_size)
-        return "matplotlib"
+    from dem.atomic import atomic_path
+
+    with atomic_path(path) as tmp:  # a failed write (disk full) leaves no half PNG
+        try:
+            _pyvista(tmp, scene, pos, quat, scalars, title, scalar_name, window_size)
+            return "pyvista"
+        except OSError:
+            raise
+        except Exception:  # noqa: BLE001 - no OpenGL: draw with matplotlib instead
+            _matplotlib(tmp, scene, pos, quat, scalars, title, window_size)
+            return "matplotlib"
 
 
 def _pyvista(path, scene, pos, quat, scalars, title, scalar_name, window_size) -> None:

@@ -37,7 +37,6 @@ about 32 kB per frame (~150 bytes per block; measured, see README "Output"), wri
 from __future__ import annotations
 
 import json
-import os
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -45,6 +44,7 @@ import numpy as np
 import pyvista as pv
 from vtkmodules.util.numpy_support import numpy_to_vtk
 
+from dem.atomic import atomic_path, write_text
 from dem.scene import Scene
 
 # VTK_HEXAHEDRON vertex order: bottom face counter-clockwise, then the top face
@@ -133,9 +133,8 @@ def decode_names(arr) -> list[str]:
 
 
 def _atomic_save(mesh: pv.DataSet, path: Path) -> None:
-    tmp = path.with_name(f".{path.stem}.tmp{path.suffix}")
-    mesh.save(tmp, binary=True, compression="zlib")
-    os.replace(tmp, path)
+    with atomic_path(path) as tmp:
+        mesh.save(tmp, binary=True, compression="zlib")
 
 
 class _Collection:
@@ -162,9 +161,7 @@ class _Collection:
                 "",
             ]
         )
-        tmp = self.path.with_name(f".{self.path.name}.tmp")
-        tmp.write_text(text)
-        os.replace(tmp, self.path)
+        write_text(self.path, text)
 
 
 class VtkSeries:
@@ -198,9 +195,8 @@ class VtkSeries:
         self._blocks = _Collection(self.dir / "scene.pvd")
         self._contacts = _Collection(self.dir / "contacts.pvd") if write_contacts else None
         self._blocks.write()  # an empty but valid series from the start
-        (self.dir / "groups.json").write_text(
-            json.dumps({"group_names": list(scene.group_names)}, indent=1) + "\n"
-        )
+        write_text(self.dir / "groups.json",
+                   json.dumps({"group_names": list(scene.group_names)}, indent=1) + "\n")
         if self._contacts is not None:
             self._contacts.write()
 

@@ -20,6 +20,9 @@ was computed is written, the message says where and why), 2 bad input.
 
 from __future__ import annotations
 
+from dem import atomic
+from dem.atomic import savefig as _atomic_savefig
+
 import json
 import time
 from pathlib import Path
@@ -137,8 +140,7 @@ def write_outputs(out: Path, case: RockingCase, P, exc, res: RockingResult, wall
                           res.mode[:, 0], res.mode[:, 1], res.mode[:, 3]) if len(res.t) else \
         (np.zeros(0), np.zeros(0))
     ev = res.events
-    np.savez_compressed(
-        out / "rocking.npz",
+    atomic.save_npz(out / "rocking.npz", dict(
         t=res.t, theta1=res.theta1, theta2=res.theta2, omega1=res.omega1, omega2=res.omega2,
         pattern=res.pattern.astype("<U4"), top_disp=d, top_stick=res.top_stick, mode=res.mode,
         base_disp=exc.disp(res.t), base_acc=exc.acc_array(res.t),
@@ -148,17 +150,15 @@ def write_outputs(out: Path, case: RockingCase, P, exc, res: RockingResult, wall
         event_before=np.array([e["before"] for e in ev], dtype="<U4"),
         event_after=np.array([e["after"] for e in ev], dtype="<U4"),
         **arrays,
-    )
-    with open(out / "events.csv", "w") as fh:
-        fh.write("t_s,kind,before,after\n")
-        for e in ev:
-            fh.write(f"{e['t']:.12g},{e['kind']},{e['before']},{e['after']}\n")
+    ))
+    atomic.write_text(out / "events.csv", "t_s,kind,before,after\n" + "".join(
+        f"{e['t']:.12g},{e['kind']},{e['before']},{e['after']}\n" for e in ev))
     if plots and len(res.t):
         try:
             plot_results(out, case, P, exc, res, d, arrays)
         except Exception as err:  # a plot must never lose the run's data
             summary["plot_error"] = f"{type(err).__name__}: {err}"
-    (out / "summary.json").write_text(json.dumps(summary, indent=2, default=_json_default))
+    atomic.write_json(out / "summary.json", summary)
     return summary
 
 
@@ -199,7 +199,7 @@ def plot_results(out: Path, case, P, exc, res, d, arrays) -> None:
     ax[3].set_xlabel("t (s)")
     fig.suptitle(f"{case.name}: {res.status}", fontsize=10)
     fig.tight_layout()
-    fig.savefig(out / "rocking.png", dpi=110)
+    _atomic_savefig(fig, out / "rocking.png", dpi=110)
     plt.close(fig)
 
     fig, ax = plt.subplots(1, 1, figsize=(9, 4))
@@ -214,7 +214,7 @@ def plot_results(out: Path, case, P, exc, res, d, arrays) -> None:
     ax.legend()
     ax.set_title(case.name, fontsize=10)
     fig.tight_layout()
-    fig.savefig(out / "amplitudes.png", dpi=110)
+    _atomic_savefig(fig, out / "amplitudes.png", dpi=110)
     plt.close(fig)
 
 

@@ -1,0 +1,112 @@
+"""Atomic file writes: the one way every output file of a run, a sweep or an analysis is written.
+
+A file is written to a temporary file in the same directory (same file system, so the final
+``os.replace`` is atomic), flushed and fsync'ed, then renamed over the target.  A reader sees
+either the old file or the new one, never a half-written one; a write that fails (ENOSPC, EIO,
+an interrupt) removes its temporary file and leaves the old file (or none) in place.
+
+    with atomic_path(path) as tmp:        # any writer that takes a path (np.savez, savefig ...)
+        write_somehow(tmp)
+    write_text(path, text)                # str
+    write_json(path, data)                # dict -> indented JSON (numpy scalars / arrays ok)
+    save_npz(path, arrays)                # np.savez_compressed
+
+Temporary names start with ``.`` and end with ``.tmp`` + the target's suffix (writers such as
+``np.savez`` and ``savefig`` pick the format from the suffix), so a stray one is easy to spot
+and is never mistaken for an output.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import math
+import os
+import tempfile
+from pathlib import Path
+from typing import Iterator
+
+
+@contextlib.contextmanager
+def atomic_path(path: str | Path) -> Iterator[Path]:
+    """Yield a temporary path next to ``path``; on a clean exit fsync it and move it onto
+    ``path``; on any exception remove it and re-raise."""
+    path = Path(path)
+    fd, name = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=f".tmp{path.suffix}",
+                                dir=path.parent)
+    os.close(fd)
+    tmp = Path(name)
+    try:
+        yield tmp
+        with open(tmp, "rb+") as fh:
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        raise
+    _fsync_dir(path.parent)
+
+
+def _fsync_dir(directory: Path) -> None:
+    """Make the rename itself durable (best effort: not every file system allows it)."""
+    with contextlib.suppress(OSError):
+        fd = os.open(directory, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+
+
+def write_bytes(path: str | Path, data: bytes) -> None:
+    with atomic_path(path) as tmp:
+        with open(tmp, "wb") as fh:
+            fh.write(data)
+
+
+def write_text(path: str | Path, text: str) -> None:
+    write_bytes(path, text.encode("utf-8"))
+
+
+def json_default(o):
+    """numpy scalars and arrays in json.dumps."""
+    import numpy as np
+
+    if isinstance(o, (np.floating, np.integer, np.bool_)):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    raise TypeError(type(o).__name__)
+
+
+def strict_json(o):
+    """NaN / inf -> None (strict JSON), recursively."""
+    if isinstance(o, dict):
+        return {k: strict_json(v) for k, v in o.items()}
+    if isinstance(o, (list, tuple)):
+        return [strict_json(v) for v in o]
+    if isinstance(o, float) and not math.isfinite(o):
+        return None
+    return o
+
+
+def write_json(path: str | Path, data, indent: int = 2, strict: bool = False) -> None:
+    """JSON through :func:`atomic_path`; ``strict`` turns NaN / inf into null."""
+    if strict:
+        data = strict_json(json.loads(json.dumps(data, default=json_default)))
+    write_text(path, json.dumps(data, indent=indent, default=json_default) + "\n")
+
+
+def save_npz(path: str | Path, arrays: dict) -> None:
+    """np.savez_compressed through :func:`atomic_path`."""
+    import numpy as np
+
+    with atomic_path(path) as tmp:
+        with open(tmp, "wb") as fh:
+            np.savez_compressed(fh, **arrays)
+
+
+def savefig(fig, path: str | Path, **kwargs) -> None:
+    """matplotlib ``fig.savefig`` through :func:`atomic_path` (the format from the suffix)."""
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, **kwargs)
