@@ -46,19 +46,25 @@ def test_cached_launch_equals_taichi_call_bit_for_bit():
             assert np.array_equal(getattr(fast.state, name), getattr(slow.state, name)), name
         for name in ("fn", "shear", "npts"):
             assert np.array_equal(getattr(fast.contacts, name), getattr(slow.contacts, name))
-        e_fast, e_slow = fast.control.energy(), slow.control.energy()
-        if mode == "serial":  # the parallel kernel adds energy terms in thread order
-            assert e_fast == e_slow
+        # energy_stage sums the per-pair and per-body terms on one thread in a fixed order
+        assert fast.control.energy() == slow.control.energy()
         moved = np.abs(fast.state.pos[:-1] - fast.scene.position).max()
         assert moved > 1e-3, f"{mode}: the scene barely moved ({moved:.2e} m)"
 
 
 def test_serial_and_parallel_kernels_agree_bit_for_bit():
     """The same stages in one multi-step launch or one parallel launch per step: the same
-    trajectory (CSR gather in a fixed order, no atomics on forces)."""
+    trajectory (CSR gather in a fixed order, no atomics on forces), and the same energy sums up
+    to the reassociation fast-math may compile differently into the two kernels (a few ulp of
+    each term; measured ~1e-17 relative)."""
     ser, par = _run("serial", True, 600), _run("parallel", True, 600)
     assert np.array_equal(ser.state.pos, par.state.pos)
     assert np.array_equal(ser.state.quat, par.state.quat)
+    e_ser, e_par = ser.control.energy(), par.control.energy()
+    scale = max(abs(v) for v in e_ser.values())
+    assert scale > 0.0
+    for name in e_ser:
+        assert abs(e_ser[name] - e_par[name]) <= 1e-12 * scale, name
 
 
 def test_argpacks_follow_the_field_tables():

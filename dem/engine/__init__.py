@@ -1,8 +1,9 @@
 """Rigid-block DEM engine: box blocks, Coulomb joints with shear history, explicit stepping.
 
-Modules: ``containers`` (Model / State / Contacts), ``geometry`` (box-box contact patches),
-``laws`` (joint law), ``step`` (stages and kernels), ``broadphase`` (neighbour list),
-``timestep`` (critical step), ``simulation`` (driver), ``errors``.
+Modules: ``containers`` (Model / State / Contacts / Control: field tables and argpacks),
+``geometry`` (box-box contact patches, Ig2), ``pair`` (pair properties, Ip2), ``laws`` (joint
+law, Law2), ``step`` (stages and kernels), ``launch`` (cached kernel launches), ``broadphase``
+(neighbour list), ``timestep`` (critical step), ``simulation`` (driver), ``errors``.
 """
 
 from dem.engine.errors import CapacityError, InputError, InstabilityError, SimulationError

@@ -81,6 +81,8 @@ STATE_FIELDS = (
     _f("force", "vec3", "B", "N", "integrate_stage", "total force of the last step (diagnostic)"),
     _f("torque", "vec3", "B", "N m", "integrate_stage",
        "total torque about the centre of the last step (diagnostic)"),
+    _f("work", "vec3", "B", "J", "integrate_stage",
+       "last step's work of gravity, work of the base, local-damping dissipation"),
 )
 
 CONTACT_FIELDS = (
@@ -102,6 +104,8 @@ CONTACT_FIELDS = (
     _f("ft", "vec3", ("P", "K"), "N", "contact law", "shear force on j"),
     _f("wrench", "vec3", ("P", 3), "N, N m", "contact law",
        "force on i, torque on i, torque on j (force on j = -force on i)"),
+    _f("dissipation", "vec3", "P", "J", "contact law",
+       "last step's normal-damping, shear-damping and friction dissipation of the pair"),
 )
 
 # energy terms accumulated since t = 0 (J); the names are those of summary.json's "energy"
@@ -117,7 +121,7 @@ CONTROL_FIELDS = (
     _f("status", "i32", (1,), "-", "integrate_stage", "bits REBUILD | NONFINITE | RUNAWAY"),
     _f("bad_body", "i32", (1,), "-", "integrate_stage", "a body that raised NONFINITE/RUNAWAY"),
     _f("steps_done", "i32", (1,), "-", "advance_serial", "steps done by the last launch"),
-) + tuple(_f(name, "real", (1,), "J", "contact / integrate stages", "energy term since t = 0")
+) + tuple(_f(name, "real", (1,), "J", "contact / integrate stages", "energy term since t = 0 (energy_stage)")
           for name in ENERGY_TERMS)
 
 _ELEM = {"real": (None, ()), "vec3": (ti.math.vec3, (3,)), "vec4": (ti.math.vec4, (4,)),

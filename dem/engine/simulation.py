@@ -12,6 +12,7 @@ rounding in t.
 
 from __future__ import annotations
 
+import os
 import time
 from typing import Callable
 
@@ -30,12 +31,20 @@ from dem.scene import Scene
 # loads(t [K]) -> (gravity [K,3], base acceleration [K,3]), both in the table frame, m/s^2
 LoadFn = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
 
-# auto mode: below this the serial kernel is faster.  Measured on the shared 2-core test machine
-# (benchmarks/RESULTS.md, engine throughput): the parallel kernel does not beat the serial one up
-# to 3078 bricks there, since a job gets about one core while others run; with two free cores
-# it would win from ~1000 bricks (~0.4 ms launch; its loops on one thread run about as fast as
-# the serial kernel).  solver.mode: parallel forces it.
-PARALLEL_MIN_BODIES = 4000
+# auto mode: the parallel kernel from this many bodies on, by the threads Taichi runs (measured,
+# benchmarks/RESULTS.md, issue 10, with the cached launch): a parallel step pays ~30-100 us of
+# thread-pool dispatch for its two parallel loops, and its loops run slower per CPU-second than
+# the serial kernel.  On the 2-core test machine (2 threads) the parallel kernel lost up to 1624
+# bricks and won at 3078; on a 16-core machine (4-8 threads) it won from ~300-500.
+# solver.mode: serial / parallel forces either.
+PARALLEL_MIN_BODIES = {2: 2500, 4: 500}  # threads (at most) -> bodies
+
+
+def parallel_min_bodies(threads: int) -> int | float:
+    """Bodies from which auto mode takes the parallel kernel with ``threads`` threads."""
+    if threads <= 1:
+        return float("inf")
+    return PARALLEL_MIN_BODIES[2] if threads < 4 else PARALLEL_MIN_BODIES[4]
 
 
 class Simulation:
@@ -65,7 +74,9 @@ class Simulation:
         self.n_rebuilds = 0
         self.mode = solver.mode
         if self.mode == "auto":
-            self.mode = "parallel" if self.model.n_bodies >= PARALLEL_MIN_BODIES else "serial"
+            threads = ti_runtime.settings()["threads"] or os.cpu_count() or 1
+            self.mode = ("parallel" if self.model.n_bodies >= parallel_min_bodies(threads)
+                         else "serial")
         self.control = Control(self.skin, solver.max_speed, solver.local_damping)
         t0 = time.perf_counter()
         self._warm_up()

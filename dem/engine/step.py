@@ -13,6 +13,8 @@
                          then symplectic Euler: v += dt F/m, L += dt T, x += dt v, and the
                          free rotation by splitting (writes State); flags a neighbour-list
                          rebuild or a bad state (Control.status)
+        energy_stage     adds the step's work and dissipation of every pair and body to the
+                         energy sums (Control), on one thread in a fixed order
 
 The broad phase (neighbour list) runs on the host between kernel launches, when a body has moved
 more than half the skin (see :mod:`dem.engine.broadphase`).
@@ -181,9 +183,7 @@ def contact_stage(p, dt, model: ti.template(), state: ti.template(), contacts: t
     contacts.wrench[p, 0] = F_i
     contacts.wrench[p, 1] = T_i
     contacts.wrench[p, 2] = T_j
-    control.dissipated_normal_damping[0] += e_damp_n
-    control.dissipated_shear_damping[0] += e_shear
-    control.dissipated_friction[0] += e_fric
+    contacts.dissipation[p] = vec3(e_damp_n, e_shear, e_fric)
 
 
 @ti.func
@@ -256,17 +256,17 @@ def integrate_stage(b, s, dt, model: ti.template(), state: ti.template(),
         v0 = state.vel[b]
         w0 = state.omega[b]
         alpha = control.local_damping[0]
+        e_local = 0.0
         if alpha > 0.0:
             # Cundall's local damping: a force -alpha |F_k| sign(v_k) per component
             fd = -alpha * ti.abs(F) * ti.math.sign(v0)
             td = -alpha * ti.abs(T) * ti.math.sign(w0)
             F += fd
             T += td
-            control.dissipated_local_damping[0] -= (fd.dot(v0) + td.dot(w0)) * dt
+            e_local = -(fd.dot(v0) + td.dot(w0)) * dt
         v1 = v0 + dt * inv_m * F
         vmid = 0.5 * (v0 + v1)
-        control.work_gravity[0] += m * g.dot(vmid) * dt
-        control.work_base[0] -= m * a_base.dot(vmid) * dt
+        state.work[b] = vec3(m * g.dot(vmid) * dt, -(m * a_base.dot(vmid) * dt), e_local)
         x1 = state.pos[b] + dt * v1
         L1 = state.angmom[b] + dt * T
         inv_I = model.inv_inertia[b]
@@ -296,6 +296,24 @@ def integrate_stage(b, s, dt, model: ti.template(), state: ti.template(),
             ti.atomic_or(control.status[0], REBUILD)
 
 
+@ti.func
+def energy_stage(n_pairs, state: ti.template(), contacts: ti.template(),
+                 control: ti.template()):
+    """Adds the step's energy terms of every pair (contacts.dissipation) and body (state.work)
+    to the sums in Control, in a fixed order (pairs, then bodies) on one thread: the same sums,
+    bit for bit, from both kernels, and no atomic adds in the parallel loops."""
+    for p in range(n_pairs):
+        d = contacts.dissipation[p]
+        control.dissipated_normal_damping[0] += d[0]
+        control.dissipated_shear_damping[0] += d[1]
+        control.dissipated_friction[0] += d[2]
+    for b in range(state.pos.shape[0]):
+        w = state.work[b]
+        control.work_gravity[0] += w[0]
+        control.work_base[0] += w[1]
+        control.dissipated_local_damping[0] += w[2]
+
+
 @ti.kernel
 def advance_serial(n_steps: ti.i32, n_pairs: ti.i32, dt: float, model: ModelArgs,
                    state: StateArgs, contacts: ContactArgs, control: ControlArgs):
@@ -309,6 +327,7 @@ def advance_serial(n_steps: ti.i32, n_pairs: ti.i32, dt: float, model: ModelArgs
             contact_stage(p, dt, model, state, contacts, control)
         for b in range(n_bodies):
             integrate_stage(b, s, dt, model, state, contacts, control)
+        energy_stage(n_pairs, state, contacts, control)
         s += 1
     control.steps_done[0] = s
 
@@ -321,6 +340,9 @@ def advance_parallel(n_pairs: ti.i32, dt: float, model: ModelArgs, state: StateA
         contact_stage(p, dt, model, state, contacts, control)
     for b in range(state.pos.shape[0]):
         integrate_stage(b, 0, dt, model, state, contacts, control)
+    ti.loop_config(serialize=True)
+    for _ in range(1):
+        energy_stage(n_pairs, state, contacts, control)
 
 
 @ti.kernel
