@@ -6,4 +6,11 @@ Layout (data flows one way):
     -> dem.output (summary.json, frames.npz, VTK) -> postprocess/ (analysis, figures)
 """
 
+import os as _os
+
 __version__ = "0.1.0"
+
+# Taichi prints a "[Taichi] version ..." banner on stdout when it is imported; stdout is for
+# results (dem check / dem run print their result lines there), so it is off unless the user
+# sets ENABLE_TAICHI_HEADER_PRINT=1 (the version is in `dem --version`).
+_os.environ.setdefault("ENABLE_TAICHI_HEADER_PRINT", "0")

@@ -28,9 +28,15 @@ def _run_one(name: str, case_json: str, out_dir: str, threads: int, max_steps: i
     ti_runtime.init(threads=threads)
     from dem.runner import simulate
 
+    from dem.rundir import claim
+
     t0 = time.perf_counter()
     case = Case.model_validate_json(case_json)
+    rd = None
     try:
+        # the point's own directory: a lock against a second sweep writing into it, and the
+        # leftovers of an unfinished earlier attempt cleared (the sweep owns its point dirs)
+        rd = claim(out_dir, case.model_dump_json(indent=1), force=True, what="point")
         res = simulate(case, out_dir, progress=False, max_steps=max_steps)
         record = {"name": name, "status": "ok", "out_dir": out_dir, "summary": res.summary}
         if post is not None:
@@ -40,6 +46,9 @@ def _run_one(name: str, case_json: str, out_dir: str, threads: int, max_steps: i
         return {"name": name, "status": "failed", "out_dir": out_dir,
                 "error": f"{type(err).__name__}: {err}", "traceback": traceback.format_exc(),
                 "wall_seconds": time.perf_counter() - t0}
+    finally:
+        if rd is not None:
+            rd.release()
 
 
 def run_batch(cases: list[tuple[str, Case]], out_root: str | Path, scheduler: str | None = None,

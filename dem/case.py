@@ -39,7 +39,9 @@ Vec3 = Annotated[list[float], Field(min_length=3, max_length=3)]
 
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", validate_assignment=True)
+    # NaN and inf are refused in every number ("Input should be a finite number"), before any
+    # range check could give a misleading message about them
+    model_config = ConfigDict(extra="forbid", validate_assignment=True, allow_inf_nan=False)
 
 
 # --------------------------------------------------------------------------------------------
@@ -121,6 +123,14 @@ class SceneSpec(_Strict):
 # --------------------------------------------------------------------------------------------
 # material
 # --------------------------------------------------------------------------------------------
+# Friction coefficients of dry masonry joints are 0.5-0.9 (thesis Section 4.2.3: 0.81), of the
+# stickiest dry solid pairs (rubber on rough concrete) about 1-2.  mu = 10 is a friction angle of
+# 84.3 deg: a joint that never slides in any scene this model can stand up (a block slides before
+# it tips only if mu < b/h, and b/h > 10 is a plate lying flat).  Above it the number is a typo or
+# a unit slip (1000 for 1.000, a percentage), so it is refused rather than run.
+MAX_FRICTION = 10.0
+
+
 class Material(_Strict):
     """Joint properties, given the way masonry engineers give them (3DEC style).
 
@@ -129,7 +139,9 @@ class Material(_Strict):
     (see ``dem.engine.laws``).
     """
 
-    friction: float = Field(ge=0.0, description="Coulomb friction coefficient mu, -")
+    friction: float = Field(ge=0.0, le=MAX_FRICTION,
+                            description="Coulomb friction coefficient mu, - (at most 10, see "
+                            "MAX_FRICTION)")
     normal_stiffness: float = Field(default=5.0e9, gt=0.0, description="kn, Pa/m")
     shear_stiffness: float | None = Field(
         default=None, gt=0.0, description="ks, Pa/m (default 0.4 kn)"
@@ -140,7 +152,8 @@ class Material(_Strict):
         "of masonry units, normal restitution 0.16; see docs/engine.md)",
     )
     base_friction: float | None = Field(
-        default=None, ge=0.0, description="friction against the table (default: friction)"
+        default=None, ge=0.0, le=MAX_FRICTION,
+        description="friction against the table (default: friction; at most 10)"
     )
 
     @property
@@ -313,23 +326,60 @@ def check_record_time(t) -> None:
 
 def read_record_csv(path):
     """t [K], acceleration [K,3] from a CSV of t, ax, ay[, az]; raises ValueError naming the
-    problem."""
+    problem and the row (1-based line of the file): ``pulse.csv:7: 'abc' is not a number``.
+    Lines starting with '#' and blank lines are skipped; the first data-like line may be a header
+    (non-numeric)."""
+    import csv
+
     import numpy as np
 
     try:
-        data = np.genfromtxt(path, delimiter=",", comments="#", dtype=float)
-    except OSError as err:
-        raise ValueError(f"cannot read {path}: {err}") from None
-    if data.ndim == 2 and np.isnan(data[0]).all():
-        data = data[1:]  # a header line
-    if data.ndim != 2 or data.shape[1] not in (3, 4) or len(data) < 2:
+        with open(path, newline="") as fh:
+            lines = list(enumerate(csv.reader(fh), start=1))
+    except (OSError, UnicodeDecodeError) as err:
+        raise ValueError(f"cannot read {path}: {getattr(err, 'strerror', None) or err}") from None
+    except csv.Error as err:
+        raise ValueError(f"{path}: not a CSV file: {err}") from None
+    rows, ncol, header_seen = [], None, False
+    for line, cells in lines:
+        cells = [c.strip() for c in cells]
+        if not any(cells) or cells[0].startswith("#"):
+            continue
+        try:
+            values = [float(c) for c in cells]
+        except ValueError:
+            bad = next(c for c in cells if not _is_number(c))
+            if not rows and not header_seen:
+                header_seen = True  # a header line
+                continue
+            raise ValueError(f"{path}:{line}: {bad!r} is not a number (columns t, ax, ay[, az]: "
+                             "s, m/s2)") from None
+        if len(values) not in (3, 4):
+            raise ValueError(f"{path}:{line}: {len(values)} columns, need 3 or 4 columns "
+                             "(t, ax, ay[, az])")
+        if ncol is not None and len(values) != ncol:
+            raise ValueError(f"{path}:{line}: {len(values)} columns, the rows above have {ncol}")
+        if not all(np.isfinite(values)):
+            raise ValueError(f"{path}:{line}: values must be finite, got {', '.join(cells)}")
+        if rows and not values[0] > rows[-1][1][0]:
+            raise ValueError(f"{path}:{line}: time {values[0]:g} s is not after the previous "
+                             f"row's {rows[-1][1][0]:g} s (time must increase strictly)")
+        ncol = len(values)
+        rows.append((line, values))
+    if len(rows) < 2:
         raise ValueError(f"{path}: need at least 2 rows of 3 or 4 columns (t, ax, ay[, az])")
-    if not np.all(np.isfinite(data)):
-        raise ValueError(f"{path}: non-numeric or missing values")
-    check_record_time(data[:, 0])
+    data = np.array([v for _, v in rows], dtype=float)
     acc = np.zeros((len(data), 3))
     acc[:, : data.shape[1] - 1] = data[:, 1:]
     return data[:, 0], acc
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+        return True
+    except ValueError:
+        return False
 
 
 class NoLoading(_Strict):
@@ -415,6 +465,17 @@ class Case(_Strict):
         default=9.81,
         description="m/s2: a magnitude (pointing -z) or a vector in the table frame",
     )
+
+    @field_validator("gravity", mode="before")
+    @classmethod
+    def _gravity_finite(cls, v):
+        # before the union is tried: its branches would each report on their own ("a valid
+        # number" for the vector)
+        vals = v if isinstance(v, (list, tuple)) else [v]
+        if all(isinstance(x, (int, float)) for x in vals) and \
+                not all(math.isfinite(x) for x in vals):
+            raise ValueError(f"must be a finite number or vector (m/s2), got {v}")
+        return v
 
     @field_validator("gravity")
     @classmethod

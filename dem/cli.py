@@ -1,6 +1,8 @@
 """Command line: ``dem run | check | sweep | rocking | post``.
 
-Exit codes (a contract, see ../shared/DESIGN.md): 0 ok, 1 the run failed, 2 bad input.
+Exit codes (a contract, see ../shared/DESIGN.md): 0 ok, 1 the run failed (or was stopped by
+a signal, or its output could not be written), 2 bad input (case file, options, --out); what
+each failure prints and keeps: docs/failures.md.
 Heavy imports (Taichi) happen inside the commands so that ``dem check`` and ``--help`` are fast.
 """
 
@@ -18,34 +20,83 @@ app = typer.Typer(
 
 EXIT_OK, EXIT_RUN_FAILED, EXIT_BAD_INPUT = 0, 1, 2
 
+MAX_BLOCKS_HELP = "refuse scenes above this many blocks (default 20000, or DEM_MAX_BLOCKS)"
+
 
 def _err(msg: str) -> None:
     typer.echo(msg, err=True)
 
 
+def _version(value: bool) -> None:
+    if value:
+        from importlib.metadata import PackageNotFoundError, version
+
+        import dem
+
+        try:
+            taichi = version("taichi")
+        except PackageNotFoundError:  # pragma: no cover
+            taichi = "not installed"
+        typer.echo(f"dem-masonry {dem.__version__} (taichi {taichi})")
+        raise typer.Exit(EXIT_OK)
+
+
+@app.callback()
+def main(
+    version: bool = typer.Option(False, "--version", callback=_version, is_eager=True,
+                                 help="print the version and exit"),
+) -> None:
+    """Rigid-block DEM of dry masonry on a tilting or shaking table."""
+
+
+def _is_rocking_file(path: Path) -> bool:
+    """A two-body rocking case (top-level key ``rocking``): dispatched on the content."""
+    import yaml
+
+    try:
+        data = yaml.safe_load(path.read_text())
+    except (OSError, UnicodeDecodeError, yaml.YAMLError):
+        return False
+    return isinstance(data, dict) and "rocking" in data and "scene" not in data
+
+
 @app.command()
-def check(case: Path = typer.Argument(..., help="case YAML file")) -> None:
-    """Validate a case file and build and check its scene (overlaps, floating blocks) without
-    running it; print block count, mass and bounding box.  Exit 0 ok, 2 bad input."""
-    from dem.builders import check_scene
+def check(
+    case: Path = typer.Argument(..., help="case YAML file"),
+    max_blocks: int = typer.Option(None, "--max-blocks", help=MAX_BLOCKS_HELP),
+) -> None:
+    """Validate a case file and build and check its scene (overlaps, floating blocks, time step,
+    loading against the step and the run) without running it: the same checks as ``dem run``;
+    print block count, mass, bounding box, time step and size.  A two-body case (``rocking:``)
+    is checked against the two-body schema.  Exit 0 ok, 2 bad input."""
+    if _is_rocking_file(case):
+        from dem.rocking.schema import RockingCaseError, load_rocking_case
+
+        try:
+            rc = load_rocking_case(case)
+        except RockingCaseError as err:
+            _err(f"error: {err}" if str(err).startswith(str(case)) else f"error: {case}: {err}")
+            raise typer.Exit(EXIT_BAD_INPUT)
+        typer.echo(f"{case}: ok: '{rc.name}': a two-body rocking case (thesis Chapter 5); run it "
+                   f"with `dem rocking {case} --out DIR`")
+        return
     from dem.case import CaseError, load_case
-    from dem.scene import scene_from_case
+    from dem.validate import check_case
 
     try:
         c = load_case(case)
-        scene = scene_from_case(c, check=False)
-    except (CaseError, ValueError) as err:
+    except CaseError as err:
         _err(f"error: {err}" if str(err).startswith(str(case)) else f"error: {case}: {err}")
         raise typer.Exit(EXIT_BAD_INPUT)
-    report = check_scene(
-        scene,
-        overlap_tolerance=c.solver.overlap_tolerance,
-        allow_floating=c.scene.allow_floating,
-    )
-    if not report.ok:
-        _err(f"error: {case}: the scene cannot be run:\n{report.format()}")
+    checked = check_case(c, case, max_blocks=max_blocks)
+    for w in checked.warnings:
+        _err(f"warning: {w}")
+    if not checked.ok:
+        for e in checked.errors:
+            _err(f"error: {e}")
         raise typer.Exit(EXIT_BAD_INPUT)
-    typer.echo(f"{case}: ok: '{c.name}', loading {c.loading.type}\n{report.format()}")
+    typer.echo(f"{case}: ok: '{c.name}', loading {c.loading.type}\n{checked.report.format()}\n"
+               f"{checked.size_line()}")
 
 
 @app.command()
@@ -70,11 +121,36 @@ def run(
     case: Path = typer.Argument(..., help="case YAML file"),
     out: Path = typer.Option(..., "--out", "-o", help="output directory"),
     progress: bool = typer.Option(True, help="show a progress bar"),
+    force: bool = typer.Option(False, "--force",
+                               help="clear OUT if it holds a different run (or a sweep)"),
+    max_blocks: int = typer.Option(None, "--max-blocks", help=MAX_BLOCKS_HELP),
 ) -> None:
-    """Run one case and write summary.json, frames.npz (and VTK) into OUT."""
+    """Run one case and write summary.json, frames.npz (and VTK) into OUT.  OUT must be new,
+    empty, or hold a run of the same case (replaced); another run is refused unless --force.
+    SIGTERM / SIGHUP stop the run like Ctrl-C.  A two-body case (``rocking:``) runs the two-body
+    model, as ``dem rocking``.  Exit 0 ok, 1 failed or stopped, 2 bad input."""
+    if _is_rocking_file(case):
+        _err(f"{case}: a two-body rocking case: running the two-body model (dem rocking)")
+        raise typer.Exit(_rocking(case, out, True, force))
     from dem.runner import run_case_file
 
-    raise typer.Exit(run_case_file(case, out, progress=progress))
+    raise typer.Exit(run_case_file(case, out, progress=progress, force=force,
+                                   max_blocks=max_blocks))
+
+
+def _rocking(case: Path, out: Path, plots: bool, force: bool) -> int:
+    from dem.rocking.runner import run_rocking_case_file
+    from dem.rundir import RunDirError, claim
+
+    try:
+        rd = claim(out, None, force=force, rerun_marker="rocking.npz")
+    except RunDirError as err:
+        _err(f"error: {err}")
+        return EXIT_BAD_INPUT
+    try:
+        return run_rocking_case_file(case, out, plots=plots, echo=typer.echo, err=_err)
+    finally:
+        rd.release()
 
 
 @app.command()
@@ -82,11 +158,10 @@ def rocking(
     case: Path = typer.Argument(..., help="rocking case YAML file (see dem/rocking/schema.py)"),
     out: Path = typer.Option(..., "--out", "-o", help="output directory"),
     plots: bool = typer.Option(True, help="write PNG plots"),
+    force: bool = typer.Option(False, "--force", help="clear OUT if it holds another run"),
 ) -> None:
     """Run the two-body rocking model (thesis Ch. 5): summary.json, rocking.npz, plots in OUT."""
-    from dem.rocking.runner import run_rocking_case_file
-
-    raise typer.Exit(run_rocking_case_file(case, out, plots=plots, echo=typer.echo, err=_err))
+    raise typer.Exit(_rocking(case, out, plots, force))
 
 
 @app.command()

@@ -9,21 +9,31 @@ Output directory (contract of ../shared/DESIGN.md):
     instruments.npz  virtual instruments sampled every run.instrument_interval (dem.instruments)
     case.json      the validated case with every default filled in (Case.model_validate_json)
 
-Nothing is lost on failure: frames.npz and summary.json are written (atomically, temp file +
-rename) when the run ends for any reason, and every ``CHECKPOINT_SECONDS`` of wall-clock time.
+Nothing is lost on failure: frames.npz and summary.json are written (atomically, through
+dem.atomic: temp file in the same directory, fsync, rename) when the run ends for any reason,
+and every ``CHECKPOINT_SECONDS`` of wall-clock time.  Ends and what they leave (docs/failures.md):
+
+* ok / failed (SimulationError) / interrupted (SIGINT, SIGTERM, SIGHUP: dem.signals): every file
+  written, summary.json says which, with the error;
+* a write that fails (ENOSPC, EIO, read-only file system): :class:`OutputError`; the files already
+  written stay whole (atomic writes), the one that failed is not there (or is the previous
+  checkpoint's), summary.json says ``failed`` with ``write_errors`` if it could still be written,
+  else it is removed (a checkpoint's ``running`` would be a lie);
+* a stop before the first step (bad input found by the engine, a signal while it compiles):
+  nothing is written, ``dem run`` removes the directory it claimed.
 """
 
 from __future__ import annotations
 
 import json
 import math
-import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from dem import atomic
 from dem.case import Case, CaseError, load_case
 from dem.collapse import CollapseDetector
 from dem.instruments import InstrumentRecorder, thesis_instruments
@@ -31,6 +41,10 @@ from dem.loading import Record, Shake, Tilt, loading_from_case
 from dem.scene import Scene, scene_from_case
 
 CHECKPOINT_SECONDS = 30.0
+
+
+class OutputError(OSError):
+    """An output file could not be written (disk full, I/O error, read-only file system)."""
 
 
 @dataclass
@@ -76,16 +90,11 @@ class FrameRecorder:
 
 
 def _save_npz(path: Path, arrays: dict) -> None:
-    """np.savez_compressed through a temporary file, so the file is always whole."""
-    tmp = path.with_name(path.stem + ".tmp.npz")
-    np.savez_compressed(tmp, **arrays)
-    os.replace(tmp, path)
+    atomic.save_npz(path, arrays)
 
 
 def _write_json(path: Path, data: dict) -> None:
-    tmp = path.with_suffix(".tmp")
-    tmp.write_text(json.dumps(data, indent=2, default=_json_default))
-    os.replace(tmp, path)
+    atomic.write_json(path, data)
 
 
 def _json_default(o):
@@ -133,23 +142,30 @@ class _Progress:
 
 
 def simulate(case: Case, out_dir: str | Path | None = None, progress: bool = False,
-             max_steps: int | None = None) -> RunResult:
+             max_steps: int | None = None, scene: Scene | None = None) -> RunResult:
     """Run a validated case.  Writes ``summary.json`` and ``frames.npz`` into out_dir if given.
 
-    Raises dem.engine.InputError (bad scene/settings) before stepping, SimulationError when the
-    run fails; in both the frames recorded so far are written first.
+    Raises dem.engine.InputError (bad scene/settings) before anything is written,
+    SimulationError when the run fails, KeyboardInterrupt (dem.signals.Interrupted for SIGTERM /
+    SIGHUP) when stopped, :class:`OutputError` when an output file cannot be written; in all but
+    the first the frames recorded so far are written first (where the disk allows).
+    ``scene``: the scene of the case, already built and checked (dem.validate), else built here.
     """
     from dem.engine import Simulation, SimulationError
 
     wall0 = time.perf_counter()
     out = Path(out_dir) if out_dir is not None else None
+    scene = scene if scene is not None else scene_from_case(case)
+    loading = loading_from_case(case)
+    sim = Simulation(scene, case.material, case.solver, gravity=loading.g0)
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
         # the validated case (all defaults filled in): post-processing rebuilds the scene from it
-        (out / "case.json").write_text(case.model_dump_json(indent=1))
-    scene = scene_from_case(case)
-    loading = loading_from_case(case)
-    sim = Simulation(scene, case.material, case.solver, gravity=loading.g0)
+        try:
+            atomic.write_text(out / "case.json", case.model_dump_json(indent=1))
+        except OSError as err:
+            raise OutputError(err.errno, f"cannot write {out / 'case.json'}: "
+                                         f"{err.strerror or err}") from None
     n = scene.n_blocks
     dt = sim.dt
     t_end = case.run.duration
@@ -224,6 +240,19 @@ def simulate(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
                           contacts=sim.contacts.active_points() if case.run.contacts else None)
         rec.add(t, st.pos[:n], st.quat[:n], st.vel[:n], st.omega[:n], base, **extra)
 
+    write_errors: dict[str, str] = {}
+
+    def guarded(name: str, fn, *args) -> bool:
+        """Run one write; an OSError is recorded (the file is not there, or is the previous
+        checkpoint's: atomic writes) instead of stopping the other writes."""
+        try:
+            fn(*args)
+            return True
+        except OSError as err:
+            write_errors[name] = f"{err.strerror or err} (errno {err.errno})" if err.errno \
+                else str(err)
+            return False
+
     def finish(status: str, error: str | None = None):
         summary["status"] = status
         summary["error"] = error
@@ -253,16 +282,45 @@ def simulate(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
                                       "interval_s": case.run.instrument_interval,
                                       "names": [i.name for i in instruments.instruments]}
         if out is not None:
-            rec.write()
+            guarded("frames.npz", rec.write)
             if instruments is not None and instruments.rows["t"]:
-                _save_npz(out / "instruments.npz", instruments.arrays())
+                guarded("instruments.npz", _save_npz, out / "instruments.npz",
+                        instruments.arrays())
             if vtk is not None:
-                vtk.close()
+                guarded("vtk/scene.pvd", vtk.close)
                 summary["vtk_frames"] = vtk.n_frames
                 summary["vtk_bytes"] = vtk.bytes_written
-            if case.run.snapshot and rec.cols["t"]:
-                _snapshot(out / "final.png", scene, rec, case.name)
-            _write_json(out / "summary.json", summary)
+            if case.run.snapshot and rec.cols["t"] and not write_errors:
+                guarded("final.png", _snapshot, out / "final.png", scene, rec, case.name)
+            if write_errors:
+                summary["status"] = "failed"
+                summary["error"] = "output: " + "; ".join(f"{k}: {v}" for k, v in
+                                                          write_errors.items()) + \
+                    (f" (after: {status}: {error})" if error else "")
+                summary["write_errors"] = write_errors
+            if not guarded("summary.json", _write_json, out / "summary.json", summary):
+                # a checkpoint's 'running' must not survive: remove it (frees its blocks), then
+                # try a minimal summary
+                import contextlib
+
+                with contextlib.suppress(OSError):
+                    (out / "summary.json").unlink()
+                small = {k: summary.get(k) for k in ("name", "n_blocks", "dt", "steps",
+                                                     "sim_time", "status", "error")}
+                small["write_errors"] = write_errors
+                small["status"] = "failed"
+                guarded("summary.json (minimal)", _write_json, out / "summary.json", small)
+            if write_errors:
+                first = next(iter(write_errors))
+                raise OutputError(
+                    None, f"cannot write the output in {out}: {first}: {write_errors[first]}"
+                    + ("; summary.json says failed" if (out / "summary.json").is_file()
+                       else "; no summary.json could be written"))
+
+    def record_last():
+        """The state where the run stopped, so frames.npz ends at summary's sim_time."""
+        if not rec.cols["t"] or sim.t > rec.cols["t"][-1]:
+            record()
 
     bar = _Progress(progress, t_end, case.name)
     last_flush = time.perf_counter()
@@ -310,14 +368,24 @@ def simulate(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
                 _write_json(out / "summary.json", summary)
                 last_flush = now
     except SimulationError as err:
-        record()
+        bar.close()
+        guarded("last frame", record_last)
         finish("failed", str(err))
-        bar.close()
         raise
-    except KeyboardInterrupt:
-        finish("interrupted", "interrupted by the user")
+    except KeyboardInterrupt as err:
+        from dem.signals import signal_name
+
         bar.close()
+        guarded("last frame", record_last)
+        sig = signal_name(err)
+        finish("interrupted", f"stopped by {sig}" + (" (Ctrl-C)" if sig == "SIGINT" else ""))
         raise
+    except OSError as err:  # a checkpoint or a VTK frame could not be written
+        bar.close()
+        write_errors["checkpoint (frames.npz, summary.json or a VTK frame)"] = \
+            f"{err.strerror or err} (errno {err.errno})"
+        finish("failed", None)
+        raise OutputError(err.errno, str(err)) from None  # finish raises first if it can
     bar.close()
     finish("ok")
     arrays = rec.arrays()
@@ -327,32 +395,129 @@ def simulate(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
                      arrays["base_disp"], summary, extra, scene)
 
 
-def run_case_file(path: str | Path, out: str | Path, progress: bool = True) -> int:
-    """CLI body of ``dem run``: returns the exit code (0 ok, 1 run failed, 2 bad input)."""
+def result_line(summary: dict, arrays: dict | None = None) -> str:
+    """The last line of every run: status and the main result of its loading type."""
+    status = summary.get("status")
+    parts = [f"result: {status}"]
+    if summary.get("error"):
+        parts.append(str(summary["error"]).splitlines()[0])
+    kind = (summary.get("loading") or {}).get("type")
+    if kind == "tilt":
+        col = summary.get("collapse") or {}
+        if col.get("detected"):
+            mech = summary.get("mechanism") or {}
+            label = mech.get("mechanism") or mech.get("kind")
+            parts.append(f"collapse at {col['angle_deg']:.2f} deg, load factor "
+                         f"{col['load_factor']:.3f}" + (f", mechanism {label}" if label else ""))
+        elif col:
+            parts.append(f"no collapse up to {col.get('last_angle_deg', 0.0):.2f} deg")
+    if arrays is not None and len(arrays.get("t", [])) and kind != "tilt":
+        pos = np.asarray(arrays["pos"])
+        disp = float(np.linalg.norm(pos - pos[0], axis=2).max()) if pos.size else 0.0
+        ld = summary.get("loading") or {}
+        if kind in ("shake", "record"):
+            parts.append(f"peak table acceleration {ld.get('peak_acceleration_m_s2', 0.0):.3g} "
+                         f"m/s2, largest block displacement relative to the table "
+                         f"{disp * 1e3:.3g} mm (amplification: dem post)")
+        else:
+            parts.append(f"largest block displacement {disp * 1e3:.3g} mm")
+    parts.append(f"t = {summary.get('sim_time', 0.0):.4g} s")
+    return "; ".join(parts)
+
+
+def run_case_file(path: str | Path, out: str | Path, progress: bool = True, force: bool = False,
+                  max_blocks: int | None = None) -> int:
+    """CLI body of ``dem run``: returns the exit code (0 ok, 1 run failed or stopped, 2 bad
+    input; docs/failures.md).  SIGTERM and SIGHUP stop the run like Ctrl-C (dem.signals)."""
+    import typer
+
+    from dem.signals import signal_name, stop_on_signals
+
+    with stop_on_signals():
+        try:
+            return _run_case_file(path, out, progress, force, max_blocks)
+        except KeyboardInterrupt as err:  # before the output directory was claimed
+            typer.echo(f"interrupted by {signal_name(err)} before the run started; nothing "
+                       f"written", err=True)
+            return 1
+
+
+def _run_case_file(path, out, progress, force, max_blocks) -> int:
     import typer
 
     from dem.engine import InputError, SimulationError
+    from dem.rundir import RunDirError, claim
+    from dem.signals import signal_name
+    from dem.validate import check_case
+
+    def err(msg):
+        typer.echo(msg, err=True)
 
     try:
         case = load_case(path)
-    except CaseError as err:
-        typer.echo(f"error: {err}", err=True)  # the message starts with path:line:
+    except CaseError as e:
+        err(f"error: {e}")  # the message starts with path:line:
+        return 2
+    checked = check_case(case, path, max_blocks=max_blocks)
+    for w in checked.warnings:
+        err(f"warning: {w}")
+    if not checked.ok:
+        for e in checked.errors:
+            err(f"error: {e}")
         return 2
     try:
-        res = simulate(case, out, progress=progress)
-    except (InputError, ValueError) as err:
-        typer.echo(f"error: {path}: {err}", err=True)
+        rd = claim(out, case.model_dump_json(indent=1), force=force)
+    except RunDirError as e:
+        err(f"error: {e}")
         return 2
-    except SimulationError as err:
-        typer.echo(f"run failed: {err}\nframes written so far are in {out}/frames.npz", err=True)
+    out = Path(out)
+    try:
+        res = simulate(case, out, progress=progress, scene=checked.scene)
+    except (InputError, ValueError) as e:
+        rd.abandon()
+        err(f"error: {path}: {e}")
+        return 2
+    except SimulationError as e:
+        err(f"run failed: {e}\nframes written so far are in {out}/frames.npz")
+        err(_summary_result(out))
         return 1
-    except KeyboardInterrupt:
-        typer.echo(f"interrupted; frames written so far are in {out}/frames.npz", err=True)
+    except OSError as e:  # OutputError, or a write while the run was being set up
+        msg = e.strerror or str(e)
+        if not isinstance(e, OutputError):
+            msg = f"cannot write the output in {out}: {msg} (errno {e.errno})"
+        err(f"error: {msg}")
         return 1
+    except KeyboardInterrupt as e:
+        if (out / "summary.json").is_file():
+            err(f"interrupted by {signal_name(e)}; summary.json says 'interrupted', frames so "
+                f"far are in {out}/frames.npz")
+            err(_summary_result(out))
+        else:
+            rd.abandon()
+            err(f"interrupted by {signal_name(e)} before the first step; nothing written")
+        return 1
+    finally:
+        rd.release()
     s = res.summary
     typer.echo(
         f"{s['name']}: {s['n_blocks']} blocks, {s['steps']} steps of {s['dt']:.3g} s, "
         f"t = {s['sim_time']:.3f} s in {s['wall_seconds']:.1f} s wall "
         f"({s['compile_seconds']:.1f} s compile, {s['brick_steps_per_second']:.3g} brick-steps/s); "
         f"output in {out}")
+    typer.echo(result_line(s, {"t": res.t, "pos": res.pos}))
     return 0
+
+
+def _summary_result(out: Path) -> str:
+    """result_line of a run directory that ended early (from its summary.json and frames)."""
+    try:
+        s = json.loads((out / "summary.json").read_text())
+    except (OSError, ValueError):
+        return "result: failed (no summary.json)"
+    arrays = None
+    try:
+        with np.load(out / "frames.npz") as fr:
+            arrays = {"t": fr["t"], "pos": fr["pos"]}
+    except (OSError, ValueError, KeyError):
+        pass
+    return result_line(s, arrays)

@@ -8,7 +8,9 @@ settings raises instead of silently keeping the old ones.
 
 from __future__ import annotations
 
+import contextlib
 import os
+import sys
 
 import taichi as ti
 
@@ -45,7 +47,10 @@ def init(threads: int | None = None, precision: str = "f64", debug: bool = False
     )
     if threads is not None:
         kwargs["cpu_max_num_threads"] = int(threads)
-    ti.init(**kwargs)
+    # ti.init prints "[Taichi] Starting on arch=x64" on stdout unconditionally; stdout is for
+    # results, so the line goes to stderr (the import banner is off: dem/__init__.py)
+    with contextlib.redirect_stdout(sys.stderr):
+        ti.init(**kwargs)
     _settings = wanted
     return _settings
 

@@ -15,12 +15,21 @@ Taichi capped at one thread per worker, or an existing cluster with ``--schedule
   compact record travels back;
 * DIR/sweep.json is written when the sweep starts (every point "pending") and rewritten as each
   point lands, so an interrupted sweep keeps what finished; ``dem post DIR`` rebuilds it from the
-  run directories.
+  run directories;
+* a rerun into the same DIR skips every point whose directory holds a finished run of the same
+  point case (summary.json status "ok", case.json equal): it is read back (its analysis.json, or
+  analysed again if that is missing), not recomputed; the others (killed, failed, changed) run
+  again into their cleared directories.  SIGTERM / SIGHUP stop a sweep like Ctrl-C.
 
 Aggregation (:func:`aggregate`):
   amplification curve per quantity (ds, dsr, da, dar, a, ar, vs, vsr, va, var ...);
   characteristic frequency = frequency of the peak amplification (of ds, as Fig 4.43; per
-  quantity too);
+  quantity too) if the curve has a clear peak, else null with the reason.  A clear peak is
+  (1) interior: not at the lowest or highest valid frequency (at an edge the curve may go on
+  rising outside the range: the elastic box models rise as f^2 up to the last point), and
+  (2) standing out of the curve: at least ``PEAK_MIN_RATIO`` = 1.1 times the median
+  amplification (a flat or noisy curve, where nothing responds more at one frequency than at the
+  others, has its maximum within a few % of its median); it needs at least 3 valid points;
   effective range, the thesis' "two groups" (Section 4.3.1.2: "the frequencies are clearly divided
   into two groups ... with a clear gap in values of amplifications between them"): the ds
   amplifications of the valid points, sorted, are split at the largest ratio between neighbours;
@@ -34,6 +43,8 @@ Aggregation (:func:`aggregate`):
 
 from __future__ import annotations
 
+from dem.atomic import savefig as _atomic_savefig
+
 import json
 import math
 import os
@@ -43,6 +54,7 @@ from pathlib import Path
 import numpy as np
 
 GAP_MIN = 1.5
+PEAK_MIN_RATIO = 1.1
 DEFAULT_MARGIN = 1.0
 MAIN_QUANTITY = "ds"
 
@@ -161,6 +173,25 @@ def analyze_point(case, res, out_dir) -> dict:
                 "traceback": traceback.format_exc()}
 
 
+def finished_point(case, out_dir: Path) -> dict | None:
+    """The record of a point whose directory already holds a finished run of ``case`` (same
+    case.json, summary.json status ok), else None."""
+    try:
+        summ = json.loads((out_dir / "summary.json").read_text())
+        same = json.loads((out_dir / "case.json").read_text()) == \
+            json.loads(case.model_dump_json())
+    except (OSError, ValueError):
+        return None
+    if not same or summ.get("status") != "ok":
+        return None
+    try:
+        post = compact(json.loads((out_dir / "analysis.json").read_text()))
+    except (OSError, ValueError):
+        post = analyze_point(case, None, out_dir)
+    return {"name": out_dir.name, "status": "ok", "out_dir": str(out_dir), "summary": summ,
+            "post": post, "reused": True}
+
+
 def _point_from_record(f: float, case, rec: dict, out_root: Path) -> dict:
     ld = case.loading
     p = {"name": point_name(f), "frequency_hz": f, "amplitude_m": ld.displacement_amplitude,
@@ -198,10 +229,22 @@ def effective_range(freqs, amps) -> dict:
     order = np.argsort(f)
     f, a = f[order], a[order]
     k = int(np.argmax(a))
-    out = {"characteristic_frequency_hz": float(f[k]), "peak_amplification": float(a[k])}
+    out = {"characteristic_frequency_hz": float(f[k]), "peak_amplification": float(a[k]),
+           "max_amplification_at_hz": float(f[k])}
+    reason = None
     if len(f) < 3:
-        out.update({"effective_range_hz": None, "rule": None,
-                    "note": "the effective range needs at least 3 valid points"})
+        reason = f"{len(f)} valid point(s): a peak needs at least 3"
+    elif k in (0, len(f) - 1):
+        reason = (f"no clear peak: the largest amplification ({a[k]:.3g}) is at the "
+                  f"{'lowest' if k == 0 else 'highest'} frequency of the range ({f[k]:g} Hz); "
+                  f"the curve may go on {'rising below' if k == 0 else 'rising above'} it")
+    elif not a[k] >= PEAK_MIN_RATIO * float(np.median(a)):
+        reason = (f"no clear peak: the largest amplification ({a[k]:.3g} at {f[k]:g} Hz) is less "
+                  f"than {PEAK_MIN_RATIO} x the median ({float(np.median(a)):.3g})")
+    if reason is not None:
+        out.update({"characteristic_frequency_hz": None, "characteristic_frequency_note": reason,
+                    "effective_range_hz": None, "rule": None,
+                    "note": "no effective range without a characteristic frequency"})
         return out
     desc = np.sort(a)[::-1]
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -268,6 +311,11 @@ def plot_sweep(path, points: list[dict], agg: dict, title: str = "") -> None:
             ax.plot(c[:, 0], c[:, 1], "o-" if n == MAIN_QUANTITY else ".--",
                     lw=2 if n == MAIN_QUANTITY else 1, label=n)
     er = agg.get("effective_range_hz")
+    if agg.get("characteristic_frequency_hz") is None:
+        ax.text(0.02, 0.95, "characteristic frequency: none\n"
+                + str(agg.get("characteristic_frequency_note") or agg.get("note") or ""),
+                transform=ax.transAxes, va="top", fontsize=8, wrap=True,
+                bbox={"facecolor": "white", "alpha": 0.8, "edgecolor": "tab:red"})
     for a in (ax, ax2):
         if er:
             a.axvspan(er[0] - 0.02, er[1] + 0.02, color="tab:green", alpha=0.1)
@@ -289,7 +337,7 @@ def plot_sweep(path, points: list[dict], agg: dict, title: str = "") -> None:
     ax2.set_xlabel("frequency (Hz)")
     ax2.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    _atomic_savefig(fig, path, dpi=110)
     plt.close(fig)
 
 
@@ -306,6 +354,16 @@ def write_sweep(out: Path, meta: dict, points: list[dict], plots: bool = True) -
     return data
 
 
+def characteristic_text(agg: dict) -> str:
+    """The printed summary of a sweep's characteristic frequency and effective range."""
+    fc = agg.get("characteristic_frequency_hz")
+    if fc is None:
+        return ("characteristic frequency: none ("
+                + str(agg.get("characteristic_frequency_note") or agg.get("note")) + ")")
+    return (f"characteristic frequency {fc:g} Hz (amplification {agg.get('peak_amplification'):.3g})"
+            f", effective range {agg.get('effective_range_hz')} Hz")
+
+
 def _meta(case, frequencies, cycles, margin, source) -> dict:
     ld = case.loading
     mode = "peak_acceleration" if ld.peak_acceleration is not None else "amplitude"
@@ -316,7 +374,10 @@ def _meta(case, frequencies, cycles, margin, source) -> dict:
             "frequencies_hz": list(frequencies),
             "definitions": {
                 "characteristic_frequency": "frequency of the peak amplification of "
-                                            + MAIN_QUANTITY,
+                                            + MAIN_QUANTITY + " if the peak is clear: interior "
+                                            "(not at the first or last valid frequency) and >= "
+                                            f"{PEAK_MIN_RATIO} x the median amplification; "
+                                            "else null with characteristic_frequency_note",
                 "effective_range": "sorted amplifications split at the largest neighbour ratio if "
                                    f">= {GAP_MIN} (the thesis' two groups), else >= peak/sqrt(2); "
                                    "consecutive frequencies around the characteristic one",
@@ -356,20 +417,42 @@ def run_sweep(case_path, out, frequencies: str | None = None, rng: str | None = 
     except (SweepInputError, ValueError) as err:
         _say(f"error: {case_path}: {err}")
         return 2
-    out.mkdir(parents=True, exist_ok=True)
+    if out.exists() and not out.is_dir():
+        _say(f"error: --out {out}: exists and is not a directory")
+        return 2
+    if (out / "case.json").is_file():
+        _say(f"error: --out {out}: holds a single run (case.json), not a sweep; choose another "
+             f"directory")
+        return 2
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        _say(f"error: --out {out}: cannot create it ({err.strerror or err})")
+        return 2
     meta = _meta(case, freqs, cycles, margin, case_path)
     by_name = {n: (f, c) for f, (n, c) in zip(freqs, cases)}
     points = {n: _point_from_record(f, c, {"status": "pending"}, out)
               for n, (f, c) in by_name.items()}
+    reused = {}
+    for n, (f, c) in by_name.items():
+        rec = finished_point(c, out / n)
+        if rec is not None:
+            reused[n] = rec
+            points[n] = _point_from_record(f, c, rec, out)
+            points[n]["reused"] = True
+    if reused:
+        _say(f"{len(reused)} point(s) already finished in {out}, kept: "
+             + ", ".join(f"{by_name[n][0]:g} Hz" for n in reused))
+    todo = [(n, c) for n, c in cases if n not in reused]
     write_sweep(out, meta, list(points.values()), plots=False)
     n_done = [0]
 
     def on_done(rec: dict) -> None:
-        n_done[0] += 1
+        n_done[0] += 1 if rec["name"] not in reused else 0
         f, c = by_name[rec["name"]]
         p = _point_from_record(f, c, rec, out)
         points[rec["name"]] = p
-        head = f"[{n_done[0]}/{len(cases)}] {f:g} Hz"
+        head = f"[{n_done[0]}/{len(todo)}] {f:g} Hz"
         if p["status"] == "failed":
             _say(f"{head}: FAILED: {p.get('error')}")
         else:
@@ -381,15 +464,20 @@ def run_sweep(case_path, out, frequencies: str | None = None, rng: str | None = 
 
     where = f"scheduler {scheduler}" if scheduler else \
         f"local cluster, {workers or os.cpu_count()} workers"
-    _say(f"sweep {case.name}: {len(cases)} frequencies {freqs} Hz, {where}")
+    _say(f"sweep {case.name}: {len(cases)} frequencies {freqs} Hz ({len(todo)} to run), {where}")
     # run_batch sets DEM_THREADS=1 in this (client) process for its workers to inherit; put it
     # back afterwards, or a later Taichi initialisation in this process would clash
     threads_env = os.environ.get("DEM_THREADS")
+    from dem.signals import signal_name, stop_on_signals
+
     try:
-        records = run_batch(cases, out, scheduler=scheduler, n_workers=workers,
-                            max_steps=max_steps, post=analyze_point, on_done=on_done)
-    except KeyboardInterrupt:
-        _say(f"interrupted; finished points are in {out}/sweep.json (dem post {out} rebuilds it)")
+        with stop_on_signals():
+            records = run_batch(todo, out, scheduler=scheduler, n_workers=workers,
+                                max_steps=max_steps, post=analyze_point,
+                                on_done=on_done) if todo else []
+    except KeyboardInterrupt as err:
+        _say(f"interrupted by {signal_name(err)}; finished points are in {out}/sweep.json (a rerun"
+             f" of the same command keeps them and runs the others)")
         return 1
     finally:
         if threads_env is None:
@@ -401,8 +489,7 @@ def run_sweep(case_path, out, frequencies: str | None = None, rng: str | None = 
             on_done(rec)
     data = write_sweep(out, meta, [points[n] for n, _ in cases])
     agg = data["aggregate"]
-    _say(f"characteristic frequency {agg.get('characteristic_frequency_hz')} Hz, effective range "
-         f"{agg.get('effective_range_hz')} Hz; {out}/sweep.json")
+    _say(f"{characteristic_text(agg)}; {out}/sweep.json")
     if data["failed"]:
         _say(f"{len(data['failed'])} of {len(cases)} points failed: "
              + ", ".join(f"{x['frequency_hz']:g} Hz" for x in data["failed"]))
@@ -489,6 +576,22 @@ def post_tilt(run_dir) -> dict:
     return out
 
 
+def _locked(path: Path) -> bool:
+    """Whether a live run holds DIR/run.lock (dem.rundir)."""
+    import fcntl
+
+    lock = path / "run.lock"
+    if not lock.is_file():
+        return False
+    with open(lock, "rb") as fh:
+        try:
+            fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            return True
+        fcntl.flock(fh.fileno(), fcntl.LOCK_UN)
+    return False
+
+
 def post_command(path) -> int:
     """CLI body of ``dem post DIR``; returns the exit code."""
     from dem.case import ShakeLoading, TiltLoading
@@ -506,12 +609,22 @@ def post_command(path) -> int:
             data, n_failed = post_sweep(path)
             agg = data["aggregate"]
             _say(f"{path}/sweep.json: {len(data['points'])} points, {n_failed} failed; "
-                 f"characteristic frequency {agg.get('characteristic_frequency_hz')} Hz, "
-                 f"effective range {agg.get('effective_range_hz')} Hz")
+                 f"{characteristic_text(agg)}")
             return 1 if n_failed else 0
         if not (path / "case.json").is_file():
             _say(f"error: {path}: not a run directory (no case.json) nor a sweep (no sweep.json)")
             return 2
+        if not (path / "summary.json").is_file():
+            _say(f"error: {path}: not a run: no summary.json (the run never started, or was "
+                 f"killed before its first checkpoint)")
+            return 2
+        try:
+            status = json.loads((path / "summary.json").read_text()).get("status")
+        except ValueError:
+            status = None
+        if status == "running" and not _locked(path):
+            _say(f"warning: {path}: summary.json says 'running' but no process holds the run: it "
+                 f"was killed (SIGKILL, power loss); analysing the frames of its last checkpoint")
         case, _ = load_run(path)
         if isinstance(case.loading, ShakeLoading):
             res = analyze_run(path)

@@ -413,7 +413,9 @@ def test_sweep_at_constant_peak_acceleration_exits_0_and_aggregates(tmp_path, mo
         assert p["duration_s"] == pytest.approx(3 / f + 0.1)
         assert p["amplification"]["da"] == pytest.approx(1.0, abs=0.01)
     agg = data["aggregate"]
-    assert agg["n_valid"] == 3 and agg["characteristic_frequency_hz"] in (2.0, 3.0, 4.0)
+    # a block that moves with the table has no resonance: no characteristic frequency, a reason
+    assert agg["n_valid"] == 3 and agg["characteristic_frequency_hz"] is None
+    assert agg["characteristic_frequency_note"].startswith("no clear peak")
     assert (out / "sweep.png").is_file()
 
 

@@ -24,7 +24,9 @@ Vec3 = Annotated[list[float], Field(min_length=3, max_length=3)]
 
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", validate_assignment=True)
+    # NaN and inf are refused in every number ("Input should be a finite number"), before any
+    # range check could give a misleading message about them
+    model_config = ConfigDict(extra="forbid", validate_assignment=True, allow_inf_nan=False)
 
 
 def _finite_vec(v: list[float]) -> list[float]:

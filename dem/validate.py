@@ -1,0 +1,327 @@
+"""One validation path for ``dem check`` and ``dem run`` (and each sweep point): what one
+accepts the other runs, what one rejects the other rejects, with the same message.
+
+:func:`check_case` takes a validated :class:`dem.case.Case` (the schema has already refused
+wrong types, unknown keys, NaN / inf, out-of-range numbers) and checks what needs the scene,
+the time step or the loading together:
+
+size (before anything is built)
+    the block count is estimated from the case (:func:`estimate_blocks`, an upper bound) with the
+    memory the run will take (engine arrays, frames kept in memory, files written); above
+    ``max_blocks`` (default :data:`DEFAULT_MAX_BLOCKS`, or ``DEM_MAX_BLOCKS``, or
+    ``--max-blocks``) the case is refused without building it, as it is when the estimated memory
+    exceeds the machine's.
+scene
+    built and checked (:func:`dem.builders.check_scene`: initial overlaps deeper than
+    ``solver.overlap_tolerance``, floating blocks).
+time step
+    the critical step of the scene (:mod:`dem.engine.timestep` with the face-area caps at their
+    smallest: the largest the engine can find, so a step above it is certainly unstable);
+    ``solver.dt`` above it is refused.  The step the run will use is ``solver.dt`` or
+    ``solver.safety`` times it (the engine may find a slightly smaller one once it sees the
+    contacts at the start).
+initial state
+    a block whose initial speed |v| + |omega| r (r = half its diagonal: the engine's measure)
+    reaches ``solver.max_speed`` would stop the run at step 1: refused.
+loading
+    shake: the period must span at least :data:`MIN_STEPS_PER_PERIOD` = 20 time steps.  With 20
+    samples per cycle the sampled table acceleration reaches its peak within 1 - cos(pi/20) =
+    1.2 %, and the phase error of the explicit scheme, (omega dt)^2 / 24, is 0.4 %; with fewer
+    the excitation is aliased (at 1e6 Hz and dt 1e-5 s the table is never felt at all).
+    record: a record that ends before ``run.duration`` is accepted only if the table is at rest
+    at its end (|v_end| <= 1e-3 of the record's peak velocity): after the end the acceleration
+    is zero, so the table stops where the record left it; a table still moving would drift
+    |v_end| (duration - t_end) metres: refused, naming the drift.  Samples closer than the time
+    step: warning (the engine samples the record once per step).
+output
+    ``run.output_interval`` shorter than the time step would write a frame (and a VTK file)
+    every step: refused (error), with the frame count.  Longer than ``run.duration``: warning
+    (only the first and last states are written).
+
+Messages are ``FILE:LINE: field: what is wrong (the numbers)``, as the schema's.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from dem.case import Case, RecordLoading, ShakeLoading
+
+DEFAULT_MAX_BLOCKS = 20_000
+MIN_STEPS_PER_PERIOD = 20
+RECORD_REST_FRACTION = 1e-3
+# memory per block of the engine (Model / State / Contacts: ~ 60 reals per body, pair buffers of
+# max_pairs_per_block / 2 pairs with 4 points of ~ 20 reals each, neighbour list, kernels'
+# temporaries): measured order of magnitude, ~ 8 kB per block at the default 16 pairs
+ENGINE_BYTES_PER_BLOCK = 8_000
+FRAME_BYTES_PER_BLOCK = 16 * 8       # pos, quat, vel, omega per frame in memory (float64)
+DISK_BYTES_PER_BLOCK = 150 + 60      # per frame: .vtu (float32 + zlib) + frames.npz (compressed)
+
+
+@dataclass
+class Checked:
+    """The result of :func:`check_case`."""
+
+    case: Case
+    errors: list[str] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+    scene: object = None
+    report: object = None
+    blocks_estimate: int = 0
+    dt: float | None = None
+    dt_critical: float | None = None
+    n_frames: int | None = None
+    memory_bytes: float | None = None
+    disk_bytes: float | None = None
+
+    @property
+    def ok(self) -> bool:
+        return not self.errors
+
+    def size_line(self) -> str:
+        parts = [f"about {self.blocks_estimate:,} blocks"]
+        if self.memory_bytes is not None:
+            parts.append(f"estimated memory {_fmt_bytes(self.memory_bytes)}")
+        if self.disk_bytes is not None and self.n_frames is not None:
+            parts.append(f"{self.n_frames:,} frames, output about {_fmt_bytes(self.disk_bytes)}")
+        if self.dt is not None:
+            parts.append(f"time step {self.dt:.3g} s")
+        return "size: " + ", ".join(parts)
+
+
+def _fmt_bytes(b: float) -> str:
+    for unit in ("B", "kB", "MB", "GB", "TB"):
+        if b < 1000 or unit == "TB":
+            return f"{b:.3g} {unit}"
+        b /= 1000
+    return f"{b:.3g} TB"
+
+
+def max_blocks_default() -> int:
+    env = os.environ.get("DEM_MAX_BLOCKS")
+    if env:
+        try:
+            return int(env)
+        except ValueError:
+            pass
+    return DEFAULT_MAX_BLOCKS
+
+
+def estimate_blocks(case: Case) -> int:
+    """Upper bound of the block count, from the case alone (nothing built)."""
+    s = case.scene
+    n = len(s.blocks)
+    if s.wall is not None:
+        w = s.wall
+        per = w.length + 1
+        if getattr(w, "bond", "stretcher") == "english":
+            per = 2 * w.length + 2
+        n += w.courses * per
+    if s.facade is not None:
+        f = s.facade
+        wings = sum(x.length for x in (f.left, f.right) if x is not None)
+        n += f.courses * (f.length + wings + 3)
+    if s.box_model is not None:
+        b = s.box_model
+        courses = b.courses or {"I": 9, "II": 9, "III": 15}[b.model]
+        n += courses * 2 * (b.length + b.width + 1)
+        roof = b.roof
+        if roof is not None:
+            n += roof.beams * 3 + 4
+    return n
+
+
+def _machine_memory() -> float | None:
+    try:
+        return float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+def _timestep_module():
+    """dem/engine/timestep.py is numpy only; loaded by path because importing the dem.engine
+    package starts Taichi (a second of start-up that ``dem check`` does not need)."""
+    path = Path(__file__).parent / "engine" / "timestep.py"
+    spec = importlib.util.spec_from_file_location("dem._timestep_numpy", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def critical_step(case: Case, scene) -> float:
+    """The largest critical time step the engine can find for this scene (s)."""
+    ts = _timestep_module()
+    mat = case.material
+    movable = ~np.asarray(scene.fixed, dtype=bool)
+    face, _ = ts.face_area_caps(scene.size, scene.mass, scene.inertia(), movable,
+                                mat.normal_stiffness, mat.ks, case.solver.safety)
+    return float(ts.critical_time_step(scene.size, scene.mass, scene.inertia(), movable,
+                                       mat.normal_stiffness, mat.ks, mat.damping, face))
+
+
+class _Where:
+    """``FILE:LINE: field`` prefixes from the case file's YAML nodes."""
+
+    def __init__(self, source: str | Path | None):
+        self.source = str(source) if source is not None else None
+        self.node = self.data = None
+        if source is not None:
+            try:
+                import yaml
+
+                from dem.case_errors import compose
+
+                text = Path(source).read_text()
+                self.node, self.data = compose(text), yaml.safe_load(text)
+            except Exception:  # noqa: BLE001 - the line is a nicety
+                pass
+
+    def __call__(self, loc: tuple) -> str:
+        from dem.case_errors import _join, _walk
+
+        field_path = _join([f"[{p}]" if isinstance(p, int) else p for p in loc])
+        line = None
+        if self.data is not None:
+            path, line = _walk(self.node, self.data, loc)
+            field_path = _join(path) or field_path
+        if self.source and line:
+            return f"{self.source}:{line}: {field_path}"
+        return f"{self.source}: {field_path}" if self.source else field_path
+
+
+def check_case(case: Case, source: str | Path | None = None,
+               max_blocks: int | None = None, build: bool = True) -> Checked:
+    """Check a validated case (module docstring).  Never raises for a bad case: the problems are
+    in ``Checked.errors`` / ``warnings``; ``Checked.scene`` is the built scene (None when the
+    check stopped before building it)."""
+    from dem.builders import check_scene
+    from dem.scene import scene_from_case
+
+    where = _Where(source)
+    out = Checked(case=case)
+    max_blocks = max_blocks_default() if max_blocks is None else int(max_blocks)
+    run = case.run
+    n_est = estimate_blocks(case)
+    out.blocks_estimate = n_est
+    frames = int(math.floor(run.duration / run.output_interval + 1e-9)) + 2
+    out.n_frames = frames
+    out.memory_bytes = n_est * (ENGINE_BYTES_PER_BLOCK + frames * FRAME_BYTES_PER_BLOCK)
+    out.disk_bytes = n_est * frames * DISK_BYTES_PER_BLOCK
+    ram = _machine_memory()
+    if n_est > max_blocks:
+        out.errors.append(
+            f"{where(('scene',))}: about {n_est:,} blocks (estimated memory "
+            f"{_fmt_bytes(out.memory_bytes)}, output {_fmt_bytes(out.disk_bytes)}), above the "
+            f"limit of {max_blocks:,} blocks; not built.  Raise the limit with --max-blocks or "
+            f"DEM_MAX_BLOCKS if this is meant")
+        return out
+    if not build:
+        return out
+    try:
+        scene = scene_from_case(case, check=False)
+    except ValueError as err:
+        out.errors.append(f"{where(('scene',))}: {err}")
+        return out
+    out.scene = scene
+    n = scene.n_blocks
+    out.blocks_estimate = n
+    report = check_scene(scene, overlap_tolerance=case.solver.overlap_tolerance,
+                         allow_floating=case.scene.allow_floating)
+    out.report = report
+    if not report.ok:
+        out.errors.append(f"{where(('scene',))}: the scene cannot be run:\n{report.format()}")
+
+    # time step
+    dt_crit = critical_step(case, scene)
+    out.dt_critical = dt_crit if math.isfinite(dt_crit) else None
+    sv = case.solver
+    if sv.dt is not None:
+        if math.isfinite(dt_crit) and sv.dt > dt_crit:
+            out.errors.append(
+                f"{where(('solver', 'dt'))}: {sv.dt:.3g} s is above the critical time step "
+                f"{dt_crit:.3g} s of this scene (kn = {case.material.normal_stiffness:.3g} Pa/m); "
+                f"use solver.dt <= {sv.safety * dt_crit:.3g} s or leave it out")
+            dt = float(sv.safety * dt_crit)  # the other checks with a step that can run
+        else:
+            dt = float(sv.dt)
+    else:
+        dt = float(sv.safety * dt_crit) if math.isfinite(dt_crit) else 1e-4
+    out.dt = dt
+    frames_by_step = int(run.duration / max(run.output_interval, dt)) + 2
+    out.n_frames = frames_by_step
+    out.memory_bytes = n * (ENGINE_BYTES_PER_BLOCK + frames_by_step * FRAME_BYTES_PER_BLOCK)
+    out.disk_bytes = n * frames_by_step * DISK_BYTES_PER_BLOCK
+    if ram is not None and out.memory_bytes > ram:
+        out.errors.append(
+            f"{where(('run', 'output_interval'))}: the run would need about "
+            f"{_fmt_bytes(out.memory_bytes)} of memory ({frames_by_step:,} frames of {n:,} "
+            f"blocks kept in memory), more than this machine's {_fmt_bytes(ram)}")
+
+    # initial speeds
+    radius = 0.5 * np.linalg.norm(scene.size, axis=1)
+    speed = np.linalg.norm(scene.velocity, axis=1) + \
+        np.linalg.norm(scene.angular_velocity, axis=1) * radius
+    speed[np.asarray(scene.fixed, dtype=bool)] = 0.0
+    if n and speed.max() >= sv.max_speed:
+        i = int(np.argmax(speed))
+        loc = ("scene", "blocks", i) if i < len(case.scene.blocks) else ("scene",)
+        out.errors.append(
+            f"{where(loc)}: block {i} starts at {speed[i]:.3g} m/s (|v| + |omega| r), at or "
+            f"above solver.max_speed = {sv.max_speed:g} m/s, which stops the run as a runaway; "
+            f"raise solver.max_speed or lower the initial velocity")
+
+    # loading
+    ld = case.loading
+    if isinstance(ld, ShakeLoading):
+        period = 1.0 / ld.frequency
+        if period < MIN_STEPS_PER_PERIOD * dt:
+            out.errors.append(
+                f"{where(('loading', 'frequency'))}: {ld.frequency:g} Hz has a period of "
+                f"{period:.3g} s, shorter than {MIN_STEPS_PER_PERIOD} time steps "
+                f"({MIN_STEPS_PER_PERIOD} x {dt:.3g} s): the table motion cannot be resolved "
+                f"(highest frequency for this scene: {1.0 / (MIN_STEPS_PER_PERIOD * dt):.4g} Hz)")
+    elif isinstance(ld, RecordLoading):
+        try:
+            t, acc = ld.samples()
+        except ValueError as err:
+            out.errors.append(f"{where(('loading',))}: {err}")
+        else:
+            from dem.loading import Record
+
+            rec = Record(case.gravity_vector(), t, acc)
+            if t[-1] < run.duration:
+                v_end = rec.vel[-1]
+                v_peak = float(np.linalg.norm(rec.vel, axis=1).max())
+                speed_end = float(np.linalg.norm(v_end))
+                if speed_end > max(RECORD_REST_FRACTION * v_peak, 1e-12):
+                    drift = speed_end * (run.duration - t[-1])
+                    out.errors.append(
+                        f"{where(('loading',))}: the record ends at {t[-1]:g} s, before "
+                        f"run.duration = {run.duration:g} s, with the table still moving at "
+                        f"{speed_end:.3g} m/s; with zero acceleration after the end it would "
+                        f"drift {drift:.3g} m.  Extend the record to the end of the run, "
+                        f"baseline-correct it (final velocity 0), or shorten run.duration")
+            h = float(np.diff(t).min())
+            if h < dt:
+                out.warnings.append(
+                    f"{where(('loading',))}: record samples {h:.3g} s apart, closer than the "
+                    f"time step {dt:.3g} s: the engine samples the record once per step")
+
+    # output
+    if run.output_interval < dt:
+        out.errors.append(
+            f"{where(('run', 'output_interval'))}: {run.output_interval:.3g} s is shorter than "
+            f"the time step {dt:.3g} s: a frame (and a VTK file) every step, "
+            f"{int(run.duration / dt):,} frames; give output_interval >= {dt:.3g} s "
+            f"(e.g. 0.01 s)")
+    elif run.output_interval > run.duration:
+        out.warnings.append(
+            f"{where(('run', 'output_interval'))}: {run.output_interval:g} s is longer than "
+            f"run.duration = {run.duration:g} s: only the first and the last states are written")
+    return out
