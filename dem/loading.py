@@ -15,7 +15,13 @@ Shake: u(t) = A d sin(2 pi f t) for t <= T = cycles / f, with a(t) = u''(t); aft
 acceleration is zero (the table keeps the velocity it had, so u continues linearly).  The table
 starts with velocity A w d (w = 2 pi f) and zero acceleration: blocks at rest on the table move
 with it, so nothing jumps; a block that is free (no friction) keeps that initial velocity and
-drifts relative to the table by A w t.
+drifts relative to the table by A w t.  (Started from rest, the acceleration -A w^2 sin(w t)
+would carry the table away by 2 pi A per cycle; the start at velocity A w is what keeps u
+bounded by A while it shakes.  After the last cycle the table keeps that velocity, so base_disp
+grows by A w per second of margin; the blocks feel nothing.  Stopping it would need a
+deceleration they feel: not done, see docs/failures.md "Known limits".)  A shake whose period is
+shorter than 20 time steps, or a record that ends before the run with the table still moving,
+is refused by dem.validate.
 """
 
 from __future__ import annotations
