@@ -223,14 +223,9 @@ def simulate(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
         from dem.output.vtk import VtkSeries
         vtk = VtkSeries(out, scene, write_contacts=case.run.contacts)
 
-    deepest = {"depth": 0.0, "t": 0.0}
-
     def record():
         st = sim.state
         t = sim.t
-        d = sim.contacts.max_depth()
-        if d > deepest["depth"]:
-            deepest.update(depth=d, t=t)
         extra = {}
         if isinstance(loading, Tilt):
             extra["tilt_angle"] = float(loading.angle(t)[0])
@@ -267,8 +262,8 @@ def simulate(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
         summary["n_pairs"] = sim.contacts.n_pairs
         summary["n_contact_points"] = int(sim.contacts.npts[: sim.contacts.n_pairs].sum())
         summary["energy"] = sim.energy_report()
-        summary["max_penetration_m"] = deepest["depth"]
-        summary["max_penetration_time_s"] = deepest["t"]
+        summary["max_penetration_m"], summary["max_penetration_time_s"] = \
+            sim.deepest_penetration()
         if detector is not None and rec.cols["t"]:
             from postprocess.tilt import tilt_results
 

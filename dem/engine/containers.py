@@ -121,7 +121,11 @@ CONTROL_FIELDS = (
     _f("status", "i32", (1,), "-", "integrate_stage", "bits REBUILD | NONFINITE | RUNAWAY"),
     _f("bad_body", "i32", (1,), "-", "integrate_stage", "a body that raised NONFINITE/RUNAWAY"),
     _f("steps_done", "i32", (1,), "-", "advance_serial", "steps done by the last launch"),
-) + tuple(_f(name, "real", (1,), "J", "contact / integrate stages", "energy term since t = 0 (energy_stage)")
+    _f("deepest", "real", (1,), "m", "deepest_stage",
+       "deepest penetration of any contact point at any step since t = 0"),
+    _f("deepest_step", "i32", (1,), "-", "deepest_stage",
+       "step of the last launch (0 = its first) at which deepest grew; -1 if it did not"),
+) + tuple(_f(name, "real", (1,), "J", "energy_stage", "energy term since t = 0")
           for name in ENERGY_TERMS)
 
 _ELEM = {"real": (None, ()), "vec3": (ti.math.vec3, (3,)), "vec4": (ti.math.vec4, (4,)),

@@ -69,6 +69,7 @@ class Simulation:
         hmin = float(self.model.half_np[: self.n_blocks].min())
         self.skin = float(solver.skin) if solver.skin is not None else 0.1 * hmin
         self.step_count = 0
+        self._deepest_time = 0.0
         self._t_anchor, self._step_anchor = 0.0, 0  # t = t_anchor + (step - step_anchor) dt
         self.dt = 0.0  # set below, once the contacts at the start are known
         self.n_rebuilds = 0
@@ -237,14 +238,23 @@ class Simulation:
         ctl.loads[:k, 1] = a
         ctl.status[0] = 0
         ctl.bad_body[0] = 0
+        ctl.deepest_step[0] = -1
         if self.mode == "serial":
             self._advance(k, self.contacts.n_pairs, self.dt)
             done = int(ctl.steps_done[0])
         else:
             self._advance(self.contacts.n_pairs, self.dt)
             done = 1
+        if ctl.deepest_step[0] >= 0:  # the time of that step's start, as self.t counts it
+            steps = self.step_count + int(ctl.deepest_step[0]) - self._step_anchor
+            self._deepest_time = self._t_anchor + steps * self.dt
         self.step_count += done
         return done
+
+    def deepest_penetration(self) -> tuple[float, float]:
+        """(depth in m, time in s) of the deepest penetration of any contact point at any step
+        since t = 0 (kept by the kernel every step: dem.engine.step.deepest_stage)."""
+        return float(self.control.deepest[0]), self._deepest_time
 
     def containers(self) -> tuple:
         """The argpacks of (Model, State, Contacts, Control), as the kernels take them."""

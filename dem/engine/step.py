@@ -15,6 +15,8 @@
                          rebuild or a bad state (Control.status)
         energy_stage     adds the step's work and dissipation of every pair and body to the
                          energy sums (Control), on one thread in a fixed order
+        deepest_stage    keeps the deepest penetration of any contact point and the step it
+                         happened (Control), read by Simulation.deepest_penetration
 
 The broad phase (neighbour list) runs on the host between kernel launches, when a body has moved
 more than half the skin (see :mod:`dem.engine.broadphase`).
@@ -314,6 +316,20 @@ def energy_stage(n_pairs, state: ti.template(), contacts: ti.template(),
         control.dissipated_local_damping[0] += w[2]
 
 
+@ti.func
+def deepest_stage(s, n_pairs, contacts: ti.template(), control: ti.template()):
+    """Keeps the deepest penetration (m) of any contact point of this step (the depths of the
+    poses at the start of step s, as the contact stage found them) in control.deepest, and s in
+    control.deepest_step when it grew.  A resting scene's depth is ~weight / (kn area); an impact
+    shows its peak here even when it falls between two output frames."""
+    for p in range(n_pairs):
+        for q in range(contacts.npts[p]):
+            d = contacts.depth[p, q]
+            if d > control.deepest[0]:
+                control.deepest[0] = d
+                control.deepest_step[0] = s
+
+
 @ti.kernel
 def advance_serial(n_steps: ti.i32, n_pairs: ti.i32, dt: float, model: ModelArgs,
                    state: StateArgs, contacts: ContactArgs, control: ControlArgs):
@@ -328,6 +344,7 @@ def advance_serial(n_steps: ti.i32, n_pairs: ti.i32, dt: float, model: ModelArgs
         for b in range(n_bodies):
             integrate_stage(b, s, dt, model, state, contacts, control)
         energy_stage(n_pairs, state, contacts, control)
+        deepest_stage(s, n_pairs, contacts, control)
         s += 1
     control.steps_done[0] = s
 
@@ -343,6 +360,7 @@ def advance_parallel(n_pairs: ti.i32, dt: float, model: ModelArgs, state: StateA
     ti.loop_config(serialize=True)
     for _ in range(1):
         energy_stage(n_pairs, state, contacts, control)
+        deepest_stage(0, n_pairs, contacts, control)
 
 
 @ti.kernel
