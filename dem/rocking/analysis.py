@@ -5,12 +5,24 @@ BSSA 53(2)), for a rigid block rocking on its corners (T thickness, z_G height o
 mass, I_O moment of inertia about a bottom corner, M mass):
 
 * uplift from rest (Pattern 3 about the +x corner, base acceleration a < 0), with the top load N on
-  the raised corner and the friction mu N opposing the top's motion:
-      -a > (g M T/2 + N T + mu N H) / (M z_G)
-  which is g T / H for a uniform block without load (Housner's g tan alpha), and the thesis'
-  eq. 5-4 with N T/2 in place of N T when N acts on the centre of the top;
+  the raised corner (lever c = T; c = T/2 on the top centre):
+  - ``sliding`` top (the thesis: N fixed in space, the friction mu N resisting at the top):
+      -a > (g M T/2 + N c + mu N H) / (M z_G)
+    which is g T / H for a uniform block without load (Housner's g tan alpha), and the thesis'
+    eq. 5-4 with N T/2 in place of N T when N acts on the centre of the top;
+  - ``co-moving`` top (N a mass m_N = N/g moving with the top, its inertia force m_N a at height H):
+      -a > (g M T/2 + N c) / (M z_G + m_N H)
+    which is g T / H for a uniform column with any top mass on its corner (the rocking frame,
+    Makris & Vassiliou 2013, "Planar rocking response and stability analysis of an array of
+    free-standing columns capped with a freely supported rigid beam", EESD 42(3));
+  Part 2 alone (Pattern 4) is the same with M -> m2, z_G -> H2/2, H -> H2;
 * restitution of a plastic impact on the opposite corner (angular momentum about it conserved):
       r = omega+ / omega- = 1 - M T^2 / (2 I_O)   (= 1 - 3/2 sin^2 alpha for a uniform block)
+  and with a co-moving top mass, which passes from one top corner to the other at the same
+  instant (generalised momentum about the new corner):
+      r = (I_O - M T^2/2 + m_N (H^2 - c^2)) / (I_O + m_N (H^2 + c^2))
+  = (1 - 3/2 sin^2 alpha + 3 gamma cos 2 alpha) / (1 + 3 gamma), gamma = m_N / M, for a uniform
+  column with the mass on its corner (Makris & Vassiliou 2013);
 * free rocking (no load): quarter period by quadrature of the energy integral,
       t_q = int_0^theta0 d theta / sqrt(2 M g (z(theta0) - z(theta)) / I_O),
   and Housner's linearised value t_q = (1/p) arccosh(1 / (1 - theta0/alpha)), p^2 = M g R / I_O.
@@ -52,7 +64,19 @@ def uplift_threshold(P: RockingParams, part: str = "whole") -> float:
         M, zG, H = P.m2, P.h2 / 2, P.h2
     else:
         raise ValueError(part)
+    if P.top_contact == "co-moving":
+        # the beam's weight N on the raised corner restores, its inertia force m_N a at the top
+        # overturns; no friction
+        return (g * M * T / 2 + N * lever_N) / (M * zG + P.mN * H)
     return (g * M * T / 2 + N * lever_N + mu * N * H) / (M * zG)
+
+
+def uplift_thresholds(P: RockingParams) -> dict:
+    """Closed-form uplift thresholds (m/s2) of the chosen top contact: the whole wall (Pattern 3),
+    Part 2 alone (Pattern 4), the lower of the two (the wall leaves rest there) and its pattern."""
+    whole, upper = uplift_threshold(P, "whole"), uplift_threshold(P, "upper")
+    return {"top_contact": P.top_contact, "whole": whole, "upper": upper,
+            "governing": min(whole, upper), "first_pattern": "3" if whole <= upper else "4"}
 
 
 def thesis_uplift_threshold(P: RockingParams) -> float:
@@ -62,8 +86,15 @@ def thesis_uplift_threshold(P: RockingParams) -> float:
 
 
 def housner_restitution(P: RockingParams) -> float:
-    """r = 1 - M T^2 / (2 I_O) of the locked pair (Housner's 1 - 1.5 sin^2 alpha if uniform)."""
-    return 1.0 - P.mass * P.thickness ** 2 / (2.0 * io_composite(P))
+    """r = 1 - M T^2 / (2 I_O) of the locked pair (Housner's 1 - 1.5 sin^2 alpha if uniform);
+    with a co-moving top mass m_N (lever c = T on the corner, T/2 on the centre):
+    r = (I_O - M T^2/2 + m_N (H^2 - c^2)) / (I_O + m_N (H^2 + c^2)) (module docstring)."""
+    IO, M, T = io_composite(P), P.mass, P.thickness
+    if P.comoving:
+        H, mN = P.height, P.mN
+        c = T if P.load_point == "corner" else T / 2
+        return (IO - M * T * T / 2 + mN * (H * H - c * c)) / (IO + mN * (H * H + c * c))
+    return 1.0 - M * T ** 2 / (2.0 * IO)
 
 
 def free_rocking_quarter_period(P: RockingParams, theta0: float) -> tuple[float, float]:
@@ -167,3 +198,27 @@ def pattern_statistics(episodes: list, t_total: float) -> dict:
         }
         for pat in sorted(time_in, key=lambda p: -time_in[p])
     }, [(float(a), float(b), p) for a, b, p in merged]
+
+
+def top_friction_demand(P: RockingParams, res, exc, stride: int = 1) -> dict:
+    """Friction a co-moving beam needs to follow the top: max of abs(H) / V over the recorded
+    moving samples (``model.top_contact_force``), and the largest impulse ratio at impacts
+    (``res.stats['top_impulse_ratio_max']``).  A stick-slip top contact with coefficient mu would
+    slip only where these exceed mu."""
+    from dem.rocking.model import top_contact_force
+
+    ratio, t_at = 0.0, None
+    if P.top_load > 0 and len(res.t):
+        for i in range(0, len(res.t), stride):
+            b, c, tau, sig = (int(v) for v in res.mode[i])
+            if b == 0 and c == 0:
+                continue
+            y = (res.theta1[i], res.theta2[i] - res.theta1[i], res.omega1[i],
+                 res.omega2[i] - res.omega1[i])
+            a = float(exc.acc(res.t[i]))
+            H, V = top_contact_force(P, (b, c, tau, sig), y, a)
+            r = abs(H) / V if V > 0 else math.inf
+            if r > ratio:
+                ratio, t_at = r, float(res.t[i])
+    return {"flow_max_abs_H_over_V": ratio, "flow_max_at_s": t_at,
+            "impact_max_abs_H_over_V": res.stats.get("top_impulse_ratio_max", 0.0)}

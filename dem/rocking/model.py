@@ -37,7 +37,21 @@ p - Q = Lp (sin psip, cos psip), psip = theta2 + gamma_p   (load point p of the 
 
 with R_i = sqrt(T^2 + H_i^2)/2, alpha_i = atan(T/H_i), I_Oi = m_i (T^2 + H_i^2)/3, a(t) the base
 acceleration (+x), F the horizontal friction force on the load point, x_p' = L1 cos psiQ th1' +
-Lp cos psip th2'.  Locked contacts are constraints with Lagrange multipliers; the multiplier of a
+Lp cos psip th2'.
+
+Top contact (``top_contact``, docs/rocking_model.md section 3b)
+* ``sliding`` (the thesis): N is a dead load fixed in space, F = -tau mu N (or the stick reaction).
+* ``co-moving``: the top load is a point mass m_N = N / g moving with the load point p (the beam
+  translates with the raised top corner it bears on, as the cap beam of a rocking frame, Makris &
+  Vassiliou 2013); no friction (F = 0).  Its kinetic energy 1/2 m_N |v_p|^2 and its inertia force
+  -m_N a at p add, with m_N = N/g (kg):
+
+      M11 += m_N L1^2,  M22 += m_N Lp^2,  M12 += m_N L1 Lp cos(psiQ - psip),
+      k += m_N L1 Lp sin(psiQ - psip),
+      Q1 -= a m_N L1 cos psiQ,  Q2 -= a m_N Lp cos psip
+
+  (its weight N at p is already in Q1, Q2).  When the beam passes from one top corner to the other
+  (theta2 = 0) the rising corner strikes it: an impact (dem.rocking.simulate).  Locked contacts are constraints with Lagrange multipliers; the multiplier of a
 lock, taken in the pivot geometry +-1, is T times the normal force at the opposite corner.
 For a single block this is Housner's (1963) equation I_O th'' = -m g R sin(alpha - th) - m a R
 cos(alpha - th) (theta > 0).  Units: SI (m, kg, s, N, rad).
@@ -89,7 +103,9 @@ class RockingParams:
     magnitude up to mu N on the load point; gravity g (m/s2); load_point "corner" (N acts on the
     raised top corner of Part 2, as in the thesis' equations of motion 5-9..5-14) or "centre" (on
     the middle of the top face, as in its uplift criterion 5-3); locked: the interface never opens
-    (the two parts are one block, Pattern 3 only).
+    (the two parts are one block, Pattern 3 only); top_contact "sliding" (the thesis: N fixed in
+    space, friction up to mu N) or "co-moving" (N is a point mass N/g moving with the load point,
+    no friction; ``mN`` its mass, kg).
     """
 
     thickness: float
@@ -102,6 +118,7 @@ class RockingParams:
     gravity: float = 9.81
     load_point: str = "corner"
     locked: bool = False
+    top_contact: str = "sliding"
 
     R1: float = field(init=False)
     R2: float = field(init=False)
@@ -112,6 +129,7 @@ class RockingParams:
     IO1: float = field(init=False)
     IO2: float = field(init=False)
     Fmax: float = field(init=False)
+    mN: float = field(init=False)
     load_geom: dict = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -125,6 +143,10 @@ class RockingParams:
                 raise ValueError(f"{name} must be >= 0, got {v}")
         if self.load_point not in ("corner", "centre"):
             raise ValueError(f"load_point must be 'corner' or 'centre', got {self.load_point!r}")
+        if self.top_contact not in ("sliding", "co-moving"):
+            raise ValueError(f"top_contact must be 'sliding' or 'co-moving', got {self.top_contact!r}")
+        if self.top_contact == "co-moving" and self.top_load > 0 and not self.gravity > 0:
+            raise ValueError("a co-moving top load N needs gravity > 0 (its mass is N / g)")
         T = self.thickness
         s = object.__setattr__
         s(self, "R1", 0.5 * math.hypot(T, self.h1))
@@ -135,7 +157,9 @@ class RockingParams:
         s(self, "Ic2", self.m2 * (T * T + self.h2 ** 2) / 12.0)
         s(self, "IO1", self.m1 * (T * T + self.h1 ** 2) / 3.0)
         s(self, "IO2", self.m2 * (T * T + self.h2 ** 2) / 3.0)
-        s(self, "Fmax", self.top_friction * self.top_load)
+        comoving = self.top_contact == "co-moving"
+        s(self, "Fmax", 0.0 if comoving else self.top_friction * self.top_load)
+        s(self, "mN", self.top_load / self.gravity if comoving and self.top_load > 0 else 0.0)
         geom = {}
         for s2 in (1, -1):
             for sig in (1, -1):
@@ -154,6 +178,16 @@ class RockingParams:
     @property
     def height(self) -> float:
         return self.h1 + self.h2
+
+    @property
+    def comoving(self) -> bool:
+        """True when the top load is a mass moving with the top (top_contact co-moving, N > 0)."""
+        return self.mN > 0.0
+
+    @property
+    def ndof(self) -> int:
+        """Velocities in maximal coordinates: two planar bodies, plus the beam's (x, z) if co-moving."""
+        return 8 if self.comoving else 6
 
     @property
     def friction(self) -> bool:
@@ -202,13 +236,14 @@ def terms(P: RockingParams, s1: int, s2: int, sig: int, th1: float, th2: float,
     sn2, cs2 = math.sin(psi2), math.cos(psi2)
     sp, cp = math.sin(psip), math.cos(psip)
     d = psiQ - psi2
-    m1, m2, R1, R2, g, N = P.m1, P.m2, P.R1, P.R2, P.gravity, P.top_load
-    M11 = P.IO1 + m2 * L1 * L1
-    M22 = P.IO2
-    M12 = m2 * L1 * R2 * math.cos(d)
-    k = m2 * L1 * R2 * math.sin(d)
-    Q1 = g * (m1 * R1 * sn1 + m2 * L1 * sQ) + N * L1 * sQ - a * (m1 * R1 * cs1 + m2 * L1 * cQ)
-    Q2 = g * m2 * R2 * sn2 + N * Lp * sp - a * m2 * R2 * cs2
+    m1, m2, R1, R2, g, N, mN = P.m1, P.m2, P.R1, P.R2, P.gravity, P.top_load, P.mN
+    dp = psiQ - psip
+    M11 = P.IO1 + (m2 + mN) * L1 * L1
+    M22 = P.IO2 + mN * Lp * Lp
+    M12 = m2 * L1 * R2 * math.cos(d) + mN * L1 * Lp * math.cos(dp)
+    k = m2 * L1 * R2 * math.sin(d) + mN * L1 * Lp * math.sin(dp)
+    Q1 = g * (m1 * R1 * sn1 + m2 * L1 * sQ) + N * L1 * sQ - a * (m1 * R1 * cs1 + (m2 + mN) * L1 * cQ)
+    Q2 = g * m2 * R2 * sn2 + N * Lp * sp - a * (m2 * R2 * cs2 + mN * Lp * cp)
     J1 = L1 * cQ
     J2 = Lp * cp
     beta = L1 * sQ * w1 * w1 + Lp * sp * w2 * w2
@@ -288,6 +323,35 @@ def evaluate(P: RockingParams, mode: tuple, y, a: float, want_forces: bool = Tru
     return Eval(dd1, dd2, F, xd, xdd, iface, base)
 
 
+def top_contact_force(P: RockingParams, mode: tuple, y, a: float) -> tuple[float, float]:
+    """Force (H, V) in N that Part 2 exerts on a co-moving beam at the load point p.
+
+    The beam (mass m_N = N/g, no rotation) follows p, so in the table's frame
+        H = m_N (x_p'' + a),   V = m_N (g + z_p''),
+    x_p = x_Q + Lp sin psip, z_p = L1 cos psiQ + Lp cos psip, hence
+        x_p'' = L1 (cos psiQ th1'' - sin psiQ th1'^2) + Lp (cos psip th2'' - sin psip th2'^2),
+        z_p'' = -L1 (sin psiQ th1'' + cos psiQ th1'^2) - Lp (sin psip th2'' + cos psip th2'^2).
+    Without slip the beam needs a friction coefficient of at least abs(H) / V (V > 0 while it
+    bears): the test of whether a stick-slip top contact would ever slip.
+    """
+    b, c, tau, sig = mode
+    th1, phi, w1, wphi = y
+    th2, w2 = th1 + phi, w1 + wphi
+    e = evaluate(P, mode, y, a, want_forces=False)
+    s1, s2 = geometry(P, b, c)
+    if s2 == s1:
+        L1, psiQ = P.h1, th1
+    else:
+        L1, psiQ = 2.0 * P.R1, th1 - s1 * P.al1
+    Lp, gp = P.load_geom[(s2, sig)]
+    psip = th2 + gp
+    sQ, cQ, sp, cp = math.sin(psiQ), math.cos(psiQ), math.sin(psip), math.cos(psip)
+    xdd = L1 * (cQ * e.dd1 - sQ * w1 * w1) + Lp * (cp * e.dd2 - sp * w2 * w2)
+    zdd = -L1 * (sQ * e.dd1 + cQ * w1 * w1) - Lp * (sp * e.dd2 + cp * w2 * w2)
+    mN = P.top_load / P.gravity
+    return mN * (xdd + a), mN * (P.gravity + zdd)
+
+
 # ------------------------------------------------------------------------------------------
 # energy and kinematics
 # ------------------------------------------------------------------------------------------
@@ -339,6 +403,8 @@ def points(P: RockingParams, s1: int, s2: int, th1: float, th2: float) -> dict:
         out["C" + key] = on1(sgn * T / 2, h1)
         out["D" + key] = on2(sgn * T / 2, 0.0)
         out["E" + key] = on2(sgn * T / 2, h2)
+        # load point p when sigma = sgn: the raised top corner (u = -sigma T/2) or the top centre
+        out["p" + key] = on2(-sgn * T / 2 if P.load_point == "corner" else 0.0, h2)
     return out
 
 
@@ -347,23 +413,32 @@ def perp(r: np.ndarray) -> np.ndarray:
     return np.array([r[1], -r[0]])
 
 
-def maximal_velocity(P: RockingParams, s1: int, s2: int, th1, th2, w1, w2) -> np.ndarray:
-    """Planar body velocities (x_G1', z_G1', w1, x_G2', z_G2', w2) from the generalised ones."""
+def maximal_velocity(P: RockingParams, s1: int, s2: int, th1, th2, w1, w2, sig: int = 1) -> np.ndarray:
+    """Planar body velocities (x_G1', z_G1', w1, x_G2', z_G2', w2) from the generalised ones;
+    with a co-moving top load also the beam's (x', z'), that of Part 2's point at p (sigma = sig)."""
     p = points(P, s1, s2, th1, th2)
     vG1 = w1 * perp(p["G1"] - p["P1"])
     vQ = w1 * perp(p["Q"] - p["P1"])
     vG2 = vQ + w2 * perp(p["G2"] - p["Q"])
-    return np.array([vG1[0], vG1[1], w1, vG2[0], vG2[1], w2])
+    v = [vG1[0], vG1[1], w1, vG2[0], vG2[1], w2]
+    if P.comoving:
+        vp = vQ + w2 * perp(p["p" + ("+" if sig > 0 else "-")] - p["Q"])
+        v += [vp[0], vp[1]]
+    return np.array(v)
 
 
 def mass6(P: RockingParams) -> np.ndarray:
-    return np.diag([P.m1, P.m1, P.Ic1, P.m2, P.m2, P.Ic2])
+    """Mass matrix in maximal coordinates (6 x 6; 8 x 8 with the co-moving beam, a point mass)."""
+    d = [P.m1, P.m1, P.Ic1, P.m2, P.m2, P.Ic2]
+    if P.comoving:
+        d += [P.mN, P.mN]
+    return np.diag(d)
 
 
-def _point_rows(X: np.ndarray, G: np.ndarray, body: int) -> tuple[np.ndarray, np.ndarray]:
-    """Rows giving the (x, z) velocity of the material point at X of body 0/1 (6-vector each)."""
-    rx = np.zeros(6)
-    rz = np.zeros(6)
+def _point_rows(X: np.ndarray, G: np.ndarray, body: int, n: int = 6) -> tuple[np.ndarray, np.ndarray]:
+    """Rows giving the (x, z) velocity of the material point at X of body 0/1 (n-vector each)."""
+    rx = np.zeros(n)
+    rz = np.zeros(n)
     o = 3 * body
     r = X - G
     rx[o:o + 3] = (1.0, 0.0, r[1])
@@ -387,16 +462,28 @@ def contact_rows(P: RockingParams, s1: int, s2: int, th1: float, th2: float) -> 
     p = points(P, s1, s2, th1, th2)
     n1 = np.array([math.sin(th1), math.cos(th1)])
     rows, cent = {}, {}
+    nd = P.ndof
+
     for key in ("+", "-"):
+        if P.comoving:
+            # beam on the load point p(sigma = key): beam velocity - velocity of Part 2's point at p
+            X = p["p" + key]
+            px, pz = _point_rows(X, p["G2"], 1, nd)
+            ex, ez = np.zeros(nd), np.zeros(nd)
+            ex[6], ez[7] = 1.0, 1.0
+            rows["beam_x" + key], rows["beam_z" + key] = ex - px, ez - pz
+            rp = X - p["G2"]
+            cent["beam_x" + key] = lambda v, r=rp: v[5] ** 2 * r[0]
+            cent["beam_z" + key] = lambda v, r=rp: v[5] ** 2 * r[1]
         B = p["B" + key]
-        bx, bz = _point_rows(B, p["G1"], 0)
+        bx, bz = _point_rows(B, p["G1"], 0, nd)
         rows["base_x" + key], rows["base_z" + key] = bx, bz
         rB = B - p["G1"]
         cent["base_x" + key] = lambda v, r=rB: -v[2] ** 2 * r[0]
         cent["base_z" + key] = lambda v, r=rB: -v[2] ** 2 * r[1]
         X = p["D" + key]
-        ax2, az2 = _point_rows(X, p["G2"], 1)
-        ax1, az1 = _point_rows(X, p["G1"], 0)
+        ax2, az2 = _point_rows(X, p["G2"], 1, nd)
+        ax1, az1 = _point_rows(X, p["G1"], 0, nd)
         rows["if_x" + key], rows["if_z" + key] = ax2 - ax1, az2 - az1
         rows["if_n" + key] = n1[0] * (ax2 - ax1) + n1[1] * (az2 - az1)
         r2, r1 = X - p["G2"], X - p["G1"]
@@ -416,9 +503,13 @@ def contact_rows(P: RockingParams, s1: int, s2: int, th1: float, th2: float) -> 
     return rows, cent
 
 
-def mode_row_keys(b: int, c: int) -> list[str]:
-    """Constraint rows of the contact modes (b, c) in maximal coordinates."""
+def mode_row_keys(b: int, c: int, sig: int = 1, comoving: bool = False) -> list[str]:
+    """Constraint rows of the contact modes (b, c) in maximal coordinates; with a co-moving top
+    load the beam is held (x and z) at the load point of sigma = sig."""
     keys = []
+    if comoving:
+        k = "+" if sig > 0 else "-"
+        keys += ["beam_x" + k, "beam_z" + k]
     if b != 0:
         k = "+" if b > 0 else "-"
         keys += ["base_x" + k, "base_z" + k]
@@ -445,27 +536,33 @@ def constrained_acc_maximal(P: RockingParams, mode: tuple, y, a: float, F: float
     th1, phi, w1, wphi = y
     th2, w2 = th1 + phi, w1 + wphi
     s1, s2 = geometry(P, b, c)
-    v = maximal_velocity(P, s1, s2, th1, th2, w1, w2)
+    v = maximal_velocity(P, s1, s2, th1, th2, w1, w2, sig)
     p = points(P, s1, s2, th1, th2)
     rows, cent = contact_rows(P, s1, s2, th1, th2)
-    keys = mode_row_keys(b, c)
+    keys = mode_row_keys(b, c, sig, P.comoving)
     Gm = np.array([rows[k] for k in keys])
     rhs = np.array([-cent[k](v) for k in keys])
     M = mass6(P)
-    f = np.array([-P.m1 * a, -P.m1 * P.gravity, 0.0, -P.m2 * a, -P.m2 * P.gravity, 0.0])
-    Lp, gp = P.load_geom[(s2, sig)]
-    xp = p["Q"] + Lp * np.array([math.sin(th2 + gp), math.cos(th2 + gp)])
-    force = np.array([F, -P.top_load])
-    r = xp - p["G2"]
-    f[3:5] += force
-    f[5] += force @ perp(r)
+    nd = P.ndof
+    f = np.zeros(nd)
+    f[:6] = [-P.m1 * a, -P.m1 * P.gravity, 0.0, -P.m2 * a, -P.m2 * P.gravity, 0.0]
+    if P.comoving:
+        # the beam: its weight N and its inertia force -m_N a act on it, it bears on p
+        f[6:8] = [-P.mN * a, -P.top_load]
+    else:
+        Lp, gp = P.load_geom[(s2, sig)]
+        xp = p["Q"] + Lp * np.array([math.sin(th2 + gp), math.cos(th2 + gp)])
+        force = np.array([F, -P.top_load])
+        r = xp - p["G2"]
+        f[3:5] += force
+        f[5] += force @ perp(r)
     n = len(keys)
-    K = np.zeros((6 + n, 6 + n))
-    K[:6, :6] = M
-    K[:6, 6:] = -Gm.T
-    K[6:, :6] = Gm
+    K = np.zeros((nd + n, nd + n))
+    K[:nd, :nd] = M
+    K[:nd, nd:] = -Gm.T
+    K[nd:, :nd] = Gm
     sol = np.linalg.solve(K, np.concatenate([f, rhs]))
-    return sol[:6], dict(zip(keys, sol[6:]))
+    return sol[:nd], dict(zip(keys, sol[nd:]))
 
 def make_rhs(P: RockingParams, mode: tuple, acc):
     """Fast right-hand side y' = f(t, y) of the flow modes (same equations as :func:`evaluate`).
@@ -484,12 +581,15 @@ def make_rhs(P: RockingParams, mode: tuple, acc):
         L1, dl = 2.0 * P.R1, -s1 * P.al1
     a1, a2 = s1 * P.al1, s2 * P.al2
     Lp, gp = P.load_geom[(s2, sig)]
-    M11 = P.IO1 + m2 * L1 * L1
-    M22 = P.IO2
+    mN = P.mN
+    M11 = P.IO1 + (m2 + mN) * L1 * L1
+    M22 = P.IO2 + mN * Lp * Lp
     mLR = m2 * L1 * R2
+    nLL = mN * L1 * Lp                 # co-moving beam: coupling through cos(psiQ - psip)
     g1, gQ, g2 = g * m1 * R1, g * m2 * L1 + N * L1, g * m2 * R2
     NLp, FLp, FL1 = N * Lp, F * Lp, F * L1
-    mR1, mL1, mR2 = m1 * R1, m2 * L1, m2 * R2
+    mR1, mL1, mR2 = m1 * R1, (m2 + mN) * L1, m2 * R2
+    nLp = mN * Lp                      # inertia force of the beam at p: lever Lp cos psip
 
     if kind == "free":
         def rhs(t, y):
@@ -504,11 +604,13 @@ def make_rhs(P: RockingParams, mode: tuple, acc):
             psip = th2 + gp
             sQ, cQ = sin(psiQ), cos(psiQ)
             d = psiQ - psi2
-            M12 = mLR * cos(d)
-            k = mLR * sin(d)
+            dp = psiQ - psip
+            cp = cos(psip)
+            M12 = mLR * cos(d) + nLL * cos(dp)
+            k = mLR * sin(d) + nLL * sin(dp)
             r1 = (g1 * sin(psi1) + gQ * sQ - a * (mR1 * cos(psi1) + mL1 * cQ) + FL1 * cQ
                   - k * w2 * w2)
-            r2 = (g2 * sin(psi2) + NLp * sin(psip) - a * mR2 * cos(psi2) + FLp * cos(psip)
+            r2 = (g2 * sin(psi2) + NLp * sin(psip) - a * (mR2 * cos(psi2) + nLp * cp) + FLp * cp
                   + k * w1 * w1)
             det = M11 * M22 - M12 * M12
             dd1 = (M22 * r1 - M12 * r2) / det
@@ -523,9 +625,10 @@ def make_rhs(P: RockingParams, mode: tuple, acc):
             psi2 = th - a2
             psip = th + gp
             sQ, cQ = sin(psiQ), cos(psiQ)
-            M12 = mLR * cos(psiQ - psi2)
+            cp = cos(psip)
+            M12 = mLR * cos(psiQ - psi2) + nLL * cos(psiQ - psip)
             r = (g1 * sin(psi1) + gQ * sQ - a * (mR1 * cos(psi1) + mL1 * cQ) + FL1 * cQ
-                 + g2 * sin(psi2) + NLp * sin(psip) - a * mR2 * cos(psi2) + FLp * cos(psip))
+                 + g2 * sin(psi2) + NLp * sin(psip) - a * (mR2 * cos(psi2) + nLp * cp) + FLp * cp)
             return [y[2], 0.0, r / (M11 + 2.0 * M12 + M22), 0.0]
     elif kind == "p4":
         def rhs(t, y):
@@ -533,7 +636,8 @@ def make_rhs(P: RockingParams, mode: tuple, acc):
             a = acc(t)
             psi2 = th2 - a2
             psip = th2 + gp
-            r2 = g2 * sin(psi2) + NLp * sin(psip) - a * mR2 * cos(psi2) + FLp * cos(psip)
+            cp = cos(psip)
+            r2 = g2 * sin(psi2) + NLp * sin(psip) - a * (mR2 * cos(psi2) + nLp * cp) + FLp * cp
             dd2 = r2 / M22
             return [0.0, y[3], 0.0, dd2]
     else:
@@ -554,17 +658,19 @@ def energy_arrays(P: RockingParams, th1, th2, w1, w2, b, c, sig):
     psiQ = np.where(same, th1, th1 - s1 * P.al1)
     psi1 = th1 - s1 * P.al1
     psi2 = th2 - s2 * P.al2
-    M11 = P.IO1 + P.m2 * L1 * L1
-    M12 = P.m2 * L1 * P.R2 * np.cos(psiQ - psi2)
-    KE = 0.5 * (M11 * w1 * w1 + 2.0 * M12 * w1 * w2 + P.IO2 * w2 * w2)
-    zG1 = P.R1 * np.cos(psi1)
-    zQ = L1 * np.cos(psiQ)
-    zG2 = zQ + P.R2 * np.cos(psi2)
     Lp = np.empty_like(th1)
     gp = np.empty_like(th1)
     for (s2v, sv), (L, gg) in P.load_geom.items():
         m = (s2 == s2v) & (sig == sv)
         Lp[m], gp[m] = L, gg
+    mN = P.mN
+    M11 = P.IO1 + (P.m2 + mN) * L1 * L1
+    M12 = P.m2 * L1 * P.R2 * np.cos(psiQ - psi2) + mN * L1 * Lp * np.cos(psiQ - th2 - gp)
+    M22 = P.IO2 + mN * Lp * Lp
+    KE = 0.5 * (M11 * w1 * w1 + 2.0 * M12 * w1 * w2 + M22 * w2 * w2)
+    zG1 = P.R1 * np.cos(psi1)
+    zQ = L1 * np.cos(psiQ)
+    zG2 = zQ + P.R2 * np.cos(psi2)
     zp = zQ + Lp * np.cos(th2 + gp)
     V = P.gravity * (P.m1 * (zG1 - P.h1 / 2) + P.m2 * (zG2 - P.h1 - P.h2 / 2))
     V = V + P.top_load * (zp - P.height)

@@ -94,15 +94,20 @@ def summarize(case: RockingCase, P, exc, res: RockingResult, wall: float) -> tup
             "thickness": P.thickness, "h1": P.h1, "m1": P.m1, "h2": P.h2, "m2": P.m2,
             "top_load": P.top_load, "top_friction": P.top_friction, "gravity": P.gravity,
             "restitution": case.rocking.restitution, "top_load_point": P.load_point,
-            "locked": P.locked,
+            "locked": P.locked, "top_contact": P.top_contact,
+            "top_mass_kg": P.mN,
         },
         "loading": exc.describe(),
         "closed_form": {
+            # thresholds of the chosen top contact (docs/rocking_model.md, section 4)
+            "top_contact": P.top_contact,
             "uplift_threshold_whole_m_s2": an.uplift_threshold(P, "whole"),
             "uplift_threshold_upper_m_s2": an.uplift_threshold(P, "upper"),
+            "uplift_threshold_m_s2": an.uplift_thresholds(P)["governing"],
+            "first_pattern": an.uplift_thresholds(P)["first_pattern"],
             "thesis_eq_5_4_threshold_m_s2": an.thesis_uplift_threshold(P),
             "housner_restitution_locked": an.housner_restitution(P),
-            "peak_over_threshold": (exc.peak / an.uplift_threshold(P, "whole"))
+            "peak_over_threshold": (exc.peak / an.uplift_thresholds(P)["governing"])
             if getattr(exc, "peak", None) else None,
         },
         "sim_time": t_end,
@@ -128,6 +133,8 @@ def summarize(case: RockingCase, P, exc, res: RockingResult, wall: float) -> tup
         },
         "diagnostics": res.stats,
     }
+    if P.comoving:
+        summary["top_friction_demand"] = an.top_friction_demand(P, res, exc)
     return summary, arrays
 
 

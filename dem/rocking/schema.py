@@ -15,6 +15,8 @@ exactly as written; everything below ``# extensions`` is optional.  SI units, an
       # extensions
       top_load_point: corner             # corner (thesis eq. 5-9..5-14) | centre (eq. 5-3)
       locked: false                      # true: the parts never separate (one block)
+      top_contact: sliding               # sliding (thesis: N fixed in space, friction mu N) |
+                                         # co-moving (N a mass N/g moving with the top, no friction)
     loading: {type: shake, direction: [0, 1, 0], frequency: 2.8, amplitude: 0.00469, cycles: 50}
     run: {duration: 20.0, output_interval: 0.001}   # extension: collapse_angle (rad)
     # extensions
@@ -112,6 +114,11 @@ class RockingSpec(_Strict):
     top_load_point: Literal["corner", "centre"] = Field(
         default="corner", description="where N acts: the raised top corner or the top centre")
     locked: bool = Field(default=False, description="the parts never separate (one block)")
+    top_contact: Literal["sliding", "co-moving"] = Field(
+        default="sliding",
+        description="'sliding': the thesis' top load N fixed in space, sliding over Part 2 with "
+                    "friction mu N; 'co-moving': N is a mass N/g moving with the top of Part 2 "
+                    "(its inertia added, its weight where it bears), no friction")
 
     _t = field_validator("thickness")(lambda cls, v: _positive("m")(v))
     _n = field_validator("top_load")(lambda cls, v: _non_negative("N")(v))
@@ -292,7 +299,8 @@ def params_from_case(case: RockingCase):
     return RockingParams(
         thickness=r.thickness, h1=r.lower.height, m1=r.lower.mass, h2=r.upper.height,
         m2=r.upper.mass, top_load=r.top_load, top_friction=r.top_friction,
-        gravity=case.gravity, load_point=r.top_load_point, locked=r.locked)
+        gravity=case.gravity, load_point=r.top_load_point, locked=r.locked,
+        top_contact=r.top_contact)
 
 
 def excitation_from_case(case: RockingCase):

@@ -298,7 +298,7 @@ class _Sim:
         th1, phi, w1, wphi = y
         th2, w2 = th1 + phi, w1 + wphi
         s1, s2 = geometry(P, b, c)
-        v_minus = maximal_velocity(P, s1, s2, th1, th2, w1, w2)
+        v_minus = maximal_velocity(P, s1, s2, th1, th2, w1, w2, sig)
         M = mass6(P)
         ke_minus = 0.5 * v_minus @ M @ v_minus
         p_scale = max(np.linalg.norm(M @ v_minus), 1e-300)
@@ -306,20 +306,28 @@ class _Sim:
         tol_v = TOL_REL * max(np.max(np.abs(v_minus)), 1e-300)
         base_zero = th1 == 0.0
         if_zero = phi == 0.0
+        # co-moving top load: at theta2 = 0 the beam may pass to the other top corner (the rising
+        # corner strikes it); the post-impact corner is chosen with the other contacts
+        beam_zero = P.comoving and P.load_point == "corner" and th2 == 0.0
         bs = [1, -1, 0] if base_zero else [b]
         cs = ([0] if P.locked else [1, -1, 0]) if if_zero else [c]
+        ss = [-sig, sig] if beam_zero else [sig]
         n1 = np.array([math.sin(th1), math.cos(th1)])
         best = None
-        order = [(bb, cc) for bb in bs for cc in cs]
+        order = [(bb, cc, sg) for bb in bs for cc in cs for sg in ss]
         # the usual outcome first: the closing joint swaps corners, the others keep their mode
         natural = (-b if base_zero and b != 0 else bb_default(b, bs),
-                   -c if if_zero and c != 0 else cc_default(c, cs))
+                   -c if if_zero and c != 0 else cc_default(c, cs), ss[0])
         if natural in order:
             order.remove(natural)
             order.insert(0, natural)
-        for bb, cc in order:
-            vplus, lam, rows = self._plastic(bb, cc, th1, th2, v_minus, M)
+        for bb, cc, sg in order:
+            vplus, lam, rows = self._plastic(bb, cc, th1, th2, v_minus, M, sg)
             conds = []
+            if beam_zero:
+                # the beam's new corner pushes it up; the corner it leaves separates from it
+                k, o = ("+", "-") if sg > 0 else ("-", "+")
+                conds += [lam["beam_z" + k] / tol_p, rows["beam_z" + o] @ vplus / tol_v]
             if base_zero:
                 if bb != 0:
                     k, o = ("+", "-") if bb > 0 else ("-", "+")
@@ -340,10 +348,10 @@ class _Sim:
             # rate) prefer locking, the acceleration-level choice then decides about lift-off
             key = (margin >= -1.0, margin > 1.0, n_flat, margin)
             if best is None or key > best[0]:
-                best = (key, bb, cc, vplus, lam)
+                best = (key, bb, cc, sg, vplus, lam)
             if margin > 1.0:   # strictly consistent: the unique solution of the LCP
                 break
-        (consistent, _, _, margin), bb, cc, vplus, lam = best
+        (consistent, _, _, margin), bb, cc, sg, vplus, lam = best
         if not consistent:
             self.stats["inconsistent_impacts"] += 1
         # persistent pivots pulled apart (flight would be needed; the model keeps contact)
@@ -362,7 +370,17 @@ class _Sim:
             cc, relock = 0, True
         if relock:
             self.stats["zeno_locks"] += 1
-            vplus, lam, _ = self._plastic(bb, cc, th1, th2, v_minus, M)
+            vplus, lam, _ = self._plastic(bb, cc, th1, th2, v_minus, M, sg)
+        if P.comoving:
+            # friction the beam would need to follow the top through the impact: |H| / V of the
+            # impulse it receives at its corner (a stick-slip condition would be <= mu)
+            k = "+" if sg > 0 else "-"
+            jx, jz = lam["beam_x" + k], lam["beam_z" + k]
+            if jz > tol_p:
+                self.stats["top_impulse_ratio_max"] = max(
+                    self.stats.get("top_impulse_ratio_max", 0.0), float(abs(jx) / jz))
+            if beam_zero and sg != sig:
+                self.stats["impacts_top"] = self.stats.get("impacts_top", 0) + 1
         # restitution: a number e keeps the plastic velocity direction and e^2 of the energy
         if S.restitution != "housner":
             ke_plus = 0.5 * vplus @ M @ vplus
@@ -376,21 +394,24 @@ class _Sim:
             w2p = w1p
         y_new = (th1, phi, w1p, w2p - w1p)
         info = {"ke_before": float(ke_minus), "ke_after": float(ke_after), "margin": float(margin)}
-        return (bb, cc), y_new, info
+        return (bb, cc, sg), y_new, info
 
-    def _plastic(self, bb, cc, th1, th2, v_minus, M):
+    def _plastic(self, bb, cc, th1, th2, v_minus, M, sig=1):
+        """Plastic impact onto the modes (bb, cc) (beam on the corner sigma = sig if co-moving):
+        M (v+ - v-) = G^T Lambda, G v+ = 0; returns v+, the impulses Lambda by row, the rows."""
         P = self.P
         s1, s2 = geometry(P, bb, cc)
         rows, _ = contact_rows(P, s1, s2, th1, th2)
-        keys = mode_row_keys(bb, cc)
+        keys = mode_row_keys(bb, cc, sig, P.comoving)
         G = np.array([rows[k] for k in keys])
         n = len(keys)
-        K = np.zeros((6 + n, 6 + n))
-        K[:6, :6] = M
-        K[:6, 6:] = -G.T
-        K[6:, :6] = G
+        nd = len(v_minus)
+        K = np.zeros((nd + n, nd + n))
+        K[:nd, :nd] = M
+        K[:nd, nd:] = -G.T
+        K[nd:, :nd] = G
         sol = np.linalg.solve(K, np.concatenate([M @ v_minus, np.zeros(n)]))
-        return sol[:6], dict(zip(keys, sol[6:])), rows
+        return sol[:nd], dict(zip(keys, sol[nd:])), rows
 
     # ------------------------------------------------------------------ stationary modes
     def _affine_conditions(self, mode, y, t, from_rest):
@@ -618,7 +639,10 @@ class _Sim:
             if not starting:
                 return t, y, mode
             e = evaluate(P, mode, y, self.exc.acc(t), want_forces=False)
-            if tau != 0 and abs(e.xd) > self.tol_x and b * y[0] != 0 and c * y[1] != 0:
+            if (tau != 0 and abs(e.xd) > self.tol_x and b * y[0] != 0 and c * y[1] != 0
+                    and (y[0] + y[1] != 0.0 or P.load_point != "corner")):
+                # (theta2 = 0 exactly: the load has just passed to the other corner; its event
+                # function starts at 0, so step off it too)
                 return t, y, mode
             h = self.eps_start
             dphi = e.dd2 - e.dd1
@@ -634,10 +658,10 @@ class _Sim:
             self.stats["zeno_locks"] += 1
             th1, phi, w1, wphi = y
             s1, s2 = geometry(P, b, c)
-            v = maximal_velocity(P, s1, s2, th1, th1 + phi, w1, w1 + wphi)
+            v = maximal_velocity(P, s1, s2, th1, th1 + phi, w1, w1 + wphi, sig)
             bb, cc = (0 if lock_b else b), (0 if lock_c else c)
             M = mass6(P)
-            vp, _, _ = self._plastic(bb, cc, th1, th1 + phi, v, M)
+            vp, _, _ = self._plastic(bb, cc, th1, th1 + phi, v, M, sig)
             if self.S.restitution != "housner":
                 # with a restitution number the lock keeps the kinetic energy (e was applied
                 # at the impact that started this flight)
@@ -662,7 +686,16 @@ class _Sim:
         b, c, tau, sig = mode
         y = list(y_ev)
         closing = set()
-        if name.startswith("impact"):
+        if name == "load_switch" and P.comoving:
+            # the beam (a mass moving with the top) passes to the other top corner, which strikes
+            # it: an impact (resolved with the other contacts unchanged unless they close too)
+            y[1] = -y[0]  # theta2 = 0 exactly
+            self.stats["beam_switches"] = self.stats.get("beam_switches", 0) + 1
+            (bb, cc, sg), y_new, info = self.resolve_impact(mode, tuple(y), {"beam"})
+            y = list(y_new)
+            new = self.select_mode(t, tuple(y), prev=(bb, cc, tau, sg))
+            self._event(t, "impact_top", mode, new, theta1=y_ev[0], theta2=0.0, **info)
+        elif name.startswith("impact"):
             # snap the closing joint(s); a second joint closing within a tiny angle is simultaneous
             ang_tol = 1e-12
             if b != 0 and (name == "impact_base" or abs(y[0]) < ang_tol and b * y[2] < 0):
@@ -677,9 +710,9 @@ class _Sim:
                 self.stats["impacts_base"] += 1
             if "iface" in closing:
                 self.stats["impacts_interface"] += 1
-            (bb, cc), y_new, info = self.resolve_impact(mode, tuple(y), closing)
+            (bb, cc, sg), y_new, info = self.resolve_impact(mode, tuple(y), closing)
             y = list(y_new)
-            new = self.select_mode(t, tuple(y), prev=(bb, cc, tau, sig))
+            new = self.select_mode(t, tuple(y), prev=(bb, cc, tau, sg))
             self._event(t, name if len(closing) == 1 else "impact_double", mode, new,
                         theta1=y_ev[0], theta2=y_ev[0] + y_ev[1], **info)
         elif name == "load_switch":
