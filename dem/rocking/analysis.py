@@ -204,10 +204,13 @@ def top_friction_demand(P: RockingParams, res, exc, stride: int = 1) -> dict:
     """Friction a co-moving beam needs to follow the top: max of abs(H) / V over the recorded
     moving samples (``model.top_contact_force``), and the largest impulse ratio at impacts
     (``res.stats['top_impulse_ratio_max']``).  A stick-slip top contact with coefficient mu would
-    slip only where these exceed mu."""
+    slip only where these exceed mu.  Samples where the beam's bearing force V is <= 0 (it would
+    lift off: flight, outside the model) are left out of the ratio and reported by min_V_over_N."""
     from dem.rocking.model import top_contact_force
 
-    ratio, t_at = 0.0, None
+    ratio, t_at, vmin, t_vmin = 0.0, None, math.inf, None
+    rocking = 0.0   # the same over the samples within the static stability angle atan(T / H)
+    al = math.atan(P.thickness / P.height)
     if P.top_load > 0 and len(res.t):
         for i in range(0, len(res.t), stride):
             b, c, tau, sig = (int(v) for v in res.mode[i])
@@ -217,8 +220,17 @@ def top_friction_demand(P: RockingParams, res, exc, stride: int = 1) -> dict:
                  res.omega2[i] - res.omega1[i])
             a = float(exc.acc(res.t[i]))
             H, V = top_contact_force(P, (b, c, tau, sig), y, a)
-            r = abs(H) / V if V > 0 else math.inf
+            if V < vmin:
+                vmin, t_vmin = V, float(res.t[i])
+            if V <= 0:          # the beam would lift off the wall (flight): no friction question
+                continue
+            r = abs(H) / V
+            if max(abs(res.theta1[i]), abs(res.theta2[i])) <= al:
+                rocking = max(rocking, r)
             if r > ratio:
                 ratio, t_at = r, float(res.t[i])
-    return {"flow_max_abs_H_over_V": ratio, "flow_max_at_s": t_at,
+    return {"flow_max_abs_H_over_V": float(ratio), "flow_max_at_s": t_at,
+            "rocking_max_abs_H_over_V": float(rocking),
+            "min_V_over_N": float(vmin / P.top_load) if math.isfinite(vmin) else None,
+            "min_V_at_s": t_vmin,
             "impact_max_abs_H_over_V": res.stats.get("top_impulse_ratio_max", 0.0)}

@@ -185,10 +185,115 @@ def dem_comparison() -> str:
     return "\n".join(out)
 
 
+# ------------------------------------------------------------------------------------------
+# the two top contacts (issue 14)
+# ------------------------------------------------------------------------------------------
+THESIS_STEMS = ([f"model-ii-{f:.1f}hz" for f in (1.8, 2.0, 2.4, 2.8)]
+                + [f"model-iii-{f:.1f}hz" for f in (2.0, 2.2, 2.4, 2.8)]
+                + ["case3-model-ii-2.8hz-8mm", "case3-model-ii-2.8hz-11mm"]
+                + [f"case4-model-ii-n0-{f:.1f}hz" for f in (1.8, 2.0, 2.4, 2.8)]
+                + [f"case5-model-ii-e1-{f:.1f}hz" for f in (1.8, 2.0, 2.4, 2.8)])
+
+
+def top_contact_thresholds_table() -> str:
+    """Closed-form uplift thresholds of both top contacts, Table 5.1 parts, N = 58.8 N."""
+    rows = ["| model | top contact | whole wall, Pattern 3 (m/s2) | Part 2 alone, Pattern 4 (m/s2) | "
+            "locked-pair restitution r | Table 5.2 peak (m/s2) |", "|---|---|---|---|---|---|"]
+    for name, peak in (("II", "1.45-1.53"), ("III", "1.23")):
+        for tc in ("sliding", "co-moving"):
+            P = RockingParams(**MODEL[name], top_load=58.8, top_friction=0.81, top_contact=tc)
+            th = an.uplift_thresholds(P)
+            rows.append(f"| {name} | {tc} | {th['whole']:.3f} | {th['upper']:.3f} | "
+                        f"{an.housner_restitution(P):.4f} | {peak} |")
+    return "\n".join(rows)
+
+
+def top_contact_cases_table() -> str:
+    """The thesis' cases with each top contact: status, uplift, amplitude, patterns, errors."""
+    rows = ["| case | peak (m/s2) | top contact | threshold (m/s2) | status | uplift at (s) | "
+            "max abs d (mm) | steady +/- (mm) | patterns (time) | impacts base/iface/top | "
+            "beam friction demand abs(H)/V (abs(theta) <= atan(T/H); impulses) | experiment (mm) | ours vs experiment | "
+            "thesis vs experiment |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for stem in THESIS_STEMS:
+        for tc in ("sliding", "co-moving"):
+            case = load_rocking_case(CASES / f"{stem}.yaml", {"rocking": {"top_contact": tc}})
+            P, exc, res, err = run_case(case)
+            d = an.top_displacement(P, res.theta1, res.theta2)
+            stats, _ = an.pattern_statistics(res.episodes, float(res.t[-1]))
+            first = next((e["t"] for e in res.events if e["before"] == "rest"), None)
+            ci, cmax, cmin = an.cycle_amplitudes(res.t, d, exc.period,
+                                                 min(exc.t_stop, float(res.t[-1]) + 1e-12))
+            steady = "-"
+            if res.status == "ok" and len(ci):
+                half = ci >= (ci.max() + 1) / 2
+                steady = f"+{mm(float(np.mean(cmax[half])))} / {mm(float(np.mean(cmin[half])))}"
+            model = "III" if stem.startswith("model-iii") else "II"
+            exp = EXPERIMENT.get((model, exc.f)) if stem.startswith("model-") else None
+            ours = abs(float(np.abs(d).max()) - exp) / exp if exp else None
+            th_err = THESIS_ERROR.get((model, exc.f)) if stem.startswith("model-") else None
+            pats = ", ".join(f"{k} {100 * v['time_fraction']:.0f}%" for k, v in stats.items()
+                             if v["time_fraction"] >= 0.005)
+            st = res.status if res.status != "collapsed" else f"collapsed ({res.t[-1]:.2f} s)"
+            dem = "-"
+            if P.comoving and first is not None:
+                fd = an.top_friction_demand(P, res, exc, stride=2)
+                dem = (f"{fd['rocking_max_abs_H_over_V']:.2f} rocking, "
+                       f"{fd['impact_max_abs_H_over_V']:.2f} impacts")
+            s = res.stats
+            rows.append(
+                f"| {stem} | {exc.peak:.2f} | {tc} | {an.uplift_thresholds(P)['governing']:.2f} | {st} | "
+                f"{'never' if first is None else f'{first:.3f}'} | {1e3 * np.abs(d).max():.1f} | {steady} | "
+                f"{pats} | {s['impacts_base']}/{s['impacts_interface']}/{s.get('impacts_top', 0)} | {dem} | "
+                f"{mm(exp) if exp else '-'} | {'-' if ours is None else f'{100 * ours:.0f} %'} | "
+                f"{'-' if th_err is None else f'{th_err:.1f} %'} |")
+    return "\n".join(rows)
+
+
+def top_contact_sweep_table(freqs=None) -> str:
+    """Frequency sweeps at constant peak acceleration with the co-moving roof: Model III at the
+    tests' 1.23 m/s2, and both models at 1.05 and 1.2 x their co-moving threshold."""
+    freqs = np.round(np.linspace(1.5, 6.0, 19), 2) if freqs is None else freqs
+    out = []
+    specs = [("III", 1.23, "1.23 m/s2 (the tests)")]
+    for name in ("II", "III"):
+        P = RockingParams(**MODEL[name], top_load=58.8, top_contact="co-moving")
+        thr = an.uplift_threshold(P)
+        for fac in (1.05, 1.2):
+            specs.append((name, fac * thr, f"{fac:.2f} x threshold = {fac * thr:.2f} m/s2"))
+    header = "| f (Hz) | " + " | ".join(f"Model {n}, {lab}" for n, _, lab in specs) + " |"
+    out.append(header)
+    out.append("|---|" + "---|" * len(specs))
+    cols = []
+    for name, peak, _ in specs:
+        P = RockingParams(**MODEL[name], top_load=58.8, top_contact="co-moving")
+        cols.append(sweep(P, freqs, peak_acceleration=peak))
+    for i, f in enumerate(freqs):
+        cells = []
+        for col in cols:
+            r = col[i]
+            if r["status"] == "ok":
+                cells.append("rest" if r["impacts"] == 0 and r["max_abs_disp"] == 0 else
+                             f"+{mm(r['amp_pos'])} / {mm(r['amp_neg'])}")
+            else:
+                cells.append(f"{r['status']} {r['t_end']:.1f} s")
+        out.append(f"| {f:.2f} | " + " | ".join(cells) + " |")
+    return "\n".join(out)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--dem", action="store_true", help="also run the DEM comparison (Taichi)")
+    ap.add_argument("--top-contact", action="store_true",
+                    help="only the tables comparing the two top contacts (issue 14)")
     args = ap.parse_args()
+    if args.top_contact:
+        print("## Uplift thresholds of the two top contacts\n")
+        print(top_contact_thresholds_table())
+        print("\n## Thesis cases with each top contact\n")
+        print(top_contact_cases_table())
+        print("\n## Frequency sweep with the co-moving roof\n")
+        print(top_contact_sweep_table())
+        return
     print("## Uplift thresholds\n")
     print(thresholds_table())
     print("\n## Top friction against the restoring moment\n")
