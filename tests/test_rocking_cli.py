@@ -169,3 +169,17 @@ def test_thesis_cases_use_table_5_values():
         else:
             assert (P.h1, P.m1, P.h2, P.m2) == (0.14, 6.05, 0.14, 9.41)
         assert P.thickness == 0.05 and P.top_load == 58.8 and P.top_friction == 0.81
+
+
+def test_co_moving_cases_are_the_thesis_cases_with_the_roof_moving():
+    """cases/rocking/*-co-moving.yaml (issue 14): the eight Table 5.2 cases, identical to the
+    thesis' files except rocking.top_contact = co-moving."""
+    import dataclasses
+
+    for stem in TABLE_5_2:
+        base = load_rocking_case(CASES[0].parent / f"{stem}.yaml")
+        co = load_rocking_case(CASES[0].parent / f"{stem}-co-moving.yaml")
+        assert base.rocking.top_contact == "sliding" and co.rocking.top_contact == "co-moving"
+        assert co.name == f"{stem}-co-moving"
+        assert co.loading == base.loading and co.run == base.run
+        assert dataclasses.replace(params_from_case(co), top_contact="sliding") == params_from_case(base)
