@@ -223,3 +223,22 @@ def test_summary_reports_the_thresholds_of_the_chosen_top_contact(tmp_path):
     assert cf["housner_restitution_locked"] == pytest.approx(an.housner_restitution(P))
     assert s["first_uplift_time"] is not None          # 1.23 m/s2 > 1.18 m/s2: it rocks
     assert 0 <= s["top_friction_demand"]["flow_max_abs_H_over_V"] < 0.81
+
+
+def test_dem_sweep_comparison_reads_the_stored_dem_sweep():
+    """dem.rocking.dem_sweep_compare (docs/rocking_results.md section 9): the DEM's Model II y
+    4.0 m/s2 sweep is read from results/shake/ (no DEM run); the two-body model at the same point
+    stays at rest with the sliding roof (4.0 < 8.36 m/s2), overturns with the co-moving one at
+    2.8 Hz, and the DEM's ds amplification is computed on a co-moving run that rocks to the end."""
+    from dem.rocking import dem_sweep_compare as dc
+
+    sw, dem = dc.load_dem()
+    assert sw["peak_acceleration_m_s2"] == 4.0 and [r["f"] for r in dem] == [1.8, 2.0, 2.4, 2.8, 3.2, 3.6]
+    assert dem[3]["A_ds"] == pytest.approx(1.5916, abs=1e-4)
+    assert dc.Z_S == pytest.approx(0.2275)
+    sl = dc.run_point(dc.params("sliding"), 2.8, 4.0, 10, 1.0)
+    assert sl["uplift"] is None and sl["max_abs_ds"] == 0.0
+    co = dc.run_point(dc.params("co-moving"), 2.8, 4.0, 10, 1.0)
+    assert co["status"] == "collapsed" and co["t_end"] < 10 / 2.8
+    rocks = dc.run_point(dc.params("co-moving"), 5.0, 4.0, 10, 1.0)
+    assert rocks["status"] == "ok" and 1.0 < rocks["A_ds"] < 2.0

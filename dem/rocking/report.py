@@ -1,6 +1,9 @@
 """Tables of docs/rocking_results.md: the two-block model against the thesis (Chapter 5).
 
     python -m dem.rocking.report [--dem]      # markdown on stdout; --dem adds the DEM comparison
+    python -m dem.rocking.report --top-contact   # section 9: the two top contacts (issue 14)
+    python -m dem.rocking.report --dem-sweep     # section 9: against the DEM's rocking sweep
+                                                 # (reads results/shake/, runs no DEM)
 
 Every number is computed here from the case files in cases/rocking/ and the closed forms of
 dem.rocking.analysis; the thesis' numbers are quoted from ../shared/REFERENCE.md and the thesis.
@@ -285,7 +288,16 @@ def main() -> None:
     ap.add_argument("--dem", action="store_true", help="also run the DEM comparison (Taichi)")
     ap.add_argument("--top-contact", action="store_true",
                     help="only the tables comparing the two top contacts (issue 14)")
+    ap.add_argument("--dem-sweep", action="store_true",
+                    help="only the comparison with the DEM's Model II y 4.0 m/s2 sweep "
+                         "(dem.rocking.dem_sweep_compare; reads results/shake/, runs no DEM)")
     args = ap.parse_args()
+    if args.dem_sweep:
+        from dem.rocking.dem_sweep_compare import comparison
+
+        print("## The two-body model against the DEM's rocking sweep (Model II y, 4.0 m/s2)\n")
+        print(comparison())
+        return
     if args.top_contact:
         print("## Uplift thresholds of the two top contacts\n")
         print(top_contact_thresholds_table())
