@@ -231,7 +231,9 @@ class Simulation:
                 on_chunk(done)
 
     def _launch(self, k: int, loads: LoadFn) -> int:
-        t = self.t + np.arange(k) * self.dt
+        # step n's time counted from the last change of dt, as self.t: the same loads for a
+        # step however the run is cut into launches (frames, the parallel kernel)
+        t = self._t_anchor + (self.step_count - self._step_anchor + np.arange(k)) * self.dt
         g, a = loads(t)
         ctl = self.control
         ctl.loads[:k, 0] = g
