@@ -161,9 +161,12 @@ def _child(case_name: str, variant: str) -> dict:
             f"VARIANTS[{variant!r}])))")
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
                          cwd=ROOT)
+    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True,
+                            text=True, cwd=ROOT).stdout.strip()
     for line in out.stdout.splitlines():
         if line.startswith("RESULT "):
-            return {"case": case_name, "variant": variant, **json.loads(line[7:])}
+            return {"case": case_name, "variant": variant, **json.loads(line[7:]),
+                    "measured": f"{time.strftime('%Y-%m-%d')} {commit}"}
     return {"case": case_name, "variant": variant, "status": "failed",
             "error": out.stderr[-1500:]}
 
@@ -185,24 +188,44 @@ def _errors(rows: list[dict]) -> None:
 
 DEFAULTS = """## The defaults and why (dem/case.py)
 
+Rows are marked with the day and commit they were measured at: the issue-7 rows ran the engine
+before issue 10 (f32 clipping buffers, the box models' dt 9.6e-6 s); the references, the
+defaults, the output and kernel rows were re-run after it (fd5247d).  An error is taken against
+its case's current reference.
+
 * `solver.safety` 0.3: every step from 0.05 to 0.4 gives the reference's result (tilt lambda to
-  0.0 % and 0.5 %, the Model II amplitude to 0.05 %, its phase to 0.01 deg): the error left is
-  the collapse detection's, not the integrator's.  0.6 breaks the out-of-plane tilt (the resting
+  0.0003 % in plane and out of plane, the Model II amplitude to 0.13 %, its phase to 0.02 deg):
+  the error left is the collapse detection's, not the integrator's.  Model II's amplitude moves by
+  ~0.1 % with the last bit of its loads (the same default run before and after fd5247d, which
+  changed only the round-off of the load times: 3.9814e-5 against 3.9789e-5 m), so its errors
+  below ~0.1 % are round-off, not step size.  0.6 breaks the out-of-plane tilt (the resting
   facade jitters and is taken as collapsing at once, lambda = 0).  0.3 is the fastest setting
   with a factor 2 of margin below that failure; `pytest -m stability` passes at it.
+* The box models' step (issue 10): light large-faced blocks (the roof beams) are capped at the
+  smallest face area that keeps the stability margin, no longer at a brick's face: Model II dt
+  9.6e-6 -> 1.445e-5 s at the same safety.
 * `material.normal_stiffness` 5e9 Pa/m, `shear_stiffness` 0.4 kn, `damping` 0.5: physical
   parameters, chosen once for every model on physical grounds (docs/engine.md), not from these
   tables.  What they cost: lambda moves 1.5-6 % per factor 2 of kn (the elastic joints let the
   walls lean before they go), and Model II's sub-rocking response is the elastic deformation of
   the joints, so its amplitude goes as 1/kn.  A stiffer joint also costs dt ~ 1/sqrt(kn).
-* `run.output_interval` 0.01 s and the neighbour-list skin (0.05 of the smallest edge): no effect
-  on the results beyond the resolution of the collapse time by the frames (0.05 s: 0.3 %);
-  frames every 0.002 s cost 10-30 % more time.
+* `run.output_interval` 0.01 s and the neighbour-list skin (0.05 of the smallest edge): the
+  trajectory does not depend on them (bit for bit since fd5247d); the results move only by the
+  resolution of the measurement by the frames (the collapse time read every 0.002 or 0.05 s
+  instead of 0.01 s: lambda 0.0-0.1 % and 0.3-0.8 %; the amplitude fitted to frames every 0.002
+  or 0.05 s: within 0.06 %); frames every 0.002 s cost 10-30 % more.
 * f64: f32 is not faster (the contact stage is latency-bound, not memory-bound) and it is wrong:
-  the resting walls jitter, energy is created, lambda is 10 % and 40 % low.
-* Serial kernel: the parallel (per-step) kernel is 3-20 x slower at these sizes, on 1 or 2
-  threads (launch overhead per step; it is used from 4000 blocks, PARALLEL_MIN_BODIES).
-* Not built: sleeping blocks and a planar mode (nothing to measure for them here)."""
+  the resting walls jitter, energy is created, lambda is 10 % and 40 % low, Model II's amplitude
+  75 % high.
+* Serial kernel: at these sizes (38-217 blocks) the parallel kernel gives the same results (bit
+  for bit) 1.1-4.8x slower, on 1 or 2 threads: Taichi's thread-pool dispatch, 30-100 us per step,
+  is most of a step here.  Auto mode takes it from 2500 blocks on 2-3 threads, from 500 on 4 or
+  more (PARALLEL_MIN_BODIES, benchmarks/RESULTS.md).
+* Not built: sleeping blocks, temporal coherence of the narrow phase, a planar mode."""
+
+
+# rows without a "measured" stamp: measured for issue 7, before the engine changes of issue 10
+OLD_ROWS = "2026-11-22, issue 7"
 
 
 def report(rows: list[dict]) -> None:
@@ -212,7 +235,7 @@ def report(rows: list[dict]) -> None:
     import matplotlib.pyplot as plt
 
     _errors(rows)
-    lines = ["# Speed against error (issue 7)", "",
+    lines = ["# Speed against error (issues 7 and 10)", "",
              "Command: `python benchmarks/speed_error.py` (this file is written by it).  "
              "Machine: the project's 2-core test machine (shared; CPU time is the steadier "
              "figure).  Error: relative to the converged reference of each case (safety 0.05); "
@@ -225,11 +248,11 @@ def report(rows: list[dict]) -> None:
         if not sub:
             continue
         res_key = "amplitude_m" if case.startswith("shake") else "lambda"
-        lines += [f"## {case}", "",
-                  f"| variant | dt (s) | wall (s) | CPU (s) | brick-steps/s (CPU) | "
+        header = (f"| variant | measured (code) | dt (s) | wall (s) | CPU (s) | "
+                  f"brick-steps/s (CPU) | "
                   f"{'amplitude (mm)' if res_key == 'amplitude_m' else 'lambda'} | error "
-                  f"{'| phase error (deg) ' if res_key == 'amplitude_m' else ''}| energy gain |",
-                  "|---|---|---|---|---|---|---|" + ("---|" if res_key == "amplitude_m" else "")]
+                  f"{'| phase error (deg) ' if res_key == 'amplitude_m' else ''}| energy gain |")
+        lines += [f"## {case}", "", header, "|" + "---|" * (header.count("|") - 1)]
         for r in sub:
             if r.get("status") != "ok":
                 lines.append(f"| {r['variant']} | failed: {r.get('error', '')[-120:]!r} |")
@@ -240,7 +263,8 @@ def report(rows: list[dict]) -> None:
             err = r.get("error")
             bps = r["n_blocks"] * r["steps"] / max(r["cpu_s"] - r["compile_s"], 1e-9)
             lines.append(
-                f"| {r['variant']} | {r['dt']:.3g} | {r['wall_s']:.0f} | {r['cpu_s']:.0f} | "
+                f"| {r['variant']} | {r.get('measured', OLD_ROWS)} | {r['dt']:.3g} | "
+                f"{r['wall_s']:.0f} | {r['cpu_s']:.0f} | "
                 f"{bps:.3g} | {val_s} | {f'{100 * err:.2f} %' if err is not None else '-'} "
                 + (f"| {r.get('phase_error_deg', 0):.2f} " if res_key == "amplitude_m" else "")
                 + f"| {r['energy_gain_rel']:.1e} |")
