@@ -80,21 +80,12 @@ def check(
         typer.echo(f"{case}: ok: '{rc.name}': a two-body rocking case (thesis Chapter 5); run it "
                    f"with `dem rocking {case} --out DIR`")
         return
-    from dem.case import CaseError, load_case
-    from dem.validate import check_case
+    from dem.validate import load_and_check
 
-    try:
-        c = load_case(case)
-    except CaseError as err:
-        _err(f"error: {err}" if str(err).startswith(str(case)) else f"error: {case}: {err}")
+    checked = load_and_check(case, _err, max_blocks)
+    if checked is None:
         raise typer.Exit(EXIT_BAD_INPUT)
-    checked = check_case(c, case, max_blocks=max_blocks)
-    for w in checked.warnings:
-        _err(f"warning: {w}")
-    if not checked.ok:
-        for e in checked.errors:
-            _err(f"error: {e}")
-        raise typer.Exit(EXIT_BAD_INPUT)
+    c = checked.case
     typer.echo(f"{case}: ok: '{c.name}', loading {c.loading.type}\n{checked.report.format()}\n"
                f"{checked.size_line()}")
 

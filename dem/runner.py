@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from dem import atomic
-from dem.case import Case, CaseError, load_case
+from dem.case import Case
 from dem.collapse import CollapseDetector
 from dem.instruments import InstrumentRecorder, thesis_instruments
 from dem.loading import Record, Shake, Tilt, loading_from_case
@@ -443,23 +443,15 @@ def _run_case_file(path, out, progress, force, max_blocks) -> int:
     from dem.engine import InputError, SimulationError
     from dem.rundir import RunDirError, claim
     from dem.signals import signal_name
-    from dem.validate import check_case
+    from dem.validate import load_and_check
 
     def err(msg):
         typer.echo(msg, err=True)
 
-    try:
-        case = load_case(path)
-    except CaseError as e:
-        err(f"error: {e}")  # the message starts with path:line:
+    checked = load_and_check(path, err, max_blocks)
+    if checked is None:
         return 2
-    checked = check_case(case, path, max_blocks=max_blocks)
-    for w in checked.warnings:
-        err(f"warning: {w}")
-    if not checked.ok:
-        for e in checked.errors:
-            err(f"error: {e}")
-        return 2
+    case = checked.case
     try:
         rd = claim(out, case.model_dump_json(indent=1), force=force)
     except RunDirError as e:

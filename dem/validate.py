@@ -195,6 +195,26 @@ class _Where:
         return f"{self.source}: {field_path}" if self.source else field_path
 
 
+def load_and_check(path: str | Path, say, max_blocks: int | None = None) -> Checked | None:
+    """``dem check`` and ``dem run``'s first step: load the case file at ``path`` and run
+    :func:`check_case`, printing each warning and error as one line through ``say``
+    (``warning: ...``, ``error: FILE:LINE: field: ...``).  None when the file or the case is bad
+    (exit 2)."""
+    from dem.case import CaseError, load_case
+
+    try:
+        case = load_case(path)
+    except CaseError as err:
+        say(f"error: {err}" if str(err).startswith(str(path)) else f"error: {path}: {err}")
+        return None
+    checked = check_case(case, path, max_blocks=max_blocks)
+    for w in checked.warnings:
+        say(f"warning: {w}")
+    for e in checked.errors:
+        say(f"error: {e}")
+    return checked if checked.ok else None
+
+
 def check_case(case: Case, source: str | Path | None = None,
                max_blocks: int | None = None, build: bool = True) -> Checked:
     """Check a validated case (module docstring).  Never raises for a bad case: the problems are
