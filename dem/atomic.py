@@ -26,6 +26,8 @@ import tempfile
 from pathlib import Path
 from typing import Iterator
 
+import numpy as np
+
 
 @contextlib.contextmanager
 def atomic_path(path: str | Path) -> Iterator[Path]:
@@ -70,8 +72,6 @@ def write_text(path: str | Path, text: str) -> None:
 
 def json_default(o):
     """numpy scalars and arrays in json.dumps."""
-    import numpy as np
-
     if isinstance(o, (np.floating, np.integer, np.bool_)):
         return o.item()
     if isinstance(o, np.ndarray):
@@ -85,7 +85,7 @@ def strict_json(o):
         return {k: strict_json(v) for k, v in o.items()}
     if isinstance(o, (list, tuple)):
         return [strict_json(v) for v in o]
-    if isinstance(o, float) and not math.isfinite(o):
+    if isinstance(o, (float, np.floating)) and not math.isfinite(float(o)):
         return None
     return o
 
@@ -99,8 +99,6 @@ def write_json(path: str | Path, data, indent: int = 2, strict: bool = False) ->
 
 def save_npz(path: str | Path, arrays: dict) -> None:
     """np.savez_compressed through :func:`atomic_path`."""
-    import numpy as np
-
     with atomic_path(path) as tmp:
         with open(tmp, "wb") as fh:
             np.savez_compressed(fh, **arrays)

@@ -93,18 +93,6 @@ def _save_npz(path: Path, arrays: dict) -> None:
     atomic.save_npz(path, arrays)
 
 
-def _write_json(path: Path, data: dict) -> None:
-    atomic.write_json(path, data)
-
-
-def _json_default(o):
-    if isinstance(o, (np.floating, np.integer)):
-        return o.item()
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    raise TypeError(type(o).__name__)
-
-
 def _snapshot(path: Path, scene: Scene, rec: FrameRecorder, title: str) -> None:
     """final.png: the last frame coloured by displacement from the start."""
     from dem.output.snapshot import snapshot_png
@@ -293,7 +281,7 @@ def simulate(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
                                                           write_errors.items()) + \
                     (f" (after: {status}: {error})" if error else "")
                 summary["write_errors"] = write_errors
-            if not guarded("summary.json", _write_json, out / "summary.json", summary):
+            if not guarded("summary.json", atomic.write_json, out / "summary.json", summary):
                 # a checkpoint's 'running' must not survive: remove it (frees its blocks), then
                 # try a minimal summary
                 import contextlib
@@ -304,7 +292,7 @@ def simulate(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
                                                      "sim_time", "status", "error")}
                 small["write_errors"] = write_errors
                 small["status"] = "failed"
-                guarded("summary.json (minimal)", _write_json, out / "summary.json", small)
+                guarded("summary.json (minimal)", atomic.write_json, out / "summary.json", small)
             if write_errors:
                 first = next(iter(write_errors))
                 raise OutputError(
@@ -360,7 +348,7 @@ def simulate(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
             if out is not None and now - last_flush > CHECKPOINT_SECONDS:
                 summary["steps"], summary["sim_time"] = sim.step_count, sim.t
                 rec.write()
-                _write_json(out / "summary.json", summary)
+                atomic.write_json(out / "summary.json", summary)
                 last_flush = now
     except SimulationError as err:
         bar.close()

@@ -851,29 +851,8 @@ def analyze_run(run_dir, plots: bool = True, write: bool = True) -> dict:
     return out
 
 
-def _json_default(o):
-    if isinstance(o, (np.floating, np.integer)):
-        return o.item()
-    if isinstance(o, np.bool_):
-        return bool(o)
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    raise TypeError(type(o).__name__)
-
-
-def _clean(o):
-    """NaN / inf -> None, so analysis.json is strict JSON."""
-    if isinstance(o, dict):
-        return {k: _clean(v) for k, v in o.items()}
-    if isinstance(o, (list, tuple)):
-        return [_clean(v) for v in o]
-    if isinstance(o, (float, np.floating)) and not math.isfinite(float(o)):
-        return None
-    return o
-
-
 def _write_json(path: Path, data: dict) -> None:
-    from dem.atomic import write_text
+    """analysis.json: strict JSON (NaN / inf as null), written atomically."""
+    from dem.atomic import write_json
 
-    write_text(path, json.dumps(_clean(json.loads(json.dumps(data, default=_json_default))),
-                                indent=1))
+    write_json(path, data, indent=1, strict=True)

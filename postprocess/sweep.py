@@ -342,13 +342,13 @@ def plot_sweep(path, points: list[dict], agg: dict, title: str = "") -> None:
 
 
 def write_sweep(out: Path, meta: dict, points: list[dict], plots: bool = True) -> dict:
-    from postprocess.shake import _write_json
+    from dem.atomic import write_json
 
     agg = aggregate(points)
     failed = [{"name": p["name"], "frequency_hz": p["frequency_hz"], "error": p.get("error")}
               for p in points if p.get("status") == "failed"]
     data = {**meta, "points": points, "failed": failed, "aggregate": agg}
-    _write_json(out / "sweep.json", data)
+    write_json(out / "sweep.json", data, indent=1, strict=True)
     if plots and agg["n_valid"]:
         plot_sweep(out / "sweep.png", points, agg, meta.get("case", ""))
     return data
@@ -556,7 +556,8 @@ def post_tilt(run_dir) -> dict:
     """Collapse and mechanism of a tilt run, recomputed from frames.npz and case.json
     (postprocess.tilt.tilt_results, the same function the run loop uses); written to
     analysis.json."""
-    from postprocess.shake import ShakeAnalysisError, _write_json, angular_velocity, load_run
+    from dem.atomic import write_json
+    from postprocess.shake import ShakeAnalysisError, angular_velocity, load_run
     from postprocess.tilt import tilt_results
 
     run_dir = Path(run_dir)
@@ -572,7 +573,7 @@ def post_tilt(run_dir) -> dict:
     res = tilt_results(case, scene, fr["t"], fr["tilt_angle"], fr["pos"], fr["quat"], vel, omega)
     out = {"kind": "tilt", "case": case.name, "collapse": res["collapse"],
            "mechanism": res.get("mechanism")}
-    _write_json(run_dir / "analysis.json", out)
+    write_json(run_dir / "analysis.json", out, indent=1, strict=True)
     return out
 
 
