@@ -10,7 +10,7 @@ Output directory (contract of ../shared/DESIGN.md):
     case.json      the validated case with every default filled in (Case.model_validate_json)
 
 Nothing is lost on failure: frames.npz and summary.json are written (atomically, through
-dem.atomic: temp file in the same directory, fsync, rename) when the run ends for any reason,
+dem.output.atomic: temp file in the same directory, fsync, rename) when the run ends for any reason,
 and every ``CHECKPOINT_SECONDS`` of wall-clock time.  Ends and what they leave (docs/failures.md):
 
 * ok / failed (SimulationError) / interrupted (SIGINT, SIGTERM, SIGHUP: dem.signals): every file
@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dem import atomic
+from dem.output import atomic
 from dem.case import Case
 from dem.collapse import CollapseDetector
 from dem.instruments import InstrumentRecorder, thesis_instruments

@@ -71,7 +71,7 @@ Mechanism labels (:func:`mechanism_labels`, the thesis' words in Section 4.3):
 
 from __future__ import annotations
 
-from dem.atomic import savefig as _atomic_savefig
+from dem.output.atomic import savefig as _atomic_savefig
 
 from dataclasses import dataclass, field
 
@@ -442,7 +442,7 @@ def write_vtu(path, scene, portion: ExcitedPortion) -> None:
         np.nan_to_num(portion.trans_phase_deg).astype(np.float32)
     grid.cell_data["rotation_amplitude"] = portion.rot_amp.astype(np.float32)
     grid.cell_data["rotation_phase_deg"] = np.nan_to_num(portion.rot_phase_deg).astype(np.float32)
-    from dem.atomic import atomic_path
+    from dem.output.atomic import atomic_path
 
     with atomic_path(path) as tmp:
         grid.save(str(tmp), binary=True)

@@ -91,7 +91,7 @@ Mechanism labels (Section 4.3, observations): see :func:`postprocess.excited.mec
 
 from __future__ import annotations
 
-from dem.atomic import savefig as _atomic_savefig
+from dem.output.atomic import savefig as _atomic_savefig
 
 import json
 import math
@@ -853,6 +853,6 @@ def analyze_run(run_dir, plots: bool = True, write: bool = True) -> dict:
 
 def _write_json(path: Path, data: dict) -> None:
     """analysis.json: strict JSON (NaN / inf as null), written atomically."""
-    from dem.atomic import write_json
+    from dem.output.atomic import write_json
 
     write_json(path, data, indent=1, strict=True)

@@ -43,7 +43,7 @@ Aggregation (:func:`aggregate`):
 
 from __future__ import annotations
 
-from dem.atomic import savefig as _atomic_savefig
+from dem.output.atomic import savefig as _atomic_savefig
 
 import json
 import math
@@ -342,7 +342,7 @@ def plot_sweep(path, points: list[dict], agg: dict, title: str = "") -> None:
 
 
 def write_sweep(out: Path, meta: dict, points: list[dict], plots: bool = True) -> dict:
-    from dem.atomic import write_json
+    from dem.output.atomic import write_json
 
     agg = aggregate(points)
     failed = [{"name": p["name"], "frequency_hz": p["frequency_hz"], "error": p.get("error")}
@@ -556,7 +556,7 @@ def post_tilt(run_dir) -> dict:
     """Collapse and mechanism of a tilt run, recomputed from frames.npz and case.json
     (postprocess.tilt.tilt_results, the same function the run loop uses); written to
     analysis.json."""
-    from dem.atomic import write_json
+    from dem.output.atomic import write_json
     from postprocess.shake import ShakeAnalysisError, angular_velocity, load_run
     from postprocess.tilt import tilt_results
 

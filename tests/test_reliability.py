@@ -94,10 +94,10 @@ def _enospc(*_a, **_k):
 def test_disk_full_at_the_final_frames(tmp_path, monkeypatch):
     """frames.npz cannot be written at the end: exit 1, one clear line, summary says failed and
     names the file, no frames.npz and no temporary file."""
-    import dem.atomic
+    import dem.output.atomic
 
-    real = dem.atomic.save_npz
-    monkeypatch.setattr(dem.atomic, "save_npz", lambda path, arrays: _enospc()
+    real = dem.output.atomic.save_npz
+    monkeypatch.setattr(dem.output.atomic, "save_npz", lambda path, arrays: _enospc()
                         if Path(path).name == "frames.npz" else real(path, arrays))
     out = tmp_path / "out"
     code, text = invoke("run", case_file(tmp_path), "--out", out, "--no-progress")
@@ -115,7 +115,7 @@ def test_disk_full_everywhere_mid_run(tmp_path, monkeypatch):
     """Every write fails from the 4th fsync on (case.json and the first VTK frames land): the
     run stops at the next frame, no summary.json claims 'running' or 'ok', the VTK series holds
     only whole frames."""
-    import dem.atomic
+    import dem.output.atomic
 
     calls = {"n": 0}
     real = os.fsync
@@ -126,10 +126,10 @@ def test_disk_full_everywhere_mid_run(tmp_path, monkeypatch):
             _enospc()
         return real(fd)
 
-    monkeypatch.setattr(dem.atomic.os, "fsync", fsync)
+    monkeypatch.setattr(dem.output.atomic.os, "fsync", fsync)
     out = tmp_path / "out"
     code, text = invoke("run", case_file(tmp_path), "--out", out, "--no-progress")
-    monkeypatch.setattr(dem.atomic.os, "fsync", real)
+    monkeypatch.setattr(dem.output.atomic.os, "fsync", real)
     assert code == 1, text
     assert "No space left on device" in text and "Traceback" not in text
     summary = assert_consistent(out)

@@ -42,7 +42,7 @@ def snapshot_png(
     path.parent.mkdir(parents=True, exist_ok=True)
     pos = np.asarray(pos, dtype=np.float64).reshape(scene.n_blocks, 3)
     quat = np.asarray(quat, dtype=np.float64).reshape(scene.n_blocks, 4)
-    from dem.atomic import atomic_path
+    from dem.output.atomic import atomic_path
 
     with atomic_path(path) as tmp:  # a failed write (disk full) leaves no half PNG
         try:

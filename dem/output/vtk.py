@@ -44,7 +44,7 @@ import numpy as np
 import pyvista as pv
 from vtkmodules.util.numpy_support import numpy_to_vtk
 
-from dem.atomic import atomic_path, write_text
+from dem.output.atomic import atomic_path, write_text
 from dem.scene import Scene
 
 # VTK_HEXAHEDRON vertex order: bottom face counter-clockwise, then the top face

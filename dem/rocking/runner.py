@@ -20,8 +20,8 @@ was computed is written, the message says where and why), 2 bad input.
 
 from __future__ import annotations
 
-from dem import atomic
-from dem.atomic import savefig as _atomic_savefig
+from dem.output import atomic
+from dem.output.atomic import savefig as _atomic_savefig
 
 import json
 import time
