@@ -26,14 +26,13 @@ line decides first (depths per column, in courses from the top):
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial.transform import Rotation
+
+from dem import quaternion
 
 
 def _rotvecs(quat0, quat):
     """Rotation vectors (table frame, rad) taking the initial to the final orientations."""
-    r0 = Rotation.from_quat(np.column_stack([quat0[:, 1:], quat0[:, :1]]))
-    r1 = Rotation.from_quat(np.column_stack([quat[:, 1:], quat[:, :1]]))
-    return (r1 * r0.inv()).as_rotvec()
+    return (quaternion.rotation(quat) * quaternion.rotation(quat0).inv()).as_rotvec()
 
 
 def in_plane_mechanism(scene, pos0, quat0, pos, quat, moving, load_dir, wall_normal,
