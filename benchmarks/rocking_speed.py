@@ -25,7 +25,7 @@ import numpy as np
 from dem.rocking.excitation import Sine
 from dem.rocking.model import RockingParams
 from dem.rocking.runner import run_rocking_case_file
-from dem.rocking.simulate import Settings, simulate
+from dem.rocking.integrate import Settings, integrate_rocking
 from dem.rocking.sweep import sweep
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -49,10 +49,10 @@ def main() -> None:
     args = ap.parse_args()
     exc = Sine(PEAK / (2 * math.pi * F) ** 2, F, 50)
     S = Settings(duration=50 / F)
-    res = simulate(P_N0, exc, S)
+    res = integrate_rocking(P_N0, exc, S)
     print(f"50-cycle rocking run: {len(res.events)} events, "
           f"{res.stats['impacts_base'] + res.stats['impacts_interface']} impacts, status {res.status}")
-    med, lo, hi = timed(lambda: simulate(P_N0, exc, S), args.repeat)
+    med, lo, hi = timed(lambda: integrate_rocking(P_N0, exc, S), args.repeat)
     print(f"  integration only          median {med:.3f} s  (min {lo:.3f}, max {hi:.3f}, n={args.repeat})")
     case = ROOT / "cases" / "rocking" / "extra-model-ii-n0-2.8hz-1.84.yaml"
     with tempfile.TemporaryDirectory() as tmp:
@@ -73,7 +73,7 @@ def main() -> None:
     print(f"20-frequency sweep (1.5-6 Hz, 50 cycles, {PEAK} m/s2): median {med:.2f} s "
           f"(min {lo:.2f}, max {hi:.2f}, n={rep}); {n_col} of 20 runs collapse")
     if args.convergence:
-        ref = simulate(P_N0, exc, Settings(duration=50 / F, rtol=1e-12, atol=1e-14,
+        ref = integrate_rocking(P_N0, exc, Settings(duration=50 / F, rtol=1e-12, atol=1e-14,
                                            max_step_fraction=1 / 200))
         tr = np.array([e["t"] for e in ref.events])
         print("convergence (same 50-cycle run): max |event time - reference| over all events")
@@ -83,7 +83,7 @@ def main() -> None:
                 for frac in (1 / 8, 1 / 16, 1 / 32):
                     St = Settings(duration=50 / F, method=method, rtol=rtol, atol=rtol * 1e-2,
                                   max_step_fraction=frac)
-                    r = simulate(P_N0, exc, St)
+                    r = integrate_rocking(P_N0, exc, St)
                     te = np.array([e["t"] for e in r.events])
                     n = min(len(te), len(tr))
                     err = np.max(np.abs(te[:n] - tr[:n])) if len(te) == len(tr) else math.inf

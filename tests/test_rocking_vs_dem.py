@@ -28,7 +28,7 @@ if not hasattr(runner, "simulate"):  # pragma: no cover
 from dem.case import parse_case  # noqa: E402
 from dem.rocking.excitation import Excitation  # noqa: E402
 from dem.rocking.model import RockingParams  # noqa: E402
-from dem.rocking.simulate import Settings, simulate  # noqa: E402
+from dem.rocking.integrate import Settings, integrate_rocking  # noqa: E402
 
 T, H1, H2, M1, M2 = 0.05, 0.14, 0.14, 6.05, 9.41
 LENGTH = 0.3       # m, along y (the rocking model is planar; masses are given explicitly)
@@ -59,7 +59,7 @@ def _first_zero_crossing(t, f):
 @pytest.fixture(scope="module")
 def runs():
     P = RockingParams(thickness=T, h1=H1, m1=M1, h2=H2, m2=M2)
-    reduced = simulate(P, Excitation(), Settings(duration=0.3), (THETA0, THETA0, 0.0, 0.0))
+    reduced = integrate_rocking(P, Excitation(), Settings(duration=0.3), (THETA0, THETA0, 0.0, 0.0))
     t_imp = next(e["t"] for e in reduced.events if e["kind"].startswith("impact"))
     case = parse_case({
         "name": "two-block-release",

@@ -4,7 +4,11 @@ Two stacked rigid blocks rock on a rigid base, with a top load N and a friction 
 beams, under a horizontal base acceleration.  Modules:
 
 * :mod:`dem.rocking.model`      equations of motion (Lagrangian, all patterns), kinematics, energy
-* :mod:`dem.rocking.simulate`   event-driven integration (solve_ivp + events), impacts, mode choice
+* :mod:`dem.rocking.integrate`  event-driven integration (solve_ivp + events): ``integrate_rocking``
+* :mod:`dem.rocking.modes`      contact modes by complementarity, exits from stationary modes
+* :mod:`dem.rocking.impacts`    plastic (Moreau / Housner) impacts, joint locks, restitution
+* :mod:`dem.rocking.events`     event functions and what happens at an event
+* :mod:`dem.rocking.recording`  output samples, event log, episodes; RockingResult, RockingError
 * :mod:`dem.rocking.excitation` base motion
 * :mod:`dem.rocking.analysis`   closed forms (Housner limits, thresholds), amplitudes, statistics
 * :mod:`dem.rocking.schema`     the case format; :mod:`dem.rocking.runner` ``dem rocking``
@@ -12,7 +16,8 @@ beams, under a horizontal base acceleration.  Modules:
 Derivation and choices: docs/rocking_model.md; results against the thesis: docs/rocking_results.md.
 """
 
+from dem.rocking.integrate import RockingError, RockingResult, Settings, integrate_rocking
 from dem.rocking.model import RockingParams, pattern_name
-from dem.rocking.simulate import RockingError, RockingResult, Settings, simulate
 
-__all__ = ["RockingParams", "pattern_name", "RockingError", "RockingResult", "Settings", "simulate"]
+__all__ = ["RockingParams", "pattern_name", "RockingError", "RockingResult", "Settings",
+           "integrate_rocking"]

@@ -50,7 +50,7 @@ import numpy as np
 from dem.rocking import analysis as an
 from dem.rocking.excitation import Sine
 from dem.rocking.model import RockingParams
-from dem.rocking.simulate import RockingError, Settings, simulate
+from dem.rocking.integrate import RockingError, Settings, integrate_rocking
 from postprocess.shake import amplification, cycle_extrema, phase_lag, steady_window
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -92,7 +92,7 @@ def run_point(P: RockingParams, f: float, peak: float, cycles: float, margin: fl
     A = peak / (2 * math.pi * f) ** 2
     exc = Sine(A, f, cycles)
     try:
-        res = simulate(P, exc, Settings(duration=cycles / f + margin))
+        res = integrate_rocking(P, exc, Settings(duration=cycles / f + margin))
     except RockingError as e:                       # never seen; reported rather than hidden
         res = e.partial
     t_end = float(res.t[-1])

@@ -51,7 +51,7 @@ Top contact (``top_contact``, docs/rocking_model.md section 3b)
       Q1 -= a m_N L1 cos psiQ,  Q2 -= a m_N Lp cos psip
 
   (its weight N at p is already in Q1, Q2).  When the beam passes from one top corner to the other
-  (theta2 = 0) the rising corner strikes it: an impact (dem.rocking.simulate).  Locked contacts are constraints with Lagrange multipliers; the multiplier of a
+  (theta2 = 0) the rising corner strikes it: an impact (dem.rocking.impacts).  Locked contacts are constraints with Lagrange multipliers; the multiplier of a
 lock, taken in the pivot geometry +-1, is T times the normal force at the opposite corner.
 For a single block this is Housner's (1963) equation I_O th'' = -m g R sin(alpha - th) - m a R
 cos(alpha - th) (theta > 0).  Units: SI (m, kg, s, N, rad).

@@ -152,11 +152,11 @@ def dem_comparison() -> str:
     import test_rocking_vs_dem as tv
     from dem.case import parse_case
     from dem.rocking.excitation import Excitation
-    from dem.rocking.simulate import Settings, simulate
+    from dem.rocking.integrate import Settings, integrate_rocking
     from dem.runner import simulate as dem_simulate
 
     P = RockingParams(thickness=tv.T, h1=tv.H1, m1=tv.M1, h2=tv.H2, m2=tv.M2)
-    red = simulate(P, Excitation(), Settings(duration=0.8), (tv.THETA0, tv.THETA0, 0, 0))
+    red = integrate_rocking(P, Excitation(), Settings(duration=0.8), (tv.THETA0, tv.THETA0, 0, 0))
     case = parse_case({
         "name": "two-block-release",
         "scene": {"blocks": [tv._block(tv.H1, tv.H1 / 2, tv.M1), tv._block(tv.H2, tv.H1 + tv.H2 / 2, tv.M2)]},

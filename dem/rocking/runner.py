@@ -40,7 +40,7 @@ from dem.rocking.schema import (
     params_from_case,
     settings_from_case,
 )
-from dem.rocking.simulate import RockingError, RockingResult, simulate
+from dem.rocking.integrate import RockingError, RockingResult, integrate_rocking
 
 EXIT_OK, EXIT_RUN_FAILED, EXIT_BAD_INPUT = 0, 1, 2
 
@@ -51,7 +51,7 @@ def run_case(case: RockingCase):
     exc = excitation_from_case(case)
     S = settings_from_case(case)
     try:
-        res = simulate(P, exc, S, initial_from_case(case))
+        res = integrate_rocking(P, exc, S, initial_from_case(case))
         return P, exc, res, None
     except RockingError as err:
         return P, exc, err.partial, err

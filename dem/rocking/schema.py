@@ -313,7 +313,7 @@ def excitation_from_case(case: RockingCase):
 
 
 def settings_from_case(case: RockingCase):
-    from dem.rocking.simulate import Settings
+    from dem.rocking.integrate import Settings
 
     s = case.solver
     return Settings(duration=case.run.duration, output_interval=case.run.output_interval,

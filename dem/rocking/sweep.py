@@ -14,7 +14,7 @@ import numpy as np
 from dem.rocking import analysis as an
 from dem.rocking.excitation import Sine
 from dem.rocking.model import RockingParams
-from dem.rocking.simulate import RockingError, Settings, simulate
+from dem.rocking.integrate import RockingError, Settings, integrate_rocking
 
 
 def sweep(P: RockingParams, frequencies, peak_acceleration: float | None = None,
@@ -29,7 +29,7 @@ def sweep(P: RockingParams, frequencies, peak_acceleration: float | None = None,
         exc = Sine(A, f, cycles)
         S = Settings(duration=cycles / f + free_time, **(settings or {}))
         try:
-            res = simulate(P, exc, S)
+            res = integrate_rocking(P, exc, S)
             err = ""
         except RockingError as e:
             res, err = e.partial, str(e)
