@@ -7,11 +7,12 @@ For every brick i, over the steady-state window [t0, t1) and relative to the tab
     s_i(t)      displacement of its centre along the excitation direction e (m)
     theta_i(t)  rotation about the facade's rocking axis a = z x e (rad; rotation vector of
                 R_i(t) R_i(0)^-1 projected on a; theta > 0 moves the top towards +e)
-Both are fitted with c0 + c1 t + R sin(2 pi f t + phi) (postprocess.shake.harmonic_fit; the
-linear term takes out sliding drift), giving phasors X_i and Theta_i at the excitation frequency.
-The reference is the top-centre instrument's brick (X_ref) for translation and, for rotation, the
-mean phasor of the facade bricks of that brick's course (a single brick's rotation is noisy; all
-bricks of a rigidly rocking course share it).
+Both are fitted with c0 + c1 t + R sin(2 pi f t + phi) (postprocess.signal_analysis.harmonic_fit;
+the linear term takes out sliding drift), giving phasors X_i and Theta_i at the excitation
+frequency (s_i, theta_i: postprocess.block_kinematics.brick_motion).  The reference is the
+top-centre instrument's brick (X_ref) for translation and, for rotation, the mean phasor of the
+facade bricks of that brick's course (a single brick's rotation is noisy; all bricks of a rigidly
+rocking course share it).
 
 A candidate brick (facade and both side walls; every free block in scenes that are not box
 models) moves with the facade top when, at the excitation frequency,
@@ -67,18 +68,20 @@ Mechanism labels (:func:`mechanism_labels`, the thesis' words in Section 4.3):
             (Fig 3.14 and Section 4.3.2.1: B2 = the corners and side walls join the rocking
             portion; A = a horizontal line, corners not involved).  ``line`` says whether the
             portion's lower boundary is "horizontal" (no lower part) or "stepped".
+
+The portion's picture (excited.png) and ParaView file (excited.vtu): postprocess.excited_output.
 """
 
 from __future__ import annotations
-
-from dem.output.atomic import savefig as _atomic_savefig
 
 from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
-from scipy.spatial.transform import Rotation
+
+from postprocess.block_kinematics import brick_motion
+from postprocess.signal_analysis import cycle_extrema, harmonic_fit
 
 TRANS_RATIO, TRANS_FLOOR = 0.15, 2e-4      # -, m
 ROT_RATIO, ROT_FLOOR = 0.25, 1e-3          # -, rad
@@ -143,21 +146,6 @@ class ExcitedPortion:
         }
 
 
-def _rot(quat):
-    q = np.asarray(quat, float)
-    return Rotation.from_quat(np.concatenate([q[..., 1:], q[..., :1]], axis=-1).reshape(-1, 4))
-
-
-def brick_motion(pos, quat, e, axis):
-    """Translation along e [T,N] (m) and rotation about ``axis`` [T,N] (rad) from frame 0."""
-    T, N = pos.shape[:2]
-    s = (pos - pos[:1]) @ e
-    R = _rot(quat)
-    R0 = _rot(np.broadcast_to(quat[:1], quat.shape))
-    theta = (R * R0.inv()).as_rotvec().reshape(T, N, 3) @ axis
-    return s, theta
-
-
 def aabb(scene):
     """Axis-aligned bounds (lo, hi) [N,3] of the blocks in their initial pose."""
     from dem.output.vtk import block_corners
@@ -178,7 +166,8 @@ def face_contacts(scene, idx, tol: float = CONTACT_TOL) -> np.ndarray:
     return adj
 
 
-def _group_mask(scene, name):
+def group_mask(scene, name):
+    """[N] bool: the blocks of group ``name`` (none if the scene has no such group)."""
     if name is None or name not in scene.group_names:
         return np.zeros(scene.n_blocks, bool)
     return scene.group == scene.group_names.index(name)
@@ -189,13 +178,13 @@ def corner_bricks(scene, facade, side_walls, e, axis) -> np.ndarray:
     bricks reaching into a side wall's band (along the wall)."""
     lo, hi = aabb(scene)
     out = np.zeros(scene.n_blocks, bool)
-    fac = _group_mask(scene, facade)
+    fac = group_mask(scene, facade)
     if not fac.any():
         return out
     ecoord_lo, ecoord_hi = lo @ np.abs(e), hi @ np.abs(e)
     band = (ecoord_lo[fac].min(), ecoord_hi[fac].max())
     for sw in side_walls:
-        m = _group_mask(scene, sw)
+        m = group_mask(scene, sw)
         inside = (ecoord_hi > band[0] + CONTACT_TOL) & (ecoord_lo < band[1] - CONTACT_TOL)
         out |= m & inside
         if m.any():
@@ -211,8 +200,6 @@ def find_excited(t, s, theta, f, ref_block, candidates, ref_rot_blocks, adjacenc
     Returns (excited, by_translation, by_rotation, phasors dict).  ``adjacency_of(idx)`` gives
     the face-contact adjacency of the candidate blocks ``idx``.
     """
-    from postprocess.shake import harmonic_fit
-
     X = harmonic_fit(t, s, f)
     Th = harmonic_fit(t, theta, f)
     Xr = X[ref_block]
@@ -244,7 +231,7 @@ def find_excited(t, s, theta, f, ref_block, candidates, ref_rot_blocks, adjacenc
 def split_parts(scene, excited, facade, side_walls, axis):
     """Part per block (0 / 1 lower / 2 upper) and the upper courses (module docstring)."""
     part = np.where(excited, 1, 0)
-    fac = _group_mask(scene, facade)
+    fac = group_mask(scene, facade)
     if not fac.any() or (scene.course[fac] < 0).all():
         return np.where(excited, 2, 0), []
     along = scene.position @ axis
@@ -262,7 +249,7 @@ def split_parts(scene, excited, facade, side_walls, axis):
         c_low = min(upper)
         side = np.zeros(scene.n_blocks, bool)
         for sw in side_walls:
-            side |= _group_mask(scene, sw)
+            side |= group_mask(scene, sw)
         up = excited & (fac | side) & (scene.course >= c_low)
         part[up] = 2
     return part, upper
@@ -281,11 +268,11 @@ def excited_portion(scene, frames, f, t0, t1, direction, ref_block, facade=None,
     if m.sum() < 8:
         raise ValueError(f"only {int(m.sum())} frames in the steady window [{t0:.3f}, {t1:.3f}) s: "
                          "record frames more often (run.output_interval)")
-    fac = _group_mask(scene, facade)
+    fac = group_mask(scene, facade)
     if fac.any():
         cand = fac.copy()
         for sw in side_walls:
-            cand |= _group_mask(scene, sw)
+            cand |= group_mask(scene, sw)
         cand &= ~scene.fixed
         ref_course = scene.course[ref_block]
         ref_rot = np.flatnonzero(fac & (scene.course == ref_course)) if ref_course >= 0 else []
@@ -296,7 +283,7 @@ def excited_portion(scene, frames, f, t0, t1, direction, ref_block, facade=None,
                                            lambda idx: face_contacts(scene, idx))
     part, upper = split_parts(scene, excited, facade, side_walls, axis)
     corners = corner_bricks(scene, facade, side_walls, e, axis)
-    side_counts = {sw: int((excited & _group_mask(scene, sw) & ~corners).sum())
+    side_counts = {sw: int((excited & group_mask(scene, sw) & ~corners).sum())
                    for sw in side_walls}
     note = "" if excited.any() else (
         f"the reference block moves {abs(ph['X_ref']) * 1e3:.3f} mm at f "
@@ -315,8 +302,6 @@ def excited_portion(scene, frames, f, t0, t1, direction, ref_block, facade=None,
 def corner_twist(frames, scene, blocks, f, t0, t1) -> dict:
     """Rotation of the corner bricks about z over the window: first-harmonic amplitude and the
     largest excursion from the start of the run (degrees)."""
-    from postprocess.shake import harmonic_fit
-
     blocks = [b for b in blocks if b is not None]
     t = np.asarray(frames["t"], float)
     quat = np.asarray(frames["quat"], float)[:, blocks]
@@ -332,8 +317,6 @@ def corner_twist(frames, scene, blocks, f, t0, t1) -> dict:
 def mechanism_labels(quantities: dict, q: dict, sig, win, portion: ExcitedPortion | None,
                      twist: dict | None = None) -> dict:
     """Dynamic mechanism labels (module docstring) of one axis of a shaken box model."""
-    from postprocess.shake import cycle_extrema
-
     def pp(y):
         if y is None:
             return None
@@ -379,70 +362,3 @@ def corner_label(portion: ExcitedPortion) -> dict:
             "line": "stepped" if (portion.part == 1).any() else "horizontal",
             "side_wall_bricks": portion.side_counts,
             "corner_bricks_excited": portion.corner_bricks_excited}
-
-
-# ---------------------------------------------------------------------------------------------
-# output
-# ---------------------------------------------------------------------------------------------
-PART_COLOURS = {0: "#dddddd", 1: "#f4a259", 2: "#bc4b51"}
-
-
-def plot_elevation(path, scene, portion: ExcitedPortion, title: str = "") -> None:
-    """Elevations of the facade and its side walls, bricks coloured by part."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from matplotlib.patches import Rectangle
-
-    lo, hi = aabb(scene)
-    if portion.facade is not None:
-        panels = [(portion.side_walls[0], 1 if portion.facade in ("L1", "L2") else 0)] \
-            if portion.side_walls else []
-        fac_axis = 0 if portion.facade in ("L1", "L2") else 1
-        panels += [(portion.facade, fac_axis)]
-        panels += [(sw, 1 - fac_axis) for sw in portion.side_walls[1:]]
-        masks = [(name, _group_mask(scene, name), ax) for name, ax in panels]
-    else:
-        masks = [("blocks", ~scene.fixed, 0)]
-    widths = [max(hi[m, ax].max() - lo[m, ax].min(), 0.05) if m.any() else 0.1
-              for _, m, ax in masks]
-    fig, axs = plt.subplots(1, len(masks), figsize=(12, 4), gridspec_kw={"width_ratios": widths},
-                            squeeze=False)
-    for axp, (name, m, ax) in zip(axs[0], masks):
-        for i in np.flatnonzero(m):
-            axp.add_patch(Rectangle((lo[i, ax], lo[i, 2]), hi[i, ax] - lo[i, ax],
-                                    hi[i, 2] - lo[i, 2], edgecolor="k", lw=0.5,
-                                    facecolor=PART_COLOURS[int(portion.part[i])]))
-        if m.any():
-            axp.set_xlim(lo[m, ax].min() - 0.01, hi[m, ax].max() + 0.01)
-            axp.set_ylim(0, hi[m, 2].max() + 0.01)
-        axp.set_aspect("equal")
-        axp.set_title(f"{name} ({'xy'[ax]} along)", fontsize=9)
-        axp.set_xlabel(f"{'xy'[ax]} (m)")
-    axs[0, 0].set_ylabel("z (m)")
-    s = portion.summary()
-    fig.suptitle(f"{title}\nexcited {s['n_excited']} bricks: upper {s['n_upper']} (red), "
-                 f"lower {s['n_lower']} (orange)", fontsize=10)
-    fig.tight_layout()
-    _atomic_savefig(fig, path, dpi=110)
-    plt.close(fig)
-
-
-def write_vtu(path, scene, portion: ExcitedPortion) -> None:
-    """excited.vtu: one hexahedron per block at its initial pose (dem.output.vtk.blocks_grid)
-    with cell data excited_part (0 not excited / 1 lower / 2 upper), translation_amplitude (m),
-    rotation_amplitude (rad) and their phases relative to the reference (deg)."""
-    from dem.output.vtk import blocks_grid
-
-    grid = blocks_grid(scene, scene.position, scene.quat)
-    grid.cell_data["excited_part"] = portion.part.astype(np.int32)
-    grid.cell_data["translation_amplitude"] = portion.trans_amp.astype(np.float32)
-    grid.cell_data["translation_phase_deg"] = \
-        np.nan_to_num(portion.trans_phase_deg).astype(np.float32)
-    grid.cell_data["rotation_amplitude"] = portion.rot_amp.astype(np.float32)
-    grid.cell_data["rotation_phase_deg"] = np.nan_to_num(portion.rot_phase_deg).astype(np.float32)
-    from dem.output.atomic import atomic_path
-
-    with atomic_path(path) as tmp:
-        grid.save(str(tmp), binary=True)

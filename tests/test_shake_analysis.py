@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -16,11 +17,15 @@ import yaml
 from scipy.spatial.transform import Rotation
 from typer.testing import CliRunner
 
+from dem import quaternion
 from dem.builders import build_box_model
 from dem.case import parse_case
 from dem.cli import app
 from postprocess import excited as ex
 from postprocess import shake as sh
+from postprocess import signal_analysis as sa
+from postprocess.block_kinematics import kinetic_energy_blocks
+from postprocess.shake_signals import ShakeSignals
 from postprocess.sweep import effective_range
 
 F, A = 2.4, 0.006  # Hz, m
@@ -30,9 +35,9 @@ def _sig(t, u, ds, a_abs=None, ds_corner=None, a_corner=None, f=F, t_end=None):
     """ShakeSignals for synthetic histories (table displacement u, relative ds, absolute a)."""
     exc = {"displacement": u, "velocity": np.gradient(u, t),
            "acceleration": np.gradient(np.gradient(u, t), t)}
-    return sh.ShakeSignals(t=t, f=f, t_end=t_end or t[-1] + 1e-9, direction=np.array([0, 1.0, 0]),
-                           axis="y", excitation=exc, ds_centre=ds, ds_corner=ds_corner,
-                           a_centre=a_abs, a_corner=a_corner, blocks={"centre": 0})
+    return ShakeSignals(t=t, f=f, t_end=t_end or t[-1] + 1e-9, direction=np.array([0, 1.0, 0]),
+                        axis="y", excitation=exc, ds_centre=ds, ds_corner=ds_corner,
+                        a_centre=a_abs, a_corner=a_corner, blocks={"centre": 0})
 
 
 # ---------------------------------------------------------------------------------------------
@@ -78,8 +83,8 @@ def test_double_integration_recovers_the_table_displacement():
     for cycles in (4, 30):
         t = np.arange(0, cycles / F + 1e-9, 0.002)
         a = -A * w**2 * np.sin(w * t)
-        d = sh.drift_free_integral(a, t, F, t[-1], 2)
-        v = sh.drift_free_integral(a, t, F, t[-1], 1)
+        d = sa.drift_free_integral(a, t, F, t[-1], 2)
+        v = sa.drift_free_integral(a, t, F, t[-1], 1)
         assert np.abs(d - A * np.sin(w * t)).max() < 1e-3 * A, cycles
         assert np.abs(v - A * w * np.cos(w * t)).max() < 1e-3 * A * w, cycles
 
@@ -88,8 +93,8 @@ def test_spectrum_of_a_pure_sine_has_one_peak_at_its_frequency():
     t = np.arange(0, 20 / F, 0.002)
     rng = np.random.default_rng(1)
     y = 3e-3 * np.sin(2 * np.pi * F * t + 0.3) + 1e-3 * t + 3e-5 * rng.standard_normal(len(t))
-    win = sh.SteadyWindow(0, 20, F, "test", "y")
-    pk = sh.spectral_peaks(*sh.spectrum(t, y, win))
+    win = sa.SteadyWindow(0, 20, F, "test", "y")
+    pk = sa.spectral_peaks(*sa.spectrum(t, y, win))
     assert pk["single_peak"]
     # 20 whole cycles: F sits on bin 20 up to the rounding of the window to whole samples
     # (relative 1 / n_samples = 2.4e-4), where the Hann window reads its amplitude exactly
@@ -97,7 +102,7 @@ def test_spectrum_of_a_pure_sine_has_one_peak_at_its_frequency():
     assert pk["peaks"][0][1] == pytest.approx(3e-3, rel=0.02)
     # negative control: a third harmonic of 30 % is a second peak
     y3 = y + 0.9e-3 * np.sin(2 * np.pi * 3 * F * t)
-    pk3 = sh.spectral_peaks(*sh.spectrum(t, y3, win))
+    pk3 = sa.spectral_peaks(*sa.spectrum(t, y3, win))
     assert not pk3["single_peak"]
     assert np.allclose(sorted(p[0] for p in pk3["peaks"]), [F, 3 * F], rtol=1 / 4166)
 
@@ -111,8 +116,8 @@ def test_hysteresis_loop_energy_of_a_viscous_oscillator():
     X = 4e-3
     x = X * np.sin(w * t - 0.7)
     F_ = -(k * x + c * X * w * np.cos(w * t - 0.7))
-    win = sh.SteadyWindow(1, 10, F, "test", "x")
-    E = sh.loop_energy(t, F_, x, F, win)
+    win = sa.SteadyWindow(1, 10, F, "test", "x")
+    E = sa.loop_energy(t, F_, x, F, win)
     assert len(E) == 9
     # trapezoid rule on the loop at 500 Hz: error ~ (w dt)^2 / 12 = 8e-5
     assert np.allclose(E, np.pi * c * w * X**2, rtol=1e-3)
@@ -135,15 +140,15 @@ def test_kinetic_energy_from_block_frames_and_eq_4_4():
     vel[:, b, 1] = Y * w * np.cos(w * t)
     pos[:, b, 1] += Y * np.sin(w * t)
     m = scene.mass[b]
-    e_blocks = sh.kinetic_energy_blocks(t, vel, quat, scene, [b])
+    e_blocks = kinetic_energy_blocks(t, vel, quat, scene, [b])
     assert e_blocks.max() == pytest.approx(0.5 * m * (w * Y) ** 2, rel=1e-3)
-    e44 = sh.kinetic_energy_eq44(pos[:, b, 1] - pos[0, b, 1], F, m)
+    e44 = sa.kinetic_energy_eq44(pos[:, b, 1] - pos[0, b, 1], F, m)
     assert e44.max() == pytest.approx(0.5 * m * (w * Y) ** 2, rel=1e-3)
     # pure rotation about x
     Th = 0.02
-    rot = Rotation.from_rotvec(np.outer(Th * np.sin(w * t), [1.0, 0, 0])).as_quat()
-    quat[:, b] = np.column_stack([rot[:, 3], rot[:, :3]])
-    e_rot = sh.kinetic_energy_blocks(t, np.zeros((T, n, 3)), quat, scene, [b])
+    quat[:, b] = quaternion.from_rotation(
+        Rotation.from_rotvec(np.outer(Th * np.sin(w * t), [1.0, 0, 0])))
+    e_rot = kinetic_energy_blocks(t, np.zeros((T, n, 3)), quat, scene, [b])
     Ixx = scene.inertia()[b, 0]
     assert e_rot.max() == pytest.approx(0.5 * Ixx * (w * Th) ** 2, rel=(w * 0.005) ** 2 / 3)
 
@@ -187,8 +192,7 @@ def _planted_motion(scene, lower, upper, th1, th2, f, t, seed=0, decoys=True):
             * np.sin(w * t - 0.4)[:, None]
     pos += 15e-6 * rng.standard_normal(pos.shape)
     rotv += 1e-4 * rng.standard_normal(rotv.shape)
-    q = Rotation.from_rotvec(rotv.reshape(-1, 3)).as_quat().reshape(T, n, 4)
-    quat = np.concatenate([q[..., 3:], q[..., :3]], axis=-1)
+    quat = quaternion.from_rotation(Rotation.from_rotvec(rotv.reshape(-1, 3))).reshape(T, n, 4)
     return {"t": t, "pos": pos, "quat": quat}
 
 
@@ -469,7 +473,7 @@ def test_analyze_run_on_a_planted_box_model_run_directory(tmp_path):
     from dem.case import load_case
     from dem.loading import loading_from_case
 
-    src = load_case(sh.Path(__file__).resolve().parents[1] / "cases" / "shake" / "model-ii"
+    src = load_case(Path(__file__).resolve().parents[1] / "cases" / "shake" / "model-ii"
                     / "group-3-y-1.53.yaml")
     data = src.model_dump()
     data["loading"].update(frequency=2.8, cycles=10)

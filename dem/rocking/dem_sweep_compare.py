@@ -51,7 +51,7 @@ from dem.rocking import analysis as an
 from dem.rocking.excitation import Sine
 from dem.rocking.model import RockingParams
 from dem.rocking.integrate import RockingError, Settings, integrate_rocking
-from postprocess.shake import amplification, cycle_extrema, phase_lag, steady_window
+from postprocess.signal_analysis import amplification, cycle_extrema, phase_lag, steady_window
 
 ROOT = Path(__file__).resolve().parents[2]
 DEM_SWEEP = ROOT / "results" / "shake" / "model-ii-y-amplified"
