@@ -44,11 +44,13 @@ def _measure(length, courses, mode, steps, repeats):
 
     from dem.builders import build_wall
     from dem.case import Material, SolverSpec
+    from dem.run.build import joint_law, step_options
     from dem.engine import Simulation
 
     scene = build_wall("small", length=length, courses=courses)
     t_import = time.perf_counter() - t0
-    sim = Simulation(scene, Material(friction=0.81), SolverSpec(mode=mode))
+    sim = Simulation(scene, joint_law(Material(friction=0.81)),
+                     step_options(SolverSpec(mode=mode)))
     g = np.array([0.0, 0.0, -9.81])
     loads = lambda t: (np.tile(g, (len(t), 1)), np.zeros((len(t), 3)))  # noqa: E731
     sim.advance(min(steps, 500), loads)  # warm-up (settling, caches)
@@ -78,10 +80,12 @@ def _stages(repeats):
 
     from dem.builders import build_wall
     from dem.case import Material, SolverSpec
+    from dem.run.build import joint_law, step_options
     from dem.engine import Simulation, geometry, step
 
-    sim = Simulation(build_wall("small", length=9, courses=15), Material(friction=0.81),
-                     SolverSpec(mode="serial"))
+    sim = Simulation(build_wall("small", length=9, courses=15),
+                     joint_law(Material(friction=0.81)),
+                     step_options(SolverSpec(mode="serial")))
     g = np.array([0.0, 0.0, -9.81])
     loads = lambda t: (np.tile(g, (len(t), 1)), np.zeros((len(t), 3)))  # noqa: E731
     sim.advance(500, loads)
@@ -179,11 +183,13 @@ def _launch_cost(repeats):
 
     from dem.builders import build_wall
     from dem.case import Material, SolverSpec
+    from dem.run.build import joint_law, step_options
     from dem.engine import Simulation, step
     from dem.engine.launch import CachedLaunch
 
-    sim = Simulation(build_wall("small", length=9, courses=15), Material(friction=0.81),
-                     SolverSpec(mode="serial"))
+    sim = Simulation(build_wall("small", length=9, courses=15),
+                     joint_law(Material(friction=0.81)),
+                     step_options(SolverSpec(mode="serial")))
     packs = sim.containers()
 
     def per_call(fn, n=300):

@@ -102,17 +102,17 @@ def _apply(case: dict, changes: dict) -> dict:
 def run_variant(case_dict: dict, changes: dict) -> dict:
     """Child-process body: run one variant, return timing and result."""
     from dem.case import parse_case
-    from dem.runner import simulate
+    from dem.run import run_case
 
     case = parse_case(_apply(case_dict, changes))
     if "solver.skin_factor" in changes:
-        from dem.scene import scene_from_case
+        from dem.run import scene_from_case
 
         sc = scene_from_case(case, check=False)
         case.solver.skin = changes["solver.skin_factor"] * 0.1 * float(0.5 * sc.size.min())
     cpu0 = resource.getrusage(resource.RUSAGE_SELF)
     t0 = time.perf_counter()
-    res = simulate(case, progress=False)
+    res = run_case(case, progress=False)
     wall = time.perf_counter() - t0
     cpu1 = resource.getrusage(resource.RUSAGE_SELF)
     s = res.summary

@@ -1,9 +1,10 @@
 """Rigid-block DEM of dry masonry (box bricks, Coulomb friction) on a tilting or shaking table.
 
-Layout (data flows one way):
-    case YAML -> dem.case (validated Case) -> dem.scene (Scene arrays)
-    -> dem.engine (Model / State / Contacts, stepping kernels) -> dem.runner (loop, recording)
-    -> dem.output (summary.json, frames.npz, VTK) -> postprocess/ (analysis, figures)
+Layers (each imports only those below it; docs/architecture.md):
+    dem.scene (Scene arrays) <- dem.builders (walls, facades, box models) <- dem.case (schema)
+    <- dem.engine (Model / State / Contacts, kernels; its own JointLaw / StepOptions)
+    <- dem.run (the run loop: build, load, record, stop, write) -> dem.output (files)
+    <- postprocess/ (analysis of the outputs) <- dem.commands + dem.cli (the commands)
 """
 
 import os as _os

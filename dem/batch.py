@@ -20,13 +20,13 @@ from dem.case import Case
 
 
 def _run_one(name: str, case_json: str, out_dir: str, threads: int, max_steps: int | None,
-             post: Callable | None) -> dict:
+             post: Callable | None, analyses: tuple = ()) -> dict:
     """Task body (runs on a worker): simulate one case, return its summary (or the error)."""
     os.environ.setdefault("DEM_THREADS", str(threads))
     from dem import ti_runtime
 
     ti_runtime.init(threads=threads)
-    from dem.runner import simulate
+    from dem.run import run_case
 
     from dem.rundir import claim
 
@@ -37,7 +37,7 @@ def _run_one(name: str, case_json: str, out_dir: str, threads: int, max_steps: i
         # the point's own directory: a lock against a second sweep writing into it, and the
         # leftovers of an unfinished earlier attempt cleared (the sweep owns its point dirs)
         rd = claim(out_dir, case.model_dump_json(indent=1), force=True, what="point")
-        res = simulate(case, out_dir, progress=False, max_steps=max_steps)
+        res = run_case(case, out_dir, progress=False, max_steps=max_steps, analyses=analyses)
         record = {"name": name, "status": "ok", "out_dir": out_dir, "summary": res.summary}
         if post is not None:
             record["post"] = post(case, res, out_dir)
@@ -53,9 +53,12 @@ def _run_one(name: str, case_json: str, out_dir: str, threads: int, max_steps: i
 
 def run_batch(cases: list[tuple[str, Case]], out_root: str | Path, scheduler: str | None = None,
               n_workers: int | None = None, max_steps: int | None = None,
-              post: Callable | None = None, on_done: Callable[[dict], None] | None = None
-              ) -> list[dict]:
+              post: Callable | None = None, on_done: Callable[[dict], None] | None = None,
+              analyses: tuple = ()) -> list[dict]:
     """Run (name, case) pairs; returns one record per case, in the order given.
+
+    analyses: handed to dem.run.run_case (functions merged into each run's summary.json, e.g.
+    dem.commands.run.RUN_ANALYSES; module-level functions, so that they pickle to the workers).
 
     post(case, RunResult, out_dir) -> dict runs on the worker after a successful run (keep its
     result small: it travels back to the client).  on_done(record) is called on the client as
@@ -87,7 +90,8 @@ def run_batch(cases: list[tuple[str, Case]], out_root: str | Path, scheduler: st
         futures = {}
         for i, (name, case) in enumerate(cases):
             fut = client.submit(_run_one, name, case.model_dump_json(), str(out_root / name), 1,
-                                max_steps, post, key=f"dem-{i}-{name}", pure=False)
+                                max_steps, post, tuple(analyses), key=f"dem-{i}-{name}",
+                                pure=False)
             futures[fut] = i
         records: list[dict | None] = [None] * len(cases)
         for fut in as_completed(futures):

@@ -1,4 +1,5 @@
-"""Command line: ``dem run | check | sweep | rocking | post``.
+"""Command line: ``dem run | check | sweep | rocking | post``: parses the options and calls the
+command bodies in dem.commands.
 
 Exit codes (a contract, see ../shared/DESIGN.md): 0 ok, 1 the run failed (or was stopped by
 a signal, or its output could not be written), 2 bad input (case file, options, --out); what
@@ -18,7 +19,7 @@ app = typer.Typer(
     help="Rigid-block DEM of dry masonry on a tilting or shaking table.",
 )
 
-EXIT_OK, EXIT_RUN_FAILED, EXIT_BAD_INPUT = 0, 1, 2
+from dem.commands.exit_codes import ExitCode
 
 MAX_BLOCKS_HELP = "refuse scenes above this many blocks (default 20000, or DEM_MAX_BLOCKS)"
 
@@ -38,7 +39,7 @@ def _version(value: bool) -> None:
         except PackageNotFoundError:  # pragma: no cover
             taichi = "not installed"
         typer.echo(f"dem-masonry {dem.__version__} (taichi {taichi})")
-        raise typer.Exit(EXIT_OK)
+        raise typer.Exit(ExitCode.OK)
 
 
 @app.callback()
@@ -76,7 +77,7 @@ def check(
             rc = load_rocking_case(case)
         except RockingCaseError as err:
             _err(f"error: {err}" if str(err).startswith(str(case)) else f"error: {case}: {err}")
-            raise typer.Exit(EXIT_BAD_INPUT)
+            raise typer.Exit(ExitCode.BAD_INPUT)
         typer.echo(f"{case}: ok: '{rc.name}': a two-body rocking case (thesis Chapter 5); run it "
                    f"with `dem rocking {case} --out DIR`")
         return
@@ -84,7 +85,7 @@ def check(
 
     checked = load_and_check(case, _err, max_blocks)
     if checked is None:
-        raise typer.Exit(EXIT_BAD_INPUT)
+        raise typer.Exit(ExitCode.BAD_INPUT)
     c = checked.case
     typer.echo(f"{case}: ok: '{c.name}', loading {c.loading.type}\n{checked.report.format()}\n"
                f"{checked.size_line()}")
@@ -123,7 +124,7 @@ def run(
     if _is_rocking_file(case):
         _err(f"{case}: a two-body rocking case: running the two-body model (dem rocking)")
         raise typer.Exit(_rocking(case, out, True, force))
-    from dem.runner import run_case_file
+    from dem.commands.run import run_case_file
 
     raise typer.Exit(run_case_file(case, out, progress=progress, force=force,
                                    max_blocks=max_blocks))
@@ -137,7 +138,7 @@ def _rocking(case: Path, out: Path, plots: bool, force: bool) -> int:
         rd = claim(out, None, force=force, rerun_marker="rocking.npz")
     except RunDirError as err:
         _err(f"error: {err}")
-        return EXIT_BAD_INPUT
+        return ExitCode.BAD_INPUT
     try:
         return run_rocking_case_file(case, out, plots=plots, echo=typer.echo, err=_err)
     finally:
@@ -171,7 +172,7 @@ def sweep(
     per frequency on dask, each analysed (postprocess.shake), then the amplification curves,
     characteristic frequency, effective range and lag times in OUT/sweep.json and sweep.png.
     Exit 0 all points ok, 1 a point failed (the others still land), 2 bad input."""
-    from postprocess.sweep import run_sweep
+    from dem.commands.sweep import run_sweep
 
     raise typer.Exit(run_sweep(case, out, frequencies, range_, cycles, margin, scheduler, workers,
                                max_steps))
@@ -184,7 +185,7 @@ def post(
     """(Re)build the analysis of a run directory (shake: analysis.json, PNGs, excited.vtu; tilt:
     collapse and mechanism into analysis.json) or of a sweep directory (every point re-analysed,
     sweep.json and sweep.png re-aggregated).  Exit 0 ok, 1 a sweep point failed, 2 bad input."""
-    from postprocess.sweep import post_command
+    from dem.commands.post import post_command
 
     raise typer.Exit(post_command(directory))
 

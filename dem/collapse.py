@@ -47,6 +47,15 @@ class CollapseDetector:
     history: list = field(default_factory=list)   # (t, angle, M [N], V [N])
     confirmed_at: int | None = None
 
+    @classmethod
+    def for_scene(cls, scene, settings) -> "CollapseDetector":
+        """A detector for a scene (its initial poses, radius = half diagonal of each block) with
+        the thresholds of ``settings`` (a case's ``loading.collapse``: onset_speed, confirm,
+        after, stop)."""
+        return cls(scene.position.copy(), scene.quat.copy(),
+                   0.5 * np.linalg.norm(scene.size, axis=1), settings.onset_speed,
+                   settings.confirm, settings.after, settings.stop)
+
     def update(self, t: float, angle: float, pos, quat, vel, omega) -> bool:
         """Feed one frame; returns True when the run should stop."""
         m = motion_measure(self.pos0, self.quat0, pos, quat, self.radius)
@@ -89,3 +98,11 @@ class CollapseDetector:
             "thresholds": {"onset_speed_m_s": self.onset_speed, "confirm_m": self.confirm,
                            "stop_m": self.stop},
         }
+
+
+def replay(detector: CollapseDetector, t, angle, pos, quat, vel, omega) -> dict:
+    """Feed the frames of a finished run (t [T], angle [T] in deg, pos/vel/omega [T,N,3],
+    quat [T,N,4]) to a fresh detector; returns its result (what the run loop wrote)."""
+    for k in range(len(t)):
+        detector.update(float(t[k]), float(angle[k]), pos[k], quat[k], vel[k], omega[k])
+    return detector.result()

@@ -32,8 +32,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
+from dem import quaternion
 from dem.scene import Scene
 
 
@@ -110,7 +110,7 @@ class InstrumentRecorder:
         self.blocks = np.array([i.block for i in instruments], dtype=int)
         self.points = np.array([i.point for i in instruments], dtype=float).reshape(-1, 3)
         q0 = scene.quat[self.blocks]
-        self.R0 = Rotation.from_quat(np.column_stack([q0[:, 1:], q0[:, :1]])).as_matrix()
+        self.R0 = quaternion.matrices(q0)
         self.x0 = scene.position[self.blocks] + np.einsum("nij,nj->ni", self.R0, self.points)
         self.group = [scene.group_names[scene.group[b]] for b in self.blocks]
         self.rows: dict[str, list] = {k: [] for k in ("t", "disp", "vel", "acc", "table_disp",
@@ -120,7 +120,7 @@ class InstrumentRecorder:
     def sample(self, t: float, pos, quat, vel, omega, table_disp, table_vel) -> None:
         b = self.blocks
         q = quat[b]
-        R = Rotation.from_quat(np.column_stack([q[:, 1:], q[:, :1]])).as_matrix()
+        R = quaternion.matrices(q)
         r = np.einsum("nij,nj->ni", R, self.points)
         x = pos[b] + r
         v = vel[b] + np.cross(omega[b], r)

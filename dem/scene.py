@@ -1,5 +1,8 @@
 """Scene: the blocks of a simulation as plain numpy arrays (what builders produce).
 
+The lowest layer above numpy: it knows nothing of case files (dem.run.build.scene_from_case
+makes the scene of a case) or of the engine.
+
 A Scene is the hand-over point between case files / builders and the engine.  All arrays have
 length N (blocks, in case order: explicit blocks first, then builder blocks).
 
@@ -14,6 +17,10 @@ length N (blocks, in case order: explicit blocks first, then builder blocks).
 | angular_velocity | [N,3]  | rad/s  | initial, table frame                                  |
 | group            | [N]    | int    | index into ``group_names``                             |
 | course           | [N]    | int    | course (row) index, -1 where it does not apply         |
+
+``layout``: what a builder knows about the geometry it laid, by group name (a wall: its bond's
+stagger, course height, length and height, m), so that the analysis reads it instead of
+re-deriving it from the case; empty for explicit blocks.
 """
 
 from __future__ import annotations
@@ -21,9 +28,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
-from dem.case import Case
+from dem import quaternion
 
 
 @dataclass
@@ -38,6 +44,7 @@ class Scene:
     group: np.ndarray
     course: np.ndarray
     group_names: list[str] = field(default_factory=lambda: ["blocks"])
+    layout: dict[str, dict] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         n = len(self.size)
@@ -71,8 +78,7 @@ class Scene:
 
     def rotation_matrices(self) -> np.ndarray:
         """Body-to-table rotation matrices [N,3,3]."""
-        q = self.quat
-        return Rotation.from_quat(np.column_stack([q[:, 1:], q[:, :1]])).as_matrix()
+        return quaternion.matrices(self.quat)
 
     def bounding_box(self) -> tuple[np.ndarray, np.ndarray]:
         """Axis-aligned bounds (lo, hi) of all blocks, m."""
@@ -99,13 +105,8 @@ class Scene:
             size=cat("size"), position=cat("position"), quat=cat("quat"), mass=cat("mass"),
             fixed=cat("fixed"), velocity=cat("velocity"), angular_velocity=cat("angular_velocity"),
             group=np.concatenate(groups), course=cat("course"), group_names=names,
+            layout={k: v for s in scenes for k, v in s.layout.items()},
         )
-
-
-def euler_xyz_to_quat(angles_deg) -> np.ndarray:
-    """Intrinsic XYZ Euler angles (degrees) -> quaternions (w, x, y, z)."""
-    q = Rotation.from_euler("XYZ", np.atleast_2d(angles_deg), degrees=True).as_quat()
-    return np.column_stack([q[:, 3], q[:, :3]])
 
 
 def blocks_to_scene(blocks) -> Scene:
@@ -117,7 +118,7 @@ def blocks_to_scene(blocks) -> Scene:
     return Scene(
         size=np.array([b.size for b in blocks], dtype=np.float64),
         position=np.array([b.position for b in blocks], dtype=np.float64),
-        quat=euler_xyz_to_quat([b.rotation for b in blocks]),
+        quat=quaternion.from_euler_xyz([b.rotation for b in blocks]),
         mass=np.array([b.block_mass() for b in blocks]),
         fixed=np.array([b.fixed for b in blocks]),
         velocity=np.array([b.velocity for b in blocks], dtype=np.float64),
@@ -126,32 +127,3 @@ def blocks_to_scene(blocks) -> Scene:
         course=np.full(len(blocks), -1),
         group_names=names,
     )
-
-
-def scene_from_case(case: Case, check: bool = True) -> Scene:
-    """Build the scene of a case: explicit blocks first, then the builder entries in the order
-    wall, facade, box_model (see :mod:`dem.builders`).
-
-    With ``check`` (default) the scene goes through :func:`dem.builders.check_scene`: initial
-    overlaps deeper than ``solver.overlap_tolerance`` and floating blocks (unless
-    ``scene.allow_floating``) raise :class:`dem.builders.SceneError` (a ValueError) naming the
-    blocks.
-    """
-    from dem.builders import build_from_spec, check_scene, require_valid
-
-    parts = []
-    if case.scene.blocks:
-        parts.append(blocks_to_scene(case.scene.blocks))
-    for spec in (case.scene.wall, case.scene.facade, case.scene.box_model):
-        if spec is not None:
-            parts.append(build_from_spec(spec))
-    scene = parts[0] if len(parts) == 1 else Scene.concatenate(parts)
-    if check:
-        require_valid(
-            check_scene(
-                scene,
-                overlap_tolerance=case.solver.overlap_tolerance,
-                allow_floating=case.scene.allow_floating,
-            )
-        )
-    return scene

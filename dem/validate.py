@@ -221,7 +221,7 @@ def check_case(case: Case, source: str | Path | None = None,
     in ``Checked.errors`` / ``warnings``; ``Checked.scene`` is the built scene (None when the
     check stopped before building it)."""
     from dem.builders import check_scene
-    from dem.scene import scene_from_case
+    from dem.run.build import scene_from_case
 
     where = _Where(source)
     out = Checked(case=case)

@@ -1,6 +1,8 @@
 """Results of a tilting-table run: mechanism and limit analysis next to the simulated lambda.
 
-Called by the run loop at the end of a tilt run (``dem.runner``) and usable on saved frames.
+``tilt_mechanism`` is handed to the run loop by ``dem run`` (dem.commands.run) and reads the
+finished run; ``tilt_results`` does the same from a run directory's frames for ``dem post``
+(the collapse replayed with the run loop's detector, dem.collapse.replay).
 """
 
 from __future__ import annotations
@@ -11,21 +13,14 @@ from postprocess.limit_analysis import in_plane_limit
 from postprocess.mechanisms import in_plane_mechanism, out_of_plane_mechanism
 
 
-def wall_geometry(case) -> dict | None:
-    """Stagger s, course height h, length L and height H (m) of a case's built wall, or None."""
-    spec = case.scene.wall
-    if spec is None:
-        return None
-    from dem.builders.bricks import brick as as_brick
-
-    b = as_brick(spec.brick)
-    unit, _, h = b.dims(spec.laying)
-    s = spec.stagger if spec.stagger is not None else unit / 2
-    if spec.bond == "english":
-        s = unit / 4  # quarter-brick lap of English bond
-    return {"stagger": s, "course_height": h, "length": spec.length * unit,
-            "height": spec.courses * h, "l_over_h": spec.length * unit / (spec.courses * h),
-            "s_over_h": s / h}
+def wall_layout(scene) -> tuple[str, dict] | None:
+    """(group, layout) of the wall a builder laid in the scene (dem.scene.Scene.layout: the unit
+    vector along the wall, stagger s, course height h, length L and height H in m, L/H, s/h), or
+    None (explicit blocks, or a facade)."""
+    for group, lay in scene.layout.items():
+        if lay.get("kind") == "wall":
+            return group, lay
+    return None
 
 
 CLASSIFY_MOTION = 0.01  # m: mechanisms are read when a block has first moved this much
@@ -59,18 +54,19 @@ def classify(case, scene, pos0, quat0, pos, quat, load_dir) -> dict:
         out["kind"] = "out-of-plane"
         out.update(out_of_plane_mechanism(scene, pos0, quat0, pos, quat, load_dir))
         return out
-    geom = wall_geometry(case)
-    if geom is None:
+    wall = wall_layout(scene)
+    if wall is None:
         out["kind"] = "blocks"
         out["n_moving"] = int(moved_mask.sum())
         return out
-    in_plane = abs(load_dir[0]) > 0.7  # builder walls run along x
+    in_plane = abs(load_dir @ np.asarray(wall[1]["along"])) > 0.7
     if not in_plane:
         out["kind"] = "out-of-plane"
         out.update(out_of_plane_mechanism(scene, pos0, quat0, pos, quat, load_dir,
-                                          facade_group=spec_group(case)))
+                                          facade_group=wall[0]))
         return out
     out["kind"] = "in-plane"
+    geom = wall[1]
     normal = np.cross([0.0, 0.0, 1.0], load_dir)
     out.update(in_plane_mechanism(scene, pos0, quat0, pos, quat, moved_mask, load_dir, normal,
                                   geom["stagger"], geom["course_height"]))
@@ -80,30 +76,59 @@ def classify(case, scene, pos0, quat0, pos, quat, load_dir) -> dict:
     return out
 
 
-def tilt_results(case, scene, t, angle, pos, quat, vel, omega) -> dict:
-    """Collapse (dem.collapse rule, replayed on the frames) and mechanism of a tilt run.
-
-    Used by the run loop for summary.json and by ``dem post``: the same frames give the same
-    answer.  Arrays: t [T], angle [T] (deg), pos/vel/omega [T,N,3], quat [T,N,4].
-    """
-    from dem.collapse import CollapseDetector
+def tilt_mechanism(case, scene, frames: dict, summary: dict) -> dict:
+    """``{"mechanism": ...}`` of a tilt run whose summary says a collapse was detected (else
+    ``{}``): the mechanism read at the classification frame (see classification_frame).
+    ``frames``: the arrays of frames.npz (t, pos, quat)."""
+    if not (summary.get("collapse") or {}).get("detected"):
+        return {}
     from dem.loading import loading_from_case
 
-    cs = case.loading.collapse
-    det = CollapseDetector(pos[0], quat[0], 0.5 * np.linalg.norm(scene.size, axis=1),
-                           cs.onset_speed, cs.confirm, cs.after, cs.stop)
-    for k in range(len(t)):
-        det.update(float(t[k]), float(angle[k]), pos[k], quat[k], vel[k], omega[k])
-    out = {"collapse": det.result()}
-    if out["collapse"]["detected"]:
-        k = classification_frame(scene, pos, quat)
-        mech = classify(case, scene, pos[0], quat[0], pos[k], quat[k],
-                        loading_from_case(case).load_direction)
-        mech["frame_time_s"] = float(t[k])
-        out["mechanism"] = mech
+    pos, quat = frames["pos"], frames["quat"]
+    k = classification_frame(scene, pos, quat)
+    mech = classify(case, scene, pos[0], quat[0], pos[k], quat[k],
+                    loading_from_case(case).load_direction)
+    mech["frame_time_s"] = float(frames["t"][k])
+    return {"mechanism": mech}
+
+
+def tilt_results(case, scene, frames: dict) -> dict:
+    """Collapse (the run loop's detector, replayed on the frames) and mechanism of a tilt run,
+    from the arrays of its frames.npz (t, tilt_angle, pos, quat, vel, omega)."""
+    from dem.collapse import CollapseDetector, replay
+
+    det = CollapseDetector.for_scene(scene, case.loading.collapse)
+    out = {"collapse": replay(det, frames["t"], frames["tilt_angle"], frames["pos"],
+                              frames["quat"], frames["vel"], frames["omega"])}
+    out.update(tilt_mechanism(case, scene, frames, out))
     return out
 
 
-def spec_group(case) -> str:
-    """Group name of a case's built wall (a lone wall tilted out of plane is a facade)."""
-    return case.scene.wall.group if case.scene.wall is not None else "wall"
+def analyze_tilt_run(run_dir) -> dict:
+    """Collapse and mechanism of a tilt run directory, recomputed from its frames.npz and
+    case.json (:func:`tilt_results`: the run loop's detector replayed, the same mechanism
+    analysis); written to analysis.json."""
+    from pathlib import Path
+
+    from dem.output.atomic import write_json
+    from postprocess.block_kinematics import angular_velocity
+    from postprocess.shake_signals import ShakeAnalysisError, load_run
+
+    run_dir = Path(run_dir)
+    case, scene = load_run(run_dir)
+    path = run_dir / "frames.npz"
+    if not path.is_file():
+        raise ShakeAnalysisError(f"{path}: missing")
+    with np.load(path) as fr:
+        frames = {k: fr[k] for k in fr.files}
+    if "tilt_angle" not in frames:
+        raise ShakeAnalysisError(f"{path}: no tilt_angle array (not a tilt run?)")
+    if "vel" not in frames:
+        frames["vel"] = np.gradient(frames["pos"], frames["t"], axis=0)
+    if "omega" not in frames:
+        frames["omega"] = angular_velocity(frames["t"], frames["quat"])
+    res = tilt_results(case, scene, frames)
+    out = {"kind": "tilt", "case": case.name, "collapse": res["collapse"],
+           "mechanism": res.get("mechanism")}
+    write_json(run_dir / "analysis.json", out, indent=1, strict=True)
+    return out

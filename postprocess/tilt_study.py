@@ -97,6 +97,7 @@ def _record(rec: dict) -> dict:
 
 def run_all(out: Path, only: str | None, workers: int | None) -> list[dict]:
     from dem.batch import run_batch
+    from dem.commands.run import RUN_ANALYSES
 
     runs = build_runs()
     if only:
@@ -113,7 +114,8 @@ def run_all(out: Path, only: str | None, workers: int | None) -> list[dict]:
               + (f" ({rec.get('error')})" if rec["status"] != "ok" else ""), flush=True)
 
     print(f"{len(runs)} runs", flush=True)
-    records = run_batch(runs, out / "runs", n_workers=workers, on_done=done)
+    records = run_batch(runs, out / "runs", n_workers=workers, on_done=done,
+                        analyses=RUN_ANALYSES)
     for rec in records:
         old[rec["name"]] = _record(rec)
     results = list(old.values())

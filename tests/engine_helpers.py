@@ -8,6 +8,7 @@ from scipy.spatial.transform import Rotation
 from dem.builders import build_wall
 from dem.case import parse_case
 from dem.engine import Simulation
+from dem.run.build import joint_law, step_options
 from dem.scene import blocks_to_scene
 
 G = 9.81
@@ -22,7 +23,8 @@ def make_sim(blocks, friction=0.5, solver=None, gravity=(0.0, 0.0, -G), **materi
         "run": {"duration": 1.0},
         "solver": solver or {},
     })
-    return Simulation(blocks_to_scene(case.scene.blocks), case.material, case.solver,
+    return Simulation(blocks_to_scene(case.scene.blocks), joint_law(case.material),
+                      step_options(case.solver),
                       gravity=gravity)
 
 

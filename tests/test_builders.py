@@ -373,9 +373,9 @@ def test_check_warns_about_a_block_that_will_tip():
 def test_check_rotated_blocks_on_an_incline():
     """Non-axis-aligned boxes (separating-axis test): a block on a 30 deg incline rests on it;
     pushed 5 mm into it, it overlaps."""
-    from dem.scene import euler_xyz_to_quat
+    from dem.quaternion import from_euler_xyz
 
-    q = euler_xyz_to_quat([[30, 0, 0], [30, 0, 0]])
+    q = from_euler_xyz([[30, 0, 0], [30, 0, 0]])
     n = np.array([0, -0.5, np.sqrt(3) / 2])
 
     def scene(offset):
@@ -400,7 +400,7 @@ def test_check_block_below_table():
 # ----------------------------------------------------------------------------- from a case
 def test_case_scene_explicit_blocks_first_then_builders():
     from dem.case import parse_case
-    from dem.scene import scene_from_case
+    from dem.run.build import scene_from_case
 
     case = parse_case({
         "name": "mixed",
@@ -426,7 +426,7 @@ def test_case_scene_explicit_blocks_first_then_builders():
 
 def test_case_scene_rejects_overlapping_builders():
     from dem.case import parse_case
-    from dem.scene import scene_from_case
+    from dem.run.build import scene_from_case
 
     case = parse_case({
         "name": "clash",

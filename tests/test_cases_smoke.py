@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from dem.case import load_case
-from dem.runner import simulate
+from dem.run import run_case
 
 CASES = Path(__file__).resolve().parents[1] / "cases"
 FILES = sorted(p for p in CASES.rglob("*.yaml") if "rocking" not in p.relative_to(CASES).parts)
@@ -24,7 +24,7 @@ STEPS = 300
 @pytest.mark.parametrize("path", FILES, ids=[p.relative_to(CASES).as_posix() for p in FILES])
 def test_case_smoke_run(path):
     case = load_case(path)
-    res = simulate(case, None, max_steps=STEPS)
+    res = run_case(case, None, max_steps=STEPS)
     assert res.summary["status"] == "ok", res.summary["error"]
     assert res.summary["steps"] == STEPS
     assert np.isfinite(res.pos).all() and np.isfinite(res.quat).all()

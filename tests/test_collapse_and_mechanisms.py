@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from dem import quaternion
 from dem.builders import Wing, build_facade, build_wall
 from dem.collapse import CollapseDetector
 from dem.loading import Tilt
@@ -13,8 +14,7 @@ IDENT = np.array([1.0, 0.0, 0.0, 0.0])
 
 
 def _quats(rotvecs):
-    q = Rotation.from_rotvec(rotvecs).as_quat()
-    return np.column_stack([q[:, 3], q[:, :3]])
+    return quaternion.from_rotation(Rotation.from_rotvec(rotvecs))
 
 
 def test_tilt_angle_schedule_with_steps_and_holds():

@@ -7,7 +7,7 @@ import pytest
 
 from dem.case import CaseError, parse_case
 from dem.engine import CapacityError, InputError, InstabilityError
-from dem.runner import simulate
+from dem.run import run_case
 from engine_helpers import constant_loads, make_sim, stretcher_wall
 
 
@@ -76,7 +76,7 @@ def test_runaway_run_fails_and_keeps_frames(tmp_path):
         "duration": 1.0, "output_interval": 0.01}))
     case.scene.allow_floating = True
     with pytest.raises(InstabilityError, match=r"block 1 moves faster than solver\.max_speed"):
-        simulate(case, tmp_path)
+        run_case(case, tmp_path)
     frames = np.load(tmp_path / "frames.npz")
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["status"] == "failed" and "block 1" in summary["error"]

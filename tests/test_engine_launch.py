@@ -14,9 +14,16 @@ from dem.case import Material, SolverSpec
 from dem.engine import Simulation
 from dem.engine.containers import (CONTACT_FIELDS, CONTROL_FIELDS, MODEL_FIELDS, STATE_FIELDS,
                                    ContactArgs, ControlArgs, ModelArgs, StateArgs)
+from dem.run.build import joint_law, step_options
 
 G = np.array([0.0, 0.0, -9.81])
 
+
+
+def _wall_sim(scene, mode, **kw) -> Simulation:
+    """An engine on a brick scene, mu 0.6, the default solver options but ``mode``."""
+    return Simulation(scene, joint_law(Material(friction=0.6)),
+                      step_options(SolverSpec(mode=mode)), **kw)
 
 def _tilted(t):
     """Gravity of a table tilted by 35 deg about x (past the friction angle of mu = 0.6), plus a base acceleration pulse: every load
@@ -28,8 +35,7 @@ def _tilted(t):
 
 
 def _run(mode, fast, steps=4000):
-    sim = Simulation(build_wall("small", length=3, courses=4), Material(friction=0.6),
-                     SolverSpec(mode=mode), fast_launch=fast)
+    sim = _wall_sim(build_wall("small", length=3, courses=4), mode, fast_launch=fast)
     sim.advance(steps, _tilted)
     return sim
 
@@ -70,8 +76,7 @@ def test_serial_and_parallel_kernels_agree_bit_for_bit():
 def test_argpacks_follow_the_field_tables():
     """One table per container is the allocation and the kernel signature: every field is a
     member of the container's argpack and an array of the container, in the same order."""
-    sim = Simulation(build_wall("small", length=2, courses=2), Material(friction=0.6),
-                     SolverSpec(mode="serial"))
+    sim = _wall_sim(build_wall("small", length=2, courses=2), "serial")
     for fields, pack, obj in ((MODEL_FIELDS, ModelArgs, sim.model),
                               (STATE_FIELDS, StateArgs, sim.state),
                               (CONTACT_FIELDS, ContactArgs, sim.contacts),
@@ -93,9 +98,11 @@ def test_cold_compile_has_no_narrowing_and_no_f32():
         from dem.builders import build_wall
         from dem.case import Material, SolverSpec
         from dem.engine import Simulation
+        from dem.run.build import joint_law, step_options
         for mode in ("serial", "parallel"):
-            sim = Simulation(build_wall("small", length=2, courses=2), Material(friction=0.6),
-                             SolverSpec(mode=mode))
+            sim = Simulation(build_wall("small", length=2, courses=2),
+                             joint_law(Material(friction=0.6)),
+                             step_options(SolverSpec(mode=mode)))
             g = np.array([0.0, 0.0, -9.81])
             sim.advance(3, lambda t: (np.tile(g, (len(t), 1)), np.zeros((len(t), 3))))
             sim.mechanical_energy()
@@ -126,8 +133,7 @@ def test_trajectory_does_not_depend_on_how_the_steps_are_launched():
 
     runs = []
     for chunk in (1, 7, 2000):
-        sim = Simulation(build_wall("small", length=3, courses=4), Material(friction=0.6),
-                         SolverSpec(mode="serial"))
+        sim = _wall_sim(build_wall("small", length=3, courses=4), "serial")
         while sim.step_count < 2100:
             sim.advance(min(chunk, 2100 - sim.step_count), shake)
         runs.append(sim)

@@ -15,6 +15,8 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.spatial.transform import Rotation
 
+from dem import quaternion
+
 from engine_helpers import G, constant_loads, make_sim, record, rotation_angle, tilt_gravity
 
 RIGID_KN = 1.0e12  # Pa/m: the rigid-block limit (see module docstring)
@@ -65,7 +67,7 @@ def test_slender_block_tips_at_b_over_h_before_sliding():
     assert k > 0
     assert abs(angle[k] - np.degrees(np.arctan(b / h))) < 0.5, angle[k]
     # the toe (bottom edge on the downhill side, -y) has not slid when the block tips
-    R = Rotation.from_quat(np.column_stack([quat[:k + 1, 0, 1:], quat[:k + 1, 0, :1]]))
+    R = quaternion.rotation(quat[:k + 1, 0])
     toe = pos[:k + 1, 0] + R.apply([0.0, -b / 2, -h / 2])
     assert np.abs(toe[:, :2] - toe[0, :2]).max() < 1e-4
 

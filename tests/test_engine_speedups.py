@@ -57,10 +57,10 @@ def test_free_rotation_is_the_exact_splitting():
     _free_rotation(q, L, inv_I, dt, out)
     worst = 0.0
     for i in range(n):
-        R = Rotation.from_quat(np.roll(q[i], -1))  # scipy: (x, y, z, w)
+        R = Rotation.from_quat(q[i], scalar_first=True)
         for k, frac in zip((0, 1, 2, 1, 0), (0.5, 0.5, 1.0, 0.5, 0.5)):
             phi = frac * dt * (R.as_matrix()[:, k] @ L[i]) * inv_I[i, k]
             R = R * Rotation.from_rotvec(phi * np.eye(3)[k])
-        ref = np.roll(R.as_quat(), 1)
+        ref = R.as_quat(scalar_first=True)
         worst = max(worst, min(np.abs(out[i] - ref).max(), np.abs(out[i] + ref).max()))
     assert worst < 1e-14

@@ -121,5 +121,5 @@ def test_light_plank_landing_flat_lifts_its_area_cap_and_shortens_the_step():
     _run_checked(sim, 0.2)
     assert len(sim.dt_changes) == 1 and sim.dt_changes[0]["blocks"] == [10]
     assert sim.dt < dt0
-    assert sim.dt == pytest.approx(sim.solver.safety * sim.dt_crit)
+    assert sim.dt == pytest.approx(sim.options.safety * sim.dt_crit)
     _assert_energy_bounded(sim)

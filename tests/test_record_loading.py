@@ -5,7 +5,7 @@ import pytest
 
 from dem.case import CaseError, load_case, parse_case
 from dem.loading import loading_from_case
-from dem.runner import simulate
+from dem.run import run_case
 
 BLOCK = {"size": [0.2, 0.2, 0.1], "position": [0, 0, 0.05], "mass": 4.0}
 
@@ -64,7 +64,7 @@ def test_block_slides_under_a_recorded_acceleration_above_mu_g():
     to the table at (0.5 - 0.3) g."""
     g = 9.81
     t = np.linspace(0, 1, 3)
-    res = simulate(_case({"type": "record", "time": t.tolist(), "ax": [0.5 * g] * 3,
+    res = run_case(_case({"type": "record", "time": t.tolist(), "ax": [0.5 * g] * 3,
                           "ay": [0.0] * 3}))
     x = res.pos[:, 0, 0] - res.pos[0, 0, 0]
     fit = res.t > 0.05

@@ -269,10 +269,10 @@ BLOCK = {
 def bolted_run(tmp_path_factory):
     """A squat block (b/h = 2, mu = 0.8) under 1.5 m/s2: it neither slides (mu g = 7.8 m/s2) nor
     rocks (g b/h = 19.6 m/s2), so it moves with the table, as if bolted."""
-    from dem.runner import simulate
+    from dem.run import run_case
 
     out = tmp_path_factory.mktemp("bolted")
-    res = simulate(parse_case(BLOCK), out)
+    res = run_case(parse_case(BLOCK), out)
     assert res.summary["status"] == "ok"
     return out
 
@@ -387,16 +387,16 @@ def test_dem_sweep_survives_a_failed_point_and_dem_post_reaggregates(tmp_path):
 def test_sweep_at_constant_peak_acceleration_exits_0_and_aggregates(tmp_path, monkeypatch):
     """All points ok -> exit 0; constant peak acceleration: the amplitude follows 1/f^2.  The
     batch runs in this process (dem.batch.run_batch replaced by a sequential loop over
-    dem.runner.simulate), to keep the test to seconds; the dask path is the test above."""
+    dem.run.run_case), to keep the test to seconds; the dask path is the test above."""
     import dem.batch
-    from dem.runner import simulate
+    from dem.run import run_case
 
     def sequential(cases, out_root, scheduler=None, n_workers=None, max_steps=None, post=None,
                    on_done=None):
         recs = []
         for name, case in cases:
             d = str(out_root / name)
-            res = simulate(case, d, max_steps=max_steps)
+            res = run_case(case, d, max_steps=max_steps)
             rec = {"name": name, "status": "ok", "out_dir": d, "summary": res.summary,
                    "post": post(case, res, d)}
             on_done(rec)
@@ -440,7 +440,7 @@ def test_dem_post_recomputes_a_tilt_run_from_its_frames(tmp_path):
     """A squat block (mu = 0.5) on a table tilting from 25 deg at 2 deg/s slides at
     atan(0.5) = 26.57 deg; dem post replays the collapse detection over frames.npz and must find
     what the run loop found."""
-    from dem.runner import simulate
+    from dem.run import run_case
 
     case = parse_case({
         "name": "block-sliding-on-tilt",
@@ -450,7 +450,7 @@ def test_dem_post_recomputes_a_tilt_run_from_its_frames(tmp_path):
                     "max_angle": 40.0},
         "run": {"duration": 4.0, "output_interval": 0.01, "vtk": False, "snapshot": False},
     })
-    res = simulate(case, tmp_path)
+    res = run_case(case, tmp_path)
     assert res.summary["collapse"]["detected"]
     r = CliRunner().invoke(app, ["post", str(tmp_path)])
     assert r.exit_code == 0, r.output

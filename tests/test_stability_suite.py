@@ -13,10 +13,10 @@ never finish with garbage.
 
 import numpy as np
 import pytest
-from scipy.spatial.transform import Rotation
 
+from dem import quaternion
 from dem.case import parse_case
-from dem.runner import simulate
+from dem.run import run_case
 
 pytestmark = pytest.mark.stability
 
@@ -29,7 +29,7 @@ def _run(case_dict, max_penetration=2e-3):
     case_dict.setdefault("run", {})
     case_dict["run"].setdefault("vtk", False)
     case_dict["run"].setdefault("snapshot", False)
-    res = simulate(parse_case(case_dict))
+    res = run_case(parse_case(case_dict))
     s = res.summary
     e = s["energy"]
     supplied = abs(e["work_gravity"]) + abs(e["work_base"])
@@ -38,7 +38,7 @@ def _run(case_dict, max_penetration=2e-3):
     assert s["max_penetration_m"] < max_penetration, s["max_penetration_m"]
     # nothing below the table: lowest corner of every block
     q = res.quat[-1]
-    R = Rotation.from_quat(np.column_stack([q[:, 1:], q[:, :1]])).as_matrix()
+    R = quaternion.matrices(q)
     half = 0.5 * res.scene.size
     zmin = res.pos[-1, :, 2] - np.einsum("nk,nk->n", np.abs(R[:, 2, :]), half)
     assert zmin.min() > -max_penetration

@@ -6,7 +6,8 @@ import json
 import numpy as np
 
 from dem.case import parse_case
-from dem.runner import simulate
+from dem.commands.run import RUN_ANALYSES
+from dem.run import run_case
 
 
 def test_small_wall_tilt_run_stops_after_collapse(tmp_path):
@@ -23,7 +24,7 @@ def test_small_wall_tilt_run_stops_after_collapse(tmp_path):
                     "start_time": 0.5, "max_angle": 45.0, "collapse": {"after": 0.2}},
         "run": {"duration": 4.0, "output_interval": 0.005, "vtk": False, "snapshot": False},
     })
-    res = simulate(case, tmp_path)
+    res = run_case(case, tmp_path, analyses=RUN_ANALYSES)
     s = json.loads((tmp_path / "summary.json").read_text())
     col = s["collapse"]
     assert col["detected"]

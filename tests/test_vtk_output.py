@@ -17,8 +17,7 @@ TIMES = [0.0, 0.013, 0.05, 0.1]  # deliberately uneven: the pvd must hold the re
 
 
 def quat_wxyz(rot: Rotation) -> np.ndarray:
-    q = rot.as_quat()
-    return np.concatenate([q[..., 3:], q[..., :3]], axis=-1)
+    return rot.as_quat(scalar_first=True)
 
 
 @pytest.fixture
@@ -164,8 +163,8 @@ def test_frame_size_is_reasonable(tmp_path):
 def test_vtk_matches_frames_npz_of_a_run(tmp_path):
     """A short real run: the .vtu block centres equal frames.npz positions, the pvd its times."""
     from dem.case import parse_case
-    from dem.runner import simulate
-    from dem.scene import scene_from_case
+    from dem.run import run_case
+    from dem.run import scene_from_case
 
     case = parse_case({
         "name": "vtk-run",
@@ -177,7 +176,7 @@ def test_vtk_matches_frames_npz_of_a_run(tmp_path):
         "loading": {"type": "shake", "direction": [1, 0, 0], "frequency": 5.0, "peak_acceleration": 6.0},
         "run": {"duration": 0.05, "output_interval": 0.002},
     })
-    simulate(case, tmp_path, max_steps=400)
+    run_case(case, tmp_path, max_steps=400)
     data = np.load(tmp_path / "frames.npz")
     vtk = tmp_path / "vtk"
     if not (vtk / "scene.pvd").exists():  # the run loop did not write VTK itself

@@ -10,36 +10,19 @@ of axis-aligned boxes, with group names and course indices (0 = bottom course).
     model = build_box_model("II")                               # 198 bricks + roof
     print(check_scene(model).format())
 
-The submodules are imported lazily so that :mod:`dem.case` can import :mod:`dem.builders.spec`
-without an import cycle (dem.case -> dem.builders.spec; dem.builders.wall -> dem.scene -> dem.case).
+Layering: builders import dem.scene and their own spec models (dem.builders.spec), never the case
+schema; the schema (dem.case) imports the specs, and dem.run.build turns a case into a scene.
 """
 
 from __future__ import annotations
 
-import importlib
+from dem.builders.box_model import build_box_model
+from dem.builders.bricks import FRICTION, PRESETS, Brick, brick
+from dem.builders.checks import SceneError, SceneReport, block_label, check_scene, require_valid
+from dem.builders.facade import Wing, build_facade, corner_lap
+from dem.builders.from_spec import build_from_spec
+from dem.builders.wall import build_wall
 
-_EXPORTS = {
-    "Brick": "bricks",
-    "PRESETS": "bricks",
-    "FRICTION": "bricks",
-    "brick": "bricks",
-    "build_wall": "wall",
-    "build_facade": "facade",
-    "Wing": "facade",
-    "corner_lap": "facade",
-    "build_box_model": "box_model",
-    "check_scene": "checks",
-    "require_valid": "checks",
-    "SceneReport": "checks",
-    "SceneError": "checks",
-    "block_label": "checks",
-    "build_from_spec": "from_spec",
-}
-
-__all__ = sorted(_EXPORTS)
-
-
-def __getattr__(name: str):
-    if name in _EXPORTS:
-        return getattr(importlib.import_module(f"dem.builders.{_EXPORTS[name]}"), name)
-    raise AttributeError(f"module 'dem.builders' has no attribute {name!r}")
+__all__ = ["Brick", "FRICTION", "PRESETS", "SceneError", "SceneReport", "Wing", "block_label",
+           "brick", "build_box_model", "build_facade", "build_from_spec", "build_wall",
+           "check_scene", "corner_lap", "require_valid"]

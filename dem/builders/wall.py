@@ -7,6 +7,8 @@ z in [k h, (k + 1) h].  Units: m, kg.
 
 from __future__ import annotations
 
+import math
+
 from dem.builders.bricks import Brick, brick as as_brick
 from dem.builders.layout import BoxList, course_pieces
 from dem.scene import Scene
@@ -125,4 +127,11 @@ def build_wall(
         english_courses(boxes, b, x0=x0, n_bricks=length, courses=courses, laying=laying, group=group)
     else:
         raise ValueError(f"bond must be 'stretcher' or 'english', got {bond!r}")
-    return boxes.to_scene(origin=origin, yaw=yaw)
+    scene = boxes.to_scene(origin=origin, yaw=yaw)
+    h = b.dims(laying)[2]
+    s = unit / 4.0 if bond == "english" else s  # quarter-brick lap of English bond
+    along = [round(math.cos(math.radians(yaw)), 12), round(math.sin(math.radians(yaw)), 12), 0.0]
+    scene.layout[group] = {"kind": "wall", "along": along, "stagger": s, "course_height": h,
+                           "length": length * unit, "height": courses * h,
+                           "l_over_h": length * unit / (courses * h), "s_over_h": s / h}
+    return scene

@@ -14,3 +14,18 @@ class ExitCode(IntEnum):
     OK = 0
     RUN_FAILED = 1
     BAD_INPUT = 2
+
+
+def exit_code_for(err: BaseException) -> ExitCode:
+    """The one mapping from what stopped a command to its exit code.
+
+    Bad input is a ValueError (a case field: dem.case.CaseError too; a scene: SceneError; an
+    option or engine input: InputError, SweepInputError, RockingCaseError; --out: RunDirError;
+    a directory that cannot be analysed: ShakeAnalysisError) -> 2.  Anything else that ends a
+    run (SimulationError, RockingError, an OSError such as OutputError, a signal) -> 1.
+    """
+    from dem.case import CaseError
+
+    if isinstance(err, (ValueError, CaseError)):
+        return ExitCode.BAD_INPUT
+    return ExitCode.RUN_FAILED

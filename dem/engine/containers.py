@@ -210,7 +210,7 @@ class Model(_Container):
         self.mat_pair[...] = self.mat_pair_np
 
     @classmethod
-    def from_scene(cls, scene: Scene, material) -> "Model":
+    def from_scene(cls, scene: Scene, joints) -> "Model":
         """Bodies = scene blocks + the table (a fixed box whose top face is z = 0)."""
         lo, hi = scene.bounding_box()
         centre = 0.5 * (lo + hi)
@@ -225,11 +225,11 @@ class Model(_Container):
         inertia = np.vstack([inertia_blocks, table_inertia])
         fixed = np.append(scene.fixed, True)
         mat = np.append(np.full(scene.n_blocks, MAT_BLOCK), MAT_TABLE)
-        kn, ks, zeta = material.normal_stiffness, material.ks, material.damping
+        kn, ks, zeta = joints.normal_stiffness, joints.shear_stiffness, joints.damping
         mat_pair = np.zeros((2, 2, 4))
-        mat_pair[MAT_BLOCK, MAT_BLOCK] = (material.friction, kn, ks, zeta)
+        mat_pair[MAT_BLOCK, MAT_BLOCK] = (joints.friction, kn, ks, zeta)
         mat_pair[MAT_BLOCK, MAT_TABLE] = mat_pair[MAT_TABLE, MAT_BLOCK] = (
-            material.mu_base, kn, ks, zeta)
+            joints.base_friction, kn, ks, zeta)
         mat_pair[MAT_TABLE, MAT_TABLE] = (0.0, kn, ks, zeta)
         model = cls(half, mass, inertia, fixed, mat, mat_pair, scene.n_blocks)
         model.table_centre = np.array([centre[0], centre[1], -table_half[2]])

@@ -2,7 +2,7 @@
 
 Typical use::
 
-    sim = Simulation(scene, material, solver)            # checks, dt, neighbour list
+    sim = Simulation(scene, joints, options)             # JointLaw, StepOptions (options.py)
     sim.advance(n_steps, loads)                          # loads(t) -> (gravity [K,3], a_base [K,3])
     sim.state.pos[:sim.n_blocks]
 
@@ -24,6 +24,7 @@ from dem.engine.broadphase import candidate_pairs
 from dem.engine.containers import (NONFINITE, REBUILD, SERIAL_CHUNK, STOP, Contacts, Control,
                                    Model, State)
 from dem.engine.launch import CachedLaunch
+from dem.engine.options import JointLaw, StepOptions
 from dem.engine.errors import CapacityError, InputError, InstabilityError, SimulationError
 from dem.engine.timestep import critical_time_step, face_area_caps, full_face_areas
 from dem.scene import Scene
@@ -48,59 +49,59 @@ def parallel_min_bodies(threads: int) -> int | float:
 
 
 class Simulation:
-    def __init__(self, scene: Scene, material, solver, gravity=(0.0, 0.0, -9.81),
-                 fast_launch: bool = True):
-        ti_runtime.init(threads=solver.threads, precision=solver.precision)
+    def __init__(self, scene: Scene, joints: JointLaw, options: StepOptions,
+                 gravity=(0.0, 0.0, -9.81), fast_launch: bool = True):
+        ti_runtime.init(threads=options.threads, precision=options.precision)
         self.fast_launch = fast_launch
         self.scene = scene
-        self.solver = solver
+        self.options = options
         self.n_blocks = scene.n_blocks
         self.gravity0 = np.asarray(gravity, dtype=float)
-        self.model = Model.from_scene(scene, material)
+        self.model = Model.from_scene(scene, joints)
         self.state = State.from_scene(scene, self.model)
         # capacity: max_pairs_per_block counts each pair for both blocks, plus one table pair each
-        capacity = int(np.ceil(0.5 * solver.max_pairs_per_block * self.model.n_bodies)) + \
+        capacity = int(np.ceil(0.5 * options.max_pairs_per_block * self.model.n_bodies)) + \
             self.model.n_bodies + 8
         self.contacts = Contacts(self.model.n_bodies, capacity)
         movable = ~self.model.fixed_np
         movable[self.model.table] = False
         self._movable = movable
-        self._material = material
+        self.joints = joints
         hmin = float(self.model.half_np[: self.n_blocks].min())
-        self.skin = float(solver.skin) if solver.skin is not None else 0.1 * hmin
+        self.skin = float(options.skin) if options.skin is not None else 0.1 * hmin
         self.step_count = 0
         self._deepest_time = 0.0
         self._t_anchor, self._step_anchor = 0.0, 0  # t = t_anchor + (step - step_anchor) dt
         self.dt = 0.0  # set below, once the contacts at the start are known
         self.n_rebuilds = 0
-        self.mode = solver.mode
+        self.mode = options.mode
         if self.mode == "auto":
             threads = ti_runtime.settings()["threads"] or os.cpu_count() or 1
             self.mode = ("parallel" if self.model.n_bodies >= parallel_min_bodies(threads)
                          else "serial")
-        self.control = Control(self.skin, solver.max_speed, solver.local_damping)
+        self.control = Control(self.skin, options.max_speed, options.local_damping)
         t0 = time.perf_counter()
         self._warm_up()
         self.compile_seconds = time.perf_counter() - t0
         self.rebuild()
-        patch = self.check_initial_overlaps(solver.overlap_tolerance)
+        patch = self.check_initial_overlaps(options.overlap_tolerance)
         # face areas in the critical-step bound, capped for light blocks with large faces; a
         # contact patch larger than its cap lifts the cap and recomputes dt (_check_caps)
         self._face_area, self.area_cap = face_area_caps(
             2 * self.model.half_np, self.model.mass_np, self.model.inertia_np, movable,
-            material.normal_stiffness, material.ks, solver.safety, patch)
+            joints.normal_stiffness, joints.shear_stiffness, options.safety, patch)
         self.dt_changes: list[dict] = []
         self.dt_crit = self._critical_step()
-        if solver.dt is not None:
-            if solver.dt > self.dt_crit:
+        if options.dt is not None:
+            if options.dt > self.dt_crit:
                 raise InputError(
-                    f"solver.dt = {solver.dt:.3g} s is above the critical time step "
+                    f"solver.dt = {options.dt:.3g} s is above the critical time step "
                     f"{self.dt_crit:.3g} s of this scene (stiffest block, kn = "
-                    f"{material.normal_stiffness:.3g} Pa/m); use solver.dt <= "
-                    f"{solver.safety * self.dt_crit:.3g} s or leave it out")
-            self.dt = float(solver.dt)
+                    f"{joints.normal_stiffness:.3g} Pa/m); use solver.dt <= "
+                    f"{options.safety * self.dt_crit:.3g} s or leave it out")
+            self.dt = float(options.dt)
         else:
-            self.dt = float(solver.safety * self.dt_crit) if np.isfinite(self.dt_crit) else 1e-4
+            self.dt = float(options.safety * self.dt_crit) if np.isfinite(self.dt_crit) else 1e-4
         self.energy_initial = self.mechanical_energy()
 
     # ------------------------------------------------------------------------------------
@@ -109,9 +110,9 @@ class Simulation:
         return self._t_anchor + (self.step_count - self._step_anchor) * self.dt
 
     def _critical_step(self) -> float:
-        m, mat = self.model, self._material
+        m, mat = self.model, self.joints
         return critical_time_step(2 * m.half_np, m.mass_np, m.inertia_np, self._movable,
-                                  mat.normal_stiffness, mat.ks, mat.damping, self._face_area)
+                                  mat.normal_stiffness, mat.shear_stiffness, mat.damping, self._face_area)
 
     def _check_caps(self) -> None:
         """Raise the area cap of any body whose contact patch outgrew it, and shorten dt.
@@ -147,15 +148,15 @@ class Simulation:
         self._face_area[bodies] = np.minimum(full, new_cap[:, None, None])
         old = self.dt
         self.dt_crit = self._critical_step()
-        if self.solver.dt is not None:
-            if self.solver.dt > self.dt_crit:
+        if self.options.dt is not None:
+            if self.options.dt > self.dt_crit:
                 raise SimulationError(
                     f"at t = {self.t:.4f} s block(s) {bodies.tolist()} made a contact patch "
                     f"larger than assumed: the critical step is now {self.dt_crit:.3g} s, below "
-                    f"solver.dt = {self.solver.dt:.3g} s; leave solver.dt out (automatic) or "
+                    f"solver.dt = {self.options.dt:.3g} s; leave solver.dt out (automatic) or "
                     f"lower it")
             return
-        new = float(self.solver.safety * self.dt_crit)
+        new = float(self.options.safety * self.dt_crit)
         if new < old:
             self._t_anchor, self._step_anchor = self.t, self.step_count
             self.dt = new
@@ -179,7 +180,7 @@ class Simulation:
                 f"neighbour list overflow at step {self.step_count} (t = {self.t:.4f} s): "
                 f"{len(pairs)} candidate pairs > capacity {c.capacity} (block {worst} has "
                 f"{counts[worst]} neighbours); raise solver.max_pairs_per_block "
-                f"(now {self.solver.max_pairs_per_block}) or lower solver.skin ({self.skin:.3g} m)")
+                f"(now {self.options.max_pairs_per_block}) or lower solver.skin ({self.skin:.3g} m)")
         old_pairs = c.pairs[: c.n_pairs].copy() if c.n_pairs else None
         history = c.read_history() if c.n_pairs else None
         c.write_pairs(pairs, m.n_bodies, history, old_pairs)
@@ -286,7 +287,7 @@ class Simulation:
         v = st.vel[b]
         x = st.pos[b]
         what = "became NaN/inf" if self.control.status[0] & NONFINITE else (
-            f"moves faster than solver.max_speed = {self.solver.max_speed} m/s")
+            f"moves faster than solver.max_speed = {self.options.max_speed} m/s")
         raise InstabilityError(
             f"block {b} {what} at step {self.step_count} (t = {self.t:.5f} s): position "
             f"{np.array2string(x, precision=4)} m, velocity {np.array2string(v, precision=3)} m/s;"

@@ -44,6 +44,7 @@ import numpy as np
 import pyvista as pv
 from vtkmodules.util.numpy_support import numpy_to_vtk
 
+from dem import quaternion
 from dem.output.atomic import atomic_path, write_text
 from dem.scene import Scene
 
@@ -54,25 +55,10 @@ HEX_CORNERS = np.array(
 )
 
 
-def quat_to_matrix(q: np.ndarray) -> np.ndarray:
-    """Rotation matrices [N,3,3] (body -> table) of unit quaternions [N,4] (w, x, y, z)."""
-    q = np.asarray(q, dtype=np.float64)
-    q = q / np.linalg.norm(q, axis=1, keepdims=True)
-    w, x, y, z = q.T
-    return np.stack(
-        [
-            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], axis=-1),
-            np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], axis=-1),
-            np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], axis=-1),
-        ],
-        axis=1,
-    )
-
-
 def block_corners(size: np.ndarray, pos: np.ndarray, quat: np.ndarray) -> np.ndarray:
     """Corners [N,8,3] of boxes (full edge lengths ``size``, centres ``pos``, orientations ``quat``
     (w, x, y, z)) in VTK hexahedron order, m."""
-    r = quat_to_matrix(quat)
+    r = quaternion.matrices(quat)
     local = HEX_CORNERS[None, :, :] * (0.5 * np.asarray(size))[:, None, :]
     return np.asarray(pos)[:, None, :] + np.einsum("nij,nkj->nki", r, local)
 

@@ -1,0 +1,163 @@
+"""``dem sweep CASE.yaml --out DIR --frequencies 1.8,2.0 --range 2.2:3.6:0.2`` runs the case once
+per frequency (the cases: dem.run.sweep), each run independent (dem.batch.run_batch: a local dask cluster sized to the cores with
+Taichi capped at one thread per worker, or an existing cluster with ``--scheduler``):
+
+* constant peak acceleration if the case gives ``loading.peak_acceleration`` (the amplitude
+  follows, A = a_p / (2 pi f)^2: the thesis' Models II and III), else constant amplitude (Model I
+  group 1 / 4);
+* ``cycles`` from the case or ``--cycles``; run.duration = cycles / f + ``margin`` (default 1 s,
+  as in the case files: free motion after the shaking);
+* each run writes DIR/f<frequency>Hz/ (summary.json, frames.npz, instruments.npz, ...); its
+  analysis (postprocess.shake.analyze_run: analysis.json and PNGs) runs on the worker, and only a
+  compact record travels back;
+* DIR/sweep.json is written when the sweep starts (every point "pending") and rewritten as each
+  point lands, so an interrupted sweep keeps what finished; ``dem post DIR`` rebuilds it from the
+  run directories;
+* a rerun into the same DIR skips every point whose directory holds a finished run of the same
+  point case (summary.json status "ok", case.json equal): it is read back (its analysis.json, or
+  analysed again if that is missing), not recomputed; the others (killed, failed, changed) run
+  again into their cleared directories.  SIGTERM / SIGHUP stop a sweep like Ctrl-C.
+
+The exit code: dem.commands.exit_codes.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+from pathlib import Path
+
+from dem.commands.exit_codes import ExitCode, exit_code_for
+from dem.run.sweep import DEFAULT_MARGIN, SweepInputError, parse_frequencies, sweep_cases
+from postprocess.sweep import (MAIN_QUANTITY, analyze_point, characteristic_text, compact,
+                               finite, point_record, sweep_meta, write_sweep)
+
+
+def say(msg: str) -> None:
+    """Progress and errors of a command go to stderr."""
+    print(msg, file=sys.stderr, flush=True)
+
+
+def finished_point(case, out_dir: Path) -> dict | None:
+    """The record of a point whose directory already holds a finished run of ``case`` (same
+    case.json, summary.json status ok), else None."""
+    try:
+        summ = json.loads((out_dir / "summary.json").read_text())
+        same = json.loads((out_dir / "case.json").read_text()) == \
+            json.loads(case.model_dump_json())
+    except (OSError, ValueError):
+        return None
+    if not same or summ.get("status") != "ok":
+        return None
+    try:
+        post = compact(json.loads((out_dir / "analysis.json").read_text()))
+    except (OSError, ValueError):
+        post = analyze_point(case, None, out_dir)
+    return {"name": out_dir.name, "status": "ok", "out_dir": str(out_dir), "summary": summ,
+            "post": post, "reused": True}
+
+
+def run_sweep(case_path, out, frequencies: str | None = None, rng: str | None = None,
+              cycles: float | None = None, margin: float = DEFAULT_MARGIN,
+              scheduler: str | None = None, workers: int | None = None,
+              max_steps: int | None = None) -> int:
+    """Body of ``dem sweep``; returns the exit code (0 all ok, 1 a point failed, 2 bad input)."""
+    from dem.batch import run_batch
+    from dem.case import CaseError, load_case
+    from dem.run.build import scene_from_case
+
+    out = Path(out)
+    try:
+        case = load_case(case_path)
+        freqs = parse_frequencies(frequencies, rng)
+        cases = sweep_cases(case, freqs, cycles, margin)
+        scene_from_case(cases[0][1])  # overlaps, floating blocks: before any worker starts
+        if workers is not None and workers < 1:
+            raise SweepInputError(f"--workers must be >= 1, got {workers}")
+        if max_steps is not None and max_steps < 1:
+            raise SweepInputError(f"--max-steps must be >= 1, got {max_steps}")
+    except CaseError as err:
+        say(f"error: {err}")
+        return exit_code_for(err)
+    except ValueError as err:  # SweepInputError, SceneError
+        say(f"error: {case_path}: {err}")
+        return exit_code_for(err)
+    if out.exists() and not out.is_dir():
+        say(f"error: --out {out}: exists and is not a directory")
+        return ExitCode.BAD_INPUT
+    if (out / "case.json").is_file():
+        say(f"error: --out {out}: holds a single run (case.json), not a sweep; choose another "
+             f"directory")
+        return ExitCode.BAD_INPUT
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        say(f"error: --out {out}: cannot create it ({err.strerror or err})")
+        return ExitCode.BAD_INPUT
+    meta = sweep_meta(case, freqs, cycles, margin, case_path)
+    by_name = {n: (f, c) for f, (n, c) in zip(freqs, cases)}
+    points = {n: point_record(f, c, {"status": "pending"}, out)
+              for n, (f, c) in by_name.items()}
+    reused = {}
+    for n, (f, c) in by_name.items():
+        rec = finished_point(c, out / n)
+        if rec is not None:
+            reused[n] = rec
+            points[n] = point_record(f, c, rec, out)
+            points[n]["reused"] = True
+    if reused:
+        say(f"{len(reused)} point(s) already finished in {out}, kept: "
+             + ", ".join(f"{by_name[n][0]:g} Hz" for n in reused))
+    todo = [(n, c) for n, c in cases if n not in reused]
+    write_sweep(out, meta, list(points.values()), plots=False)
+    n_done = [0]
+
+    def on_done(rec: dict) -> None:
+        n_done[0] += 1 if rec["name"] not in reused else 0
+        f, c = by_name[rec["name"]]
+        p = point_record(f, c, rec, out)
+        points[rec["name"]] = p
+        head = f"[{n_done[0]}/{len(todo)}] {f:g} Hz"
+        if p["status"] == "failed":
+            say(f"{head}: FAILED: {p.get('error')}")
+        else:
+            A = (p.get("amplification") or {}).get(MAIN_QUANTITY)
+            a_txt = f"amplification {MAIN_QUANTITY} = {A:.3g}" if finite(A) else \
+                f"no amplification ({p.get('note') or 'no steady state'})"
+            say(f"{head}: ok, {a_txt} ({p.get('wall_seconds', 0):.1f} s wall)")
+        write_sweep(out, meta, list(points.values()), plots=False)
+
+    where = f"scheduler {scheduler}" if scheduler else \
+        f"local cluster, {workers or os.cpu_count()} workers"
+    say(f"sweep {case.name}: {len(cases)} frequencies {freqs} Hz ({len(todo)} to run), {where}")
+    # run_batch sets DEM_THREADS=1 in this (client) process for its workers to inherit; put it
+    # back afterwards, or a later Taichi initialisation in this process would clash
+    threads_env = os.environ.get("DEM_THREADS")
+    from dem.signals import signal_name, stop_on_signals
+
+    try:
+        with stop_on_signals():
+            records = run_batch(todo, out, scheduler=scheduler, n_workers=workers,
+                                max_steps=max_steps, post=analyze_point,
+                                on_done=on_done) if todo else []
+    except KeyboardInterrupt as err:
+        say(f"interrupted by {signal_name(err)}; finished points are in {out}/sweep.json (a rerun"
+            f" of the same command keeps them and runs the others)")
+        return exit_code_for(err)
+    finally:
+        if threads_env is None:
+            os.environ.pop("DEM_THREADS", None)
+        else:
+            os.environ["DEM_THREADS"] = threads_env
+    for rec in records:  # records the callback may not have seen (should not happen)
+        if rec is not None and points[rec["name"]]["status"] == "pending":
+            on_done(rec)
+    data = write_sweep(out, meta, [points[n] for n, _ in cases])
+    agg = data["aggregate"]
+    say(f"{characteristic_text(agg)}; {out}/sweep.json")
+    if data["failed"]:
+        say(f"{len(data['failed'])} of {len(cases)} points failed: "
+             + ", ".join(f"{x['frequency_hz']:g} Hz" for x in data["failed"]))
+        return ExitCode.RUN_FAILED
+    return ExitCode.OK

@@ -1,0 +1,113 @@
+"""The run loop: build, (settle), load, record, stop, write.
+
+    res = run_case(case, "runs/wall")            # writes the output directory, returns frames
+
+``analyses``: functions ``f(case, scene, frames, summary) -> dict`` that read the finished run
+(frames: the arrays of frames.npz) and return keys merged into summary.json before it is written
+(e.g. ``postprocess.tilt.tilt_mechanism``, handed in by the ``dem run`` command): the run loop
+itself never imports the analysis.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable, Sequence
+
+import numpy as np
+
+from dem.case import Case
+from dem.run.build import build
+from dem.run.progress import Progress
+from dem.run.record import FRAME_KEYS, Recording
+from dem.run.stop import StopRule
+from dem.run.write import OutputError, RunWriter, engine_results, initial_summary, write_case
+from dem.scene import Scene
+
+Analysis = Callable[[Case, Scene, dict, dict], dict]
+
+
+@dataclass
+class RunResult:
+    t: np.ndarray
+    pos: np.ndarray
+    quat: np.ndarray
+    vel: np.ndarray
+    base_disp: np.ndarray
+    summary: dict
+    extra: dict = field(default_factory=dict)
+    scene: Scene | None = None
+
+
+def run_case(case: Case, out_dir: str | Path | None = None, progress: bool = False,
+             max_steps: int | None = None, scene: Scene | None = None,
+             analyses: Sequence[Analysis] = ()) -> RunResult:
+    """Run a validated case.  Writes the output directory (dem.run.write) if ``out_dir`` given.
+
+    Raises dem.engine.InputError (bad scene/settings) before anything is written,
+    SimulationError when the run fails, KeyboardInterrupt (dem.signals.Interrupted for SIGTERM /
+    SIGHUP) when stopped, :class:`OutputError` when an output file cannot be written; in all but
+    the first the frames recorded so far are written first (where the disk allows).
+    ``scene``: the scene of the case, already built and checked (dem.validate), else built here.
+    """
+    from dem.engine import SimulationError
+
+    wall0 = time.perf_counter()
+    out = Path(out_dir) if out_dir is not None else None
+    built = build(case, scene)                                        # build
+    scene, loading, sim = built.scene, built.loading, built.sim
+    if out is not None:
+        out.mkdir(parents=True, exist_ok=True)
+        write_case(out, case)
+    summary = initial_summary(case, scene, loading, sim)
+    recording = Recording(case, scene, loading, sim, out)             # record
+    stop = StopRule(case, scene, loading, max_steps)                  # stop
+    recording.listeners.append(stop.listen)
+    writer = RunWriter(out, case, scene, recording)                   # write
+
+    def finish(status: str, error: str | None = None) -> None:
+        summary["status"], summary["error"] = status, error
+        summary.update(engine_results(sim, scene.n_blocks, wall0, summary["compile_seconds"]))
+        summary.update(stop.results())
+        if analyses and recording.frames.n_frames:
+            arrays = recording.frames.arrays()
+            for analyse in analyses:
+                summary.update(analyse(case, scene, arrays, summary))
+        writer.finish(summary, status, error)
+
+    bar = Progress(progress, stop.t_end, case.name)
+    run0 = time.perf_counter()
+    try:
+        recording.start()
+        while not stop.at_end(sim):                                   # load
+            sim.advance(stop.limit_steps(sim, recording.steps_to_next(stop.t_end)), loading)
+            if recording.after_advance(last=stop.at_end(sim)) and stop.collapse_stop:
+                break
+            bar.update(sim.t, sim.step_count / max(time.perf_counter() - run0, 1e-9))
+            writer.checkpoint(summary, sim)
+    except SimulationError as err:
+        bar.close()
+        writer.guarded("last frame", recording.frame_at_stop)
+        finish("failed", str(err))
+        raise
+    except KeyboardInterrupt as err:
+        from dem.signals import signal_name
+
+        bar.close()
+        writer.guarded("last frame", recording.frame_at_stop)
+        sig = signal_name(err)
+        finish("interrupted", f"stopped by {sig}" + (" (Ctrl-C)" if sig == "SIGINT" else ""))
+        raise
+    except OSError as err:  # a checkpoint or a VTK frame could not be written
+        bar.close()
+        writer.write_errors["checkpoint (frames.npz, summary.json or a VTK frame)"] = \
+            f"{err.strerror or err} (errno {err.errno})"
+        finish("failed", None)
+        raise OutputError(err.errno, str(err)) from None  # finish raises first if it can
+    bar.close()
+    finish("ok")
+    arrays = recording.frames.arrays()
+    extra = {k: v for k, v in arrays.items() if k not in FRAME_KEYS}
+    return RunResult(arrays["t"], arrays["pos"], arrays["quat"], arrays["vel"],
+                     arrays["base_disp"], summary, extra, scene)

@@ -1,0 +1,86 @@
+"""The runs of a frequency sweep: one case per frequency (thesis Section 4.3).
+
+* constant peak acceleration if the case gives ``loading.peak_acceleration`` (the amplitude
+  follows, A = a_p / (2 pi f)^2: the thesis' Models II and III), else constant amplitude (Model I
+  group 1 / 4);
+* ``cycles`` from the case or ``--cycles``; run.duration = cycles / f + ``margin`` (default 1 s,
+  as in the case files: free motion after the shaking);
+* each point runs into DIR/f<frequency>Hz/ (``point_name``).
+
+The command (dem.commands.sweep) runs them through dem.batch; the analysis of each point and the
+aggregate are postprocess.sweep's.
+"""
+
+from __future__ import annotations
+
+import math
+
+DEFAULT_MARGIN = 1.0
+
+
+class SweepInputError(ValueError):
+    """Bad sweep input (exit code 2); the message names the option or field."""
+
+
+def parse_frequencies(frequencies: str | None = None, rng: str | None = None) -> list[float]:
+    """Frequencies (Hz, sorted, unique) from "1.8,2.0,2.4" and/or "start:stop:step" (inclusive)."""
+    out: list[float] = []
+    if frequencies:
+        for tok in frequencies.split(","):
+            tok = tok.strip()
+            if not tok:
+                continue
+            try:
+                out.append(float(tok))
+            except ValueError:
+                raise SweepInputError(f"--frequencies: '{tok}' is not a number (Hz)") from None
+    if rng:
+        parts = rng.split(":")
+        try:
+            start, stop, step = (float(p) for p in parts)
+        except ValueError:
+            raise SweepInputError(f"--range: '{rng}' is not start:stop:step (Hz)") from None
+        if not (step > 0) or stop < start:
+            raise SweepInputError(f"--range: '{rng}' needs step > 0 and stop >= start")
+        n = int(math.floor((stop - start) / step + 1e-6)) + 1
+        out += [round(start + k * step, 9) for k in range(n)]
+    if not out:
+        raise SweepInputError("give the frequencies: --frequencies 1.8,2.0 and/or "
+                              "--range 1.8:3.6:0.2")
+    bad = [f for f in out if not (f > 0) or not math.isfinite(f)]
+    if bad:
+        raise SweepInputError(f"frequencies must be > 0 Hz, got {bad[0]}")
+    return sorted({round(f, 9) for f in out})
+
+
+def point_name(f: float) -> str:
+    return f"f{f:.3f}Hz"
+
+
+def sweep_cases(case, frequencies, cycles: float | None = None, margin: float = DEFAULT_MARGIN):
+    """(name, Case) per frequency (module docstring); raises SweepInputError naming the field."""
+    from pydantic import ValidationError
+
+    from dem.case import Case, ShakeLoading
+
+    if not isinstance(case.loading, ShakeLoading):
+        raise SweepInputError(f"loading.type: a sweep needs a 'shake' loading, got "
+                              f"'{case.loading.type}'")
+    if cycles is not None and not (cycles > 0):
+        raise SweepInputError(f"--cycles must be > 0, got {cycles}")
+    if not (margin >= 0):
+        raise SweepInputError(f"--margin must be >= 0 s, got {margin}")
+    out = []
+    for f in frequencies:
+        data = case.model_dump()
+        ld = data["loading"]
+        ld["frequency"] = float(f)
+        if cycles is not None:
+            ld["cycles"] = float(cycles)
+        data["run"]["duration"] = ld["cycles"] / f + margin
+        data["name"] = f"{case.name}-{point_name(f)}"
+        try:
+            out.append((point_name(f), Case.model_validate(data)))
+        except ValidationError as err:
+            raise SweepInputError(f"{point_name(f)}: {err}") from None
+    return out

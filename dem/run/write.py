@@ -1,0 +1,178 @@
+"""Write phase: the output directory of a run (contract of ../shared/DESIGN.md).
+
+    summary.json   name, n_blocks, dt, steps, sim_time (s), wall_seconds, compile_seconds,
+                   status ("ok" | "failed" | "interrupted"), error, energy balance, loading ...
+    frames.npz     t [T] (s), pos [T,N,3] (m, table frame), quat [T,N,4] (w,x,y,z),
+                   base_disp [T,3] (m), vel [T,N,3] (m/s), omega [T,N,3] (rad/s, table
+                   frame); tilt runs add tilt_angle [T] (deg)
+    instruments.npz  virtual instruments sampled every run.instrument_interval (dem.instruments)
+    case.json      the validated case with every default filled in (Case.model_validate_json)
+    vtk/, final.png
+
+Nothing is lost on failure: frames.npz and summary.json are written (atomically, through
+dem.output.atomic: temp file in the same directory, fsync, rename) when the run ends for any
+reason, and every ``CHECKPOINT_SECONDS`` of wall-clock time.  Ends and what they leave
+(docs/failures.md):
+
+* ok / failed (SimulationError) / interrupted (SIGINT, SIGTERM, SIGHUP: dem.signals): every file
+  written, summary.json says which, with the error;
+* a write that fails (ENOSPC, EIO, read-only file system): :class:`OutputError`; the files already
+  written stay whole (atomic writes), the one that failed is not there (or is the previous
+  checkpoint's), summary.json says ``failed`` with ``write_errors`` if it could still be written,
+  else it is removed (a checkpoint's ``running`` would be a lie);
+* a stop before the first step (bad input found by the engine, a signal while it compiles):
+  nothing is written, ``dem run`` removes the directory it claimed.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import time
+from pathlib import Path
+
+import numpy as np
+
+from dem.case import Case
+from dem.output import atomic
+from dem.run.record import Recording
+from dem.scene import Scene
+
+CHECKPOINT_SECONDS = 30.0
+
+
+class OutputError(OSError):
+    """An output file could not be written (disk full, I/O error, read-only file system)."""
+
+
+def write_case(out: Path, case: Case) -> None:
+    """case.json: the validated case (all defaults filled in); post-processing rebuilds the
+    scene from it."""
+    try:
+        atomic.write_text(out / "case.json", case.model_dump_json(indent=1))
+    except OSError as err:
+        raise OutputError(err.errno, f"cannot write {out / 'case.json'}: "
+                                     f"{err.strerror or err}") from None
+
+
+def initial_summary(case: Case, scene: Scene, loading, sim) -> dict:
+    return {
+        "name": case.name,
+        "n_blocks": scene.n_blocks,
+        "dt": sim.dt,
+        "dt_critical": sim.dt_crit,
+        "steps": 0,
+        "sim_time": 0.0,
+        "wall_seconds": 0.0,
+        "compile_seconds": sim.compile_seconds,
+        "status": "running",
+        "error": None,
+        "mode": sim.mode,
+        "skin": sim.skin,
+        "loading": loading.describe(),
+        "material": case.material.model_dump(),
+        "output_interval": case.run.output_interval,
+    }
+
+
+def engine_results(sim, n_blocks: int, wall0: float, compile_seconds: float) -> dict:
+    """The engine's figures at the end of a run (steps, time, speed, contacts, energy)."""
+    out = {"steps": sim.step_count, "sim_time": sim.t,
+           "wall_seconds": time.perf_counter() - wall0}
+    run_s = out["wall_seconds"] - compile_seconds
+    out["brick_steps_per_second"] = n_blocks * sim.step_count / run_s if run_s > 0 else None
+    out["neighbour_rebuilds"] = sim.n_rebuilds
+    out["dt"] = sim.dt
+    out["dt_changes"] = sim.dt_changes
+    out["n_pairs"] = sim.contacts.n_pairs
+    out["n_contact_points"] = int(sim.contacts.npts[: sim.contacts.n_pairs].sum())
+    out["energy"] = sim.energy_report()
+    out["max_penetration_m"], out["max_penetration_time_s"] = sim.deepest_penetration()
+    return out
+
+
+def _snapshot(path: Path, scene: Scene, frames, title: str) -> None:
+    """final.png: the last frame coloured by displacement from the start."""
+    from dem.output.snapshot import snapshot_png
+
+    pos, quat = frames.cols["pos"], frames.cols["quat"]
+    disp = np.linalg.norm(pos[-1] - pos[0], axis=1)
+    snapshot_png(path, scene, pos[-1], quat[-1], scalars=disp, scalar_name="displacement (m)",
+                 title=title)
+
+
+class RunWriter:
+    """Writes the output directory (or nothing when ``out`` is None) and keeps the list of
+    writes that failed."""
+
+    def __init__(self, out: Path | None, case: Case, scene: Scene, recording: Recording):
+        self.out = out
+        self.case = case
+        self.scene = scene
+        self.recording = recording
+        self.write_errors: dict[str, str] = {}
+        self.last_flush = time.perf_counter()
+
+    def guarded(self, name: str, fn, *args) -> bool:
+        """Run one write; an OSError is recorded (the file is not there, or is the previous
+        checkpoint's: atomic writes) instead of stopping the other writes."""
+        try:
+            fn(*args)
+            return True
+        except OSError as err:
+            self.write_errors[name] = f"{err.strerror or err} (errno {err.errno})" \
+                if err.errno else str(err)
+            return False
+
+    def checkpoint(self, summary: dict, sim) -> None:
+        """frames.npz and summary.json every CHECKPOINT_SECONDS of wall-clock time."""
+        now = time.perf_counter()
+        if self.out is None or now - self.last_flush <= CHECKPOINT_SECONDS:
+            return
+        summary["steps"], summary["sim_time"] = sim.step_count, sim.t
+        self.recording.frames.write()
+        atomic.write_json(self.out / "summary.json", summary)
+        self.last_flush = now
+
+    def finish(self, summary: dict, status: str, error: str | None) -> None:
+        """Every output file at the end of a run; raises OutputError if one could not be
+        written (after writing all the others)."""
+        out, rec, case = self.out, self.recording, self.case
+        if rec.instruments is not None:
+            summary["instruments"] = {"file": "instruments.npz",
+                                      "interval_s": case.run.instrument_interval,
+                                      "names": [i.name for i in rec.instruments.instruments]}
+        if out is None:
+            return
+        self.guarded("frames.npz", rec.frames.write)
+        if rec.instruments is not None and rec.instruments.rows["t"]:
+            self.guarded("instruments.npz", atomic.save_npz, out / "instruments.npz",
+                         rec.instruments.arrays())
+        if rec.vtk is not None:
+            self.guarded("vtk/scene.pvd", rec.vtk.close)
+            summary["vtk_frames"] = rec.vtk.n_frames
+            summary["vtk_bytes"] = rec.vtk.bytes_written
+        if case.run.snapshot and rec.frames.n_frames and not self.write_errors:
+            self.guarded("final.png", _snapshot, out / "final.png", self.scene, rec.frames,
+                         case.name)
+        errors = self.write_errors
+        if errors:
+            summary["status"] = "failed"
+            summary["error"] = "output: " + "; ".join(f"{k}: {v}" for k, v in errors.items()) + \
+                (f" (after: {status}: {error})" if error else "")
+            summary["write_errors"] = errors
+        if not self.guarded("summary.json", atomic.write_json, out / "summary.json", summary):
+            # a checkpoint's 'running' must not survive: remove it (frees its blocks), then
+            # try a minimal summary
+            with contextlib.suppress(OSError):
+                (out / "summary.json").unlink()
+            small = {k: summary.get(k) for k in ("name", "n_blocks", "dt", "steps", "sim_time",
+                                                 "status", "error")}
+            small["write_errors"] = errors
+            small["status"] = "failed"
+            self.guarded("summary.json (minimal)", atomic.write_json, out / "summary.json", small)
+        if errors:
+            first = next(iter(errors))
+            raise OutputError(
+                None, f"cannot write the output in {out}: {first}: {errors[first]}"
+                + ("; summary.json says failed" if (out / "summary.json").is_file()
+                   else "; no summary.json could be written"))
