@@ -106,7 +106,7 @@ def derived_quantities(sig: ShakeSignals) -> dict:
 def load_run(run_dir: Path):
     """(case, scene) of a run directory from its case.json."""
     from dem.case import Case
-    from dem.scene import scene_from_case
+    from dem.run.build import scene_from_case
 
     path = Path(run_dir) / "case.json"
     if not path.is_file():
