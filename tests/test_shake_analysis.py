@@ -440,6 +440,7 @@ def test_dem_post_recomputes_a_tilt_run_from_its_frames(tmp_path):
     """A squat block (mu = 0.5) on a table tilting from 25 deg at 2 deg/s slides at
     atan(0.5) = 26.57 deg; dem post replays the collapse detection over frames.npz and must find
     what the run loop found."""
+    from dem.commands.run import RUN_ANALYSES
     from dem.run import run_case
 
     case = parse_case({
@@ -450,7 +451,7 @@ def test_dem_post_recomputes_a_tilt_run_from_its_frames(tmp_path):
                     "max_angle": 40.0},
         "run": {"duration": 4.0, "output_interval": 0.01, "vtk": False, "snapshot": False},
     })
-    res = run_case(case, tmp_path)
+    res = run_case(case, tmp_path, analyses=RUN_ANALYSES)
     assert res.summary["collapse"]["detected"]
     r = CliRunner().invoke(app, ["post", str(tmp_path)])
     assert r.exit_code == 0, r.output
