@@ -22,11 +22,11 @@ from pathlib import Path
 
 import numpy as np
 
-from dem.rocking.excitation import Sine
+from dem.rocking.integrate import Settings, integrate_rocking
 from dem.rocking.model import RockingParams
 from dem.rocking.runner import run_rocking_case_file
-from dem.rocking.integrate import Settings, integrate_rocking
 from dem.rocking.sweep import sweep
+from dem.table_motion import SineMotion
 
 ROOT = Path(__file__).resolve().parents[1]
 P_N0 = RockingParams(thickness=0.05, h1=0.14, m1=6.05, h2=0.14, m2=9.41)
@@ -47,7 +47,7 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--convergence", action="store_true")
     args = ap.parse_args()
-    exc = Sine(PEAK / (2 * math.pi * F) ** 2, F, 50)
+    exc = SineMotion(PEAK / (2 * math.pi * F) ** 2, F, 50)
     S = Settings(duration=50 / F)
     res = integrate_rocking(P_N0, exc, S)
     print(f"50-cycle rocking run: {len(res.events)} events, "

@@ -235,7 +235,9 @@ class ShakeLoading(_Strict):
 
     ``direction`` is used as given (not normalised): [1, 1, 0] moves x and y each by the amplitude
     (the thesis' diagonal tests).  Give the amplitude A (m) or the peak acceleration
-    a_p = A (2 pi f)^2 (m/s2).  After the last cycle the table acceleration is zero.
+    a_p = A (2 pi f)^2 (m/s2).  After the last cycle the table stops (u frozen, v = a = 0).  The
+    motion itself is dem.table_motion.SineMotion; the two-body model's case format uses this
+    class too (dem.rocking.schema.ShakeLoading adds that its direction must be horizontal).
     """
 
     type: Literal["shake"]
@@ -260,9 +262,15 @@ class ShakeLoading(_Strict):
 
     @property
     def displacement_amplitude(self) -> float:
+        """A, m: the amplitude given, or the one of the peak acceleration given."""
         if self.amplitude is not None:
             return self.amplitude
         return self.peak_acceleration / (2.0 * math.pi * self.frequency) ** 2
+
+    @property
+    def axis_amplitude(self) -> float:
+        """Displacement amplitude along the direction, m (= A * |direction|)."""
+        return self.displacement_amplitude * math.sqrt(sum(x * x for x in self.direction))
 
 
 class RecordLoading(_Strict):

@@ -16,7 +16,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from dem.rocking import analysis as an
-from dem.rocking.excitation import Excitation, Sine
+from dem.rocking.integrate import Settings, integrate_rocking
 from dem.rocking.model import (
     RockingParams,
     constrained_acc_maximal,
@@ -26,7 +26,7 @@ from dem.rocking.model import (
     make_rhs,
     pattern_name,
 )
-from dem.rocking.integrate import Settings, integrate_rocking
+from dem.table_motion import SineMotion, TableMotion
 
 T = 0.05
 MODEL_II = dict(thickness=T, h1=0.14, m1=6.05, h2=0.14, m2=9.41)
@@ -127,9 +127,9 @@ def test_uplift_from_rest_at_the_closed_form_threshold(params):
     P = RockingParams(**params)
     thr = an.uplift_threshold(P)
     f = 2.8
-    below = integrate_rocking(P, Sine(0.99 * thr / (2 * math.pi * f) ** 2, f, 3), Settings(duration=1.2))
+    below = integrate_rocking(P, SineMotion(0.99 * thr / (2 * math.pi * f) ** 2, f, 3), Settings(duration=1.2))
     assert set(below.pattern) == {"rest"} and not below.events
-    above = integrate_rocking(P, Sine(1.01 * thr / (2 * math.pi * f) ** 2, f, 3), Settings(duration=0.2))
+    above = integrate_rocking(P, SineMotion(1.01 * thr / (2 * math.pi * f) ** 2, f, 3), Settings(duration=0.2))
     first = above.events[0]
     # a(t) = -peak sin(w t) reaches -thr at w t = asin(thr / peak): Pattern 3A (top towards +x)
     t_expected = math.asin(1 / 1.01) / (2 * math.pi * f)
@@ -143,7 +143,7 @@ def test_free_rocking_period_and_restitution_match_housner():
     al = math.atan(T / P.height)
     th0 = 0.5 * al
     exact, linear = an.free_rocking_quarter_period(P, th0)
-    res = integrate_rocking(P, Excitation(), Settings(duration=1.2, restitution=1.0), (th0, th0, 0, 0))
+    res = integrate_rocking(P, TableMotion(), Settings(duration=1.2, restitution=1.0), (th0, th0, 0, 0))
     imp = [e for e in res.events if e["kind"] == "impact_base"]
     assert len(imp) >= 3
     assert imp[0]["t"] == pytest.approx(exact, rel=1e-6)
@@ -151,7 +151,7 @@ def test_free_rocking_period_and_restitution_match_housner():
     # with e = 1 the free-rocking period (two impacts) is 4 quarter periods
     assert imp[2]["t"] - imp[0]["t"] == pytest.approx(4 * exact, rel=1e-6)
     # plastic impact: energy ratio r^2, r = 1 - 3/2 sin^2(alpha)
-    res = integrate_rocking(P, Excitation(), Settings(duration=0.5), (th0, th0, 0, 0))
+    res = integrate_rocking(P, TableMotion(), Settings(duration=0.5), (th0, th0, 0, 0))
     e0 = next(e for e in res.events if e["kind"] == "impact_base")
     r = 1 - 1.5 * math.sin(al) ** 2
     assert e0["ke_after"] / e0["ke_before"] == pytest.approx(r * r, rel=1e-9)
@@ -161,7 +161,7 @@ def test_free_rocking_period_and_restitution_match_housner():
 def test_restitution_of_a_nonuniform_locked_pair():
     """r = 1 - M T^2 / (2 I_O) for the composite (angular momentum about the new corner)."""
     P = RockingParams(**MODEL_III, locked=True)
-    res = integrate_rocking(P, Excitation(), Settings(duration=0.5), (0.05, 0.05, 0, 0))
+    res = integrate_rocking(P, TableMotion(), Settings(duration=0.5), (0.05, 0.05, 0, 0))
     e0 = next(e for e in res.events if e["kind"] == "impact_base")
     IO = P.IO1 + P.IO2 + P.m2 * (P.h1 ** 2 + P.h1 * P.h2)
     r = 1 - P.mass * T * T / (2 * IO)
@@ -173,7 +173,7 @@ def test_vanishing_upper_mass_leaves_housners_block():
     P = RockingParams(thickness=T, h1=0.14, m1=6.05, h2=0.14, m2=6.05e-7)
     al1 = math.atan(T / 0.14)
     th0 = 0.5 * al1
-    res = integrate_rocking(P, Excitation(), Settings(duration=0.3), (th0, th0, 0, 0))
+    res = integrate_rocking(P, TableMotion(), Settings(duration=0.3), (th0, th0, 0, 0))
     base = next(e for e in res.events if e["kind"] == "impact_base")
     ref = an.free_rocking_quarter_period(RockingParams(thickness=T, h1=0.07, m1=1.0, h2=0.07,
                                                         m2=1.0, locked=True), th0)[0]
@@ -185,15 +185,15 @@ def test_vanishing_upper_mass_leaves_housners_block():
 def _housner_reference(A, f, t_end):
     """A minimal independent Housner integrator (uniform block T x 0.28 m): impact times."""
     H = 0.28
-    exc = Sine(A, f, 50)
+    exc = SineMotion(A, f, 50)
     al, R = math.atan(T / H), 0.5 * math.hypot(T, H)
     p2 = 3 * 9.81 / (4 * R)
     r = 1 - 1.5 * math.sin(al) ** 2
-    t = math.asin(9.81 * math.tan(al) / exc.peak) / exc.w
+    t = math.asin(9.81 * math.tan(al) / exc.peak_acceleration) / exc.omega
     y, s, out = [0.0, 0.0], 1, []
     while t < t_end:
         def rhs(tt, yy, s=s):
-            return [yy[1], -p2 * (math.sin(s * al - yy[0]) + exc.acc(tt) / 9.81 * math.cos(s * al - yy[0]))]
+            return [yy[1], -p2 * (math.sin(s * al - yy[0]) + exc.acceleration_at(tt) / 9.81 * math.cos(s * al - yy[0]))]
 
         def hit(tt, yy, s=s):
             return s * yy[0]
@@ -210,7 +210,7 @@ def _housner_reference(A, f, t_end):
 def test_forced_rocking_matches_an_independent_housner_integrator():
     P = uniform(locked=True)
     A, f = 3.0e-3, 4.0          # peak 1.89 m/s2 = 1.08 g tan(alpha): steady rocking
-    res = integrate_rocking(P, Sine(A, f, 50), Settings(duration=3.0))
+    res = integrate_rocking(P, SineMotion(A, f, 50), Settings(duration=3.0))
     ours = np.array([e["t"] for e in res.events if e["kind"] == "impact_base"])
     ref = _housner_reference(A, f, 3.0)
     n = min(len(ours), len(ref))
@@ -222,7 +222,7 @@ def test_forced_rocking_matches_an_independent_housner_integrator():
 def test_energy_conserved_through_impacts_with_restitution_one(params):
     """No base motion, e = 1, no friction (N conservative): E = KE + V stays constant."""
     P = RockingParams(**MODEL_II, **params)
-    res = integrate_rocking(P, Excitation(), Settings(duration=2.0, restitution=1.0), (0.02, 0.05, 0, 0))
+    res = integrate_rocking(P, TableMotion(), Settings(duration=2.0, restitution=1.0), (0.02, 0.05, 0, 0))
     assert res.stats["impacts_base"] >= 2 and res.stats["impacts_interface"] >= 2
     ke, v = energy_arrays(P, res.theta1, res.theta2, res.omega1, res.omega2,
                           res.mode[:, 0], res.mode[:, 1], res.mode[:, 3])
@@ -234,7 +234,7 @@ def test_energy_conserved_through_impacts_with_restitution_one(params):
 
 def test_top_friction_only_dissipates():
     P = RockingParams(**MODEL_II, top_load=20.0, top_friction=0.3)
-    res = integrate_rocking(P, Excitation(), Settings(duration=2.0), (0.05, 0.12, 0, 0))
+    res = integrate_rocking(P, TableMotion(), Settings(duration=2.0), (0.05, 0.12, 0, 0))
     ke, v = energy_arrays(P, res.theta1, res.theta2, res.omega1, res.omega2,
                           res.mode[:, 0], res.mode[:, 1], res.mode[:, 3])
     E = ke + v
@@ -255,7 +255,7 @@ def test_top_friction_holds_a_tilted_wall_per_static_balance(factor, stuck):
     F_req = (M * 9.81 * (T / 2 * math.cos(th) - zG * math.sin(th))
              + N * (T * math.cos(th) - H * math.sin(th))) / (H * math.cos(th) + T * math.sin(th))
     P = RockingParams(**MODEL_II, top_load=N, top_friction=factor * F_req / N)
-    res = integrate_rocking(P, Excitation(), Settings(duration=0.3), (th, th, 0, 0))
+    res = integrate_rocking(P, TableMotion(), Settings(duration=0.3), (th, th, 0, 0))
     if stuck:
         assert np.all(res.theta1 == th) and np.all(res.top_stick)
     else:
@@ -264,16 +264,16 @@ def test_top_friction_holds_a_tilted_wall_per_static_balance(factor, stuck):
 
 def test_mirror_symmetry():
     """Mirroring the excitation mirrors the response: theta -> -theta, A <-> B."""
-    class Mirrored(Sine):
-        def acc(self, t):
-            return -super().acc(t)
+    class Mirrored(SineMotion):
+        def acceleration_at(self, t):
+            return -super().acceleration_at(t)
 
-        def acc_array(self, t):
-            return -super().acc_array(t)
+        def acceleration(self, t):
+            return -super().acceleration(t)
 
     P = RockingParams(**MODEL_II)
     A, f = 2.0 / (2 * math.pi * 2.8) ** 2, 2.8
-    r1 = integrate_rocking(P, Sine(A, f, 50), Settings(duration=3.0))
+    r1 = integrate_rocking(P, SineMotion(A, f, 50), Settings(duration=3.0))
     r2 = integrate_rocking(P, Mirrored(A, f, 50), Settings(duration=3.0))
     swap = str.maketrans("AB", "BA")
     assert len(r1.events) == len(r2.events) >= 4
@@ -285,7 +285,7 @@ def test_mirror_symmetry():
 def test_free_rocking_ends_at_rest():
     """Housner impacts: the accumulation of impacts ends (Zeno lock) and the wall is at rest."""
     P = RockingParams(**MODEL_II, top_load=58.8, top_friction=0.0)
-    res = integrate_rocking(P, Excitation(), Settings(duration=6.0), (0.03, 0.05, 0, 0))
+    res = integrate_rocking(P, TableMotion(), Settings(duration=6.0), (0.03, 0.05, 0, 0))
     assert res.status == "ok"
     assert res.pattern[-1] == "rest" and res.theta1[-1] == 0 and res.theta2[-1] == 0
     ke, v = energy(P, tuple(res.mode[-1]), (0.0, 0.0, 0.0, 0.0))
@@ -297,7 +297,7 @@ def test_model_iii_at_2p2_hz_completes():
     rocks there (1.23 m/s2 > threshold 1.13 m/s2); both must finish all 50 cycles cleanly."""
     for N in (58.8, 0.0):
         P = RockingParams(**MODEL_III, top_load=N, top_friction=0.81)
-        res = integrate_rocking(P, Sine(6.46e-3, 2.2, 50), Settings(duration=50 / 2.2))
+        res = integrate_rocking(P, SineMotion(6.46e-3, 2.2, 50), Settings(duration=50 / 2.2))
         assert res.status in ("ok", "collapsed")
         assert res.stats["inconsistent_impacts"] == 0 and res.stats["no_consistent_mode"] == 0
         if N == 0.0:
@@ -325,7 +325,7 @@ def test_random_configurations_run_cleanly():
             load_point=str(rng.choice(["corner", "centre"])), locked=bool(rng.random() < 0.1))
         thr = min(an.uplift_threshold(P), an.uplift_threshold(P, "upper"))
         f = rng.uniform(1.5, 8)
-        exc = Sine(rng.uniform(0.8, 2.5) * thr / (2 * math.pi * f) ** 2, f, 10)
+        exc = SineMotion(rng.uniform(0.8, 2.5) * thr / (2 * math.pi * f) ** 2, f, 10)
         a = rng.uniform(-0.05, 0.05)
         init = (a, a + rng.uniform(-0.03, 0.03), 0, 0) if rng.random() < 0.3 else (0, 0, 0, 0)
         e = rng.choice(["housner", "0.8", "1.0"])

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from dem.rocking import analysis as an
-from dem.rocking.excitation import Excitation, Sine
+from dem.rocking.integrate import Settings, integrate_rocking
 from dem.rocking.model import (
     RockingParams,
     constrained_acc_maximal,
@@ -26,7 +26,7 @@ from dem.rocking.model import (
     evaluate,
     make_rhs,
 )
-from dem.rocking.integrate import Settings, integrate_rocking
+from dem.table_motion import SineMotion, TableMotion
 
 T, G = 0.05, 9.81
 MODEL_II = dict(thickness=T, h1=0.14, m1=6.05, h2=0.14, m2=9.41)
@@ -106,7 +106,7 @@ def test_rocking_frame_restitution_of_makris_and_vassiliou(gamma):
     al = math.atan(T / P.height)
     r = (1 - 1.5 * math.sin(al) ** 2 + 3 * gamma * math.cos(2 * al)) / (1 + 3 * gamma)
     assert an.housner_restitution(P) == pytest.approx(r, rel=1e-12)
-    res = integrate_rocking(P, Excitation(), Settings(duration=0.5), (0.5 * al, 0.5 * al, 0, 0))
+    res = integrate_rocking(P, TableMotion(), Settings(duration=0.5), (0.5 * al, 0.5 * al, 0, 0))
     e0 = next(e for e in res.events if e["kind"] == "impact_base")
     assert e0["ke_after"] / e0["ke_before"] == pytest.approx(r * r, rel=1e-9)
     assert res.stats["impacts_top"] >= 1
@@ -127,7 +127,7 @@ def test_single_block_limits_are_housner():
     # m2 -> 0, N -> 0, free to separate: Part 1 rocks as Housner's block (quarter period)
     P = co(thickness=T, h1=0.14, m1=6.05, h2=0.14, m2=6.05e-7, top_load=6.05e-7 * G)
     al1 = math.atan(T / 0.14)
-    res = integrate_rocking(P, Excitation(), Settings(duration=0.3), (0.5 * al1, 0.5 * al1, 0, 0))
+    res = integrate_rocking(P, TableMotion(), Settings(duration=0.3), (0.5 * al1, 0.5 * al1, 0, 0))
     base = next(e for e in res.events if e["kind"] == "impact_base")
     ref = an.free_rocking_quarter_period(RockingParams(thickness=T, h1=0.07, m1=1.0, h2=0.07,
                                                         m2=1.0, locked=True), 0.5 * al1)[0]
@@ -138,9 +138,9 @@ def _bracket(P, thr, first_after):
     """Below 0.99 thr: rest for 3 cycles; above 1.01 thr: lifts into ``first_after`` when a(t)
     first reaches -thr (a(t) = -peak sin(w t))."""
     f = 2.8
-    below = integrate_rocking(P, Sine(0.99 * thr / (2 * math.pi * f) ** 2, f, 3), Settings(duration=1.2))
+    below = integrate_rocking(P, SineMotion(0.99 * thr / (2 * math.pi * f) ** 2, f, 3), Settings(duration=1.2))
     assert set(below.pattern) == {"rest"} and not below.events
-    above = integrate_rocking(P, Sine(1.01 * thr / (2 * math.pi * f) ** 2, f, 3), Settings(duration=0.2))
+    above = integrate_rocking(P, SineMotion(1.01 * thr / (2 * math.pi * f) ** 2, f, 3), Settings(duration=0.2))
     first = above.events[0]
     assert first["before"] == "rest" and first["after"] == first_after
     assert first["t"] == pytest.approx(math.asin(1 / 1.01) / (2 * math.pi * f), abs=2e-6)
@@ -178,7 +178,7 @@ def test_comoving_energy_conserved_through_impacts_with_restitution_one(init):
     """e = 1, no base motion: E = KE (beam included) + V constant through base, interface and
     beam (top-corner switch) impacts."""
     P = co(**MODEL_II, top_load=N_TESTS)
-    res = integrate_rocking(P, Excitation(), Settings(duration=2.0, restitution=1.0), (*init, 0, 0))
+    res = integrate_rocking(P, TableMotion(), Settings(duration=2.0, restitution=1.0), (*init, 0, 0))
     assert res.stats["impacts_base"] >= 4 and res.stats["impacts_interface"] >= 4
     assert res.stats["impacts_top"] >= 4
     ke, v = energy_arrays(P, res.theta1, res.theta2, res.omega1, res.omega2,
@@ -190,7 +190,7 @@ def test_comoving_energy_conserved_through_impacts_with_restitution_one(init):
 
 def test_comoving_housner_impacts_only_dissipate():
     P = co(**MODEL_III, top_load=N_TESTS)
-    res = integrate_rocking(P, Excitation(), Settings(duration=1.5), (0.02, -0.03, 0, 0))
+    res = integrate_rocking(P, TableMotion(), Settings(duration=1.5), (0.02, -0.03, 0, 0))
     ke, v = energy_arrays(P, res.theta1, res.theta2, res.omega1, res.omega2,
                           res.mode[:, 0], res.mode[:, 1], res.mode[:, 3])
     E = ke + v

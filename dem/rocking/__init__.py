@@ -9,7 +9,7 @@ beams, under a horizontal base acceleration.  Modules:
 * :mod:`dem.rocking.impacts`    plastic (Moreau / Housner) impacts, joint locks, restitution
 * :mod:`dem.rocking.events`     event functions and what happens at an event
 * :mod:`dem.rocking.recording`  output samples, event log, episodes; RockingResult, RockingError
-* :mod:`dem.rocking.excitation` base motion
+* :mod:`dem.table_motion`      the table motion (shared with the DEM: dem.loading.Shake)
 * :mod:`dem.rocking.analysis`   closed forms (Housner limits, thresholds), amplitudes, statistics
 * :mod:`dem.rocking.schema`     the case format; :mod:`dem.rocking.runner` ``dem rocking``
 

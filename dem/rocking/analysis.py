@@ -218,7 +218,7 @@ def top_friction_demand(P: RockingParams, res, exc, stride: int = 1) -> dict:
                 continue
             y = (res.theta1[i], res.theta2[i] - res.theta1[i], res.omega1[i],
                  res.omega2[i] - res.omega1[i])
-            a = float(exc.acc(res.t[i]))
+            a = float(exc.acceleration_at(res.t[i]))
             H, V = top_contact_force(P, (b, c, tau, sig), y, a)
             if V < vmin:
                 vmin, t_vmin = V, float(res.t[i])

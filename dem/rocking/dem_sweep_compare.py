@@ -48,9 +48,9 @@ from pathlib import Path
 import numpy as np
 
 from dem.rocking import analysis as an
-from dem.rocking.excitation import Sine
-from dem.rocking.model import RockingParams
 from dem.rocking.integrate import RockingError, Settings, integrate_rocking
+from dem.rocking.model import RockingParams
+from dem.table_motion import SineMotion
 from postprocess.signal_analysis import amplification, cycle_extrema, phase_lag, steady_window
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -90,7 +90,7 @@ def load_dem(sweep_dir: Path = DEM_SWEEP) -> tuple[dict, list[dict]]:
 def run_point(P: RockingParams, f: float, peak: float, cycles: float, margin: float) -> dict:
     """One two-body run at the DEM's point; the DEM's ds amplification computed on its output."""
     A = peak / (2 * math.pi * f) ** 2
-    exc = Sine(A, f, cycles)
+    exc = SineMotion(A, f, cycles)
     try:
         res = integrate_rocking(P, exc, Settings(duration=cycles / f + margin))
     except RockingError as e:                       # never seen; reported rather than hidden
@@ -108,10 +108,10 @@ def run_point(P: RockingParams, f: float, peak: float, cycles: float, margin: fl
     th2 = np.interp(t, res.t, res.theta2)
     ds = P.h1 * np.sin(th1) + (Z_S - P.h1) * np.sin(th2)
     top = an.top_displacement(P, th1, th2)
-    u = exc.disp(t)
+    u = exc.displacement(t)
     out["max_abs_ds"] = float(np.abs(ds).max())
     # ds peak-to-peak / table peak-to-peak in every complete cycle (before overturning, if it does)
-    n = int(math.floor(min(t_end, exc.t_stop) * f + 1e-9))
+    n = int(math.floor(min(t_end, exc.t_end) * f + 1e-9))
     if n >= 1:
         rmx, rmn = cycle_extrema(t, ds, f, 0, n)
         emx, emn = cycle_extrema(t, u, f, 0, n)
@@ -120,7 +120,7 @@ def run_point(P: RockingParams, f: float, peak: float, cycles: float, margin: fl
         out["cycle_ratio"] = []
     if res.status != "ok":                          # overturned before the end of the shaking
         return out
-    win = steady_window(t, ds, u, f, exc.t_stop)
+    win = steady_window(t, ds, u, f, exc.t_end)
     if win is None:
         return out
     a = amplification(t, ds, u, win)

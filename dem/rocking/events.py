@@ -40,7 +40,7 @@ def event_functions(P: RockingParams, exc, S, tol: Tolerances, mode):
         e = cache.get(key)
         if e is None:
             cache.clear()
-            e = evaluate(P, mode, y, exc.acc(t), want_forces=True)
+            e = evaluate(P, mode, y, exc.acceleration_at(t), want_forces=True)
             cache[key] = e
         return e
 
@@ -108,7 +108,7 @@ class EventHandler:
             starting = (b != 0 and y[0] == 0.0) or (c != 0 and y[1] == 0.0) or tau != 0
             if not starting:
                 return t, y, mode
-            e = evaluate(P, mode, y, self.exc.acc(t), want_forces=False)
+            e = evaluate(P, mode, y, self.exc.acceleration_at(t), want_forces=False)
             if (tau != 0 and abs(e.xd) > self.tol_x and b * y[0] != 0 and c * y[1] != 0
                     and (y[0] + y[1] != 0.0 or P.load_point != "corner")):
                 # (theta2 = 0 exactly: the load has just passed to the other corner; its event
@@ -184,7 +184,7 @@ class EventHandler:
             # located root the released mode is only marginally consistent (its opening
             # acceleration is exactly 0), so first continue the old mode NUDGE past the root
             # (second-order Taylor step; the neglected motion is ~ jerk NUDGE^3 / 6).
-            e = evaluate(P, mode, tuple(y), self.exc.acc(t), want_forces=False)
+            e = evaluate(P, mode, tuple(y), self.exc.acceleration_at(t), want_forces=False)
             h = NUDGE
             dphi = e.dd2 - e.dd1
             y = [y[0] + h * y[2] + 0.5 * h * h * e.dd1, y[1] + h * y[3] + 0.5 * h * h * dphi,

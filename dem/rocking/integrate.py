@@ -34,6 +34,7 @@ from dem.rocking.impacts import ImpactResolver
 from dem.rocking.model import STATIONARY, RockingParams, flow_kind, make_rhs, pattern_name
 from dem.rocking.modes import ModeSelector, tolerances
 from dem.rocking.recording import Recorder, RockingError, RockingResult
+from dem.table_motion import TableMotion
 
 __all__ = ["Settings", "RockingError", "RockingResult", "integrate_rocking"]
 
@@ -61,7 +62,7 @@ class Settings:
 class _Integration:
     """One run: the loop over smooth flows, stationary modes and events."""
 
-    def __init__(self, P: RockingParams, exc, S: Settings):
+    def __init__(self, P: RockingParams, exc: TableMotion, S: Settings):
         self.P, self.exc, self.S = P, exc, S
         self.tol = tolerances(P)
         self.rec = Recorder(S)
@@ -97,7 +98,7 @@ class _Integration:
                     raise RockingError(
                         f"stationary mode {pattern_name(*mode[:2])} left at t = {t_new:.9g} s "
                         "but no other mode is consistent", t_new)
-                rec.event(t_new, "leave_" + kind, mode, new, a=self.exc.acc(t_new))
+                rec.event(t_new, "leave_" + kind, mode, new, a=self.exc.acceleration_at(t_new))
                 rec.episode(t_new, mode, new)
                 t, mode = t_new, new
                 continue
@@ -112,7 +113,7 @@ class _Integration:
             j = int(np.searchsorted(rec.grid, t_bound, side="left"))
             t_eval = np.append(rec.grid[rec.i_next:j], t_bound)
             evs, kinds = event_functions(self.P, self.exc, S, self.tol, mode)
-            sol = solve_ivp(make_rhs(self.P, mode, self.exc.acc), (t, t_bound), list(y),
+            sol = solve_ivp(make_rhs(self.P, mode, self.exc.acceleration_at), (t, t_bound), list(y),
                             method=S.method, t_eval=t_eval, events=evs, rtol=S.rtol,
                             atol=S.atol, max_step=self.max_step)
             if sol.status == -1:
@@ -149,9 +150,11 @@ class _Integration:
         return status, message
 
 
-def integrate_rocking(P: RockingParams, exc, settings: Settings,
+def integrate_rocking(P: RockingParams, exc: TableMotion, settings: Settings,
                       initial=(0.0, 0.0, 0.0, 0.0)) -> RockingResult:
-    """Integrate the two-block model from ``initial = (theta1, theta2, omega1, omega2)`` (absolute).
+    """Integrate the two-block model from ``initial = (theta1, theta2, omega1, omega2)`` (absolute)
+    under the table motion ``exc`` (dem.table_motion: ``TableMotion()`` for free motion,
+    ``SineMotion(A, f, cycles)`` for the shake; along the rocking plane, m).
 
     Returns a :class:`RockingResult` sampled every ``settings.output_interval`` plus the exact
     event log.  Raises :class:`RockingError` (with ``partial``) when the integration cannot go on.

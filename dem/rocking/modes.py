@@ -46,8 +46,9 @@ def tolerances(P: RockingParams) -> Tolerances:
 class ModeSelector:
     """Candidate modes at a state, their complementarity conditions, the consistent one.
 
-    ``exc`` is the base motion (its ``acc(t)`` in m/s2 and ``breakpoints``); ``stats`` the run's
-    counters (``no_consistent_mode`` is counted here).
+    ``exc`` is the table motion (dem.table_motion: ``acceleration_at(t)`` in m/s2,
+    ``breakpoints``, ``t_end``); ``stats`` the run's counters (``no_consistent_mode`` is counted
+    here).
     """
 
     def __init__(self, P: RockingParams, exc, tol: Tolerances, stats: dict):
@@ -135,7 +136,7 @@ class ModeSelector:
     # ------------------------------------------------------------------ choice
     def select(self, t, y, exclude=None, prev=None):
         """The contact mode consistent with complementarity at (t, y) (acceleration level)."""
-        a = self.exc.acc(t)
+        a = self.exc.acceleration_at(t)
         ok, bad = [], []
         rest = None
         for mode, bf, ifr, sf in self.candidates(y, t):
@@ -169,7 +170,7 @@ class ModeSelector:
 
     def check_release(self, cand, t, y, old):
         """Accept the released mode unless another condition of it is clearly violated."""
-        a = self.exc.acc(t)
+        a = self.exc.acceleration_at(t)
         _, sf = self.sig_choices(y)
         conds, _ = self.conditions(cand, y, a, False, False, sf)
         if all(v >= -1.0 for v, _ in conds):
@@ -227,13 +228,17 @@ class ModeSelector:
         if not forb:
             return None
         exc = self.exc
+        acc = exc.acceleration_at
         pts = [t0] + exc.breakpoints(t0, t_end) + [t_end]
-        if exc.t_stop < t_end and exc.t_stop > t0:
+        if exc.t_end < t_end and exc.t_end > t0:
             pts = sorted(set(pts))
         for ta, tb in zip(pts[:-1], pts[1:]):
             # a is monotone on (ta, tb); use one-sided values at a possible jump
-            aa = exc.acc(ta + 1e-12 * max(1.0, abs(ta))) if ta > t0 else exc.acc(ta)
-            ab = exc.acc(tb - 1e-12 * max(1.0, abs(tb)))
+            aa = acc(ta + 1e-12 * max(1.0, abs(ta))) if ta > t0 else acc(ta)
+            tb_left = tb - 1e-12 * max(1.0, abs(tb))
+            ab = acc(tb_left)
+            # a(t) drops to 0 at the end of the motion (a(t_end) = 0): find roots on its left side
+            a_piece = acc if tb != exc.t_end else (lambda s: acc(min(s, tb_left)))
             best = None
             for lo, hi in forb:
                 inside_a = lo < aa < hi
@@ -244,7 +249,7 @@ class ModeSelector:
                     if not math.isfinite(bound):
                         continue
                     if (aa - bound) * (ab - bound) < 0:
-                        tc = brentq(lambda s: exc.acc(s) - bound, ta, tb, xtol=1e-14, rtol=1e-15)
+                        tc = brentq(lambda s: a_piece(s) - bound, ta, tb, xtol=1e-14, rtol=1e-15)
                         best = tc if best is None else min(best, tc)
             if best is not None:
                 return best

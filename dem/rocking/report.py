@@ -75,7 +75,7 @@ def case_row(stem: str):
     P, exc, res, err = run_case(case)
     d = an.top_displacement(P, res.theta1, res.theta2)
     stats, _ = an.pattern_statistics(res.episodes, float(res.t[-1]))
-    ci, cmax, cmin = an.cycle_amplitudes(res.t, d, exc.period, exc.t_stop) if exc.period else ([], [], [])
+    ci, cmax, cmin = an.cycle_amplitudes(res.t, d, exc.period, exc.t_end) if exc.period else ([], [], [])
     first = next((e["t"] for e in res.events if e["before"] == "rest"), None)
     return case, P, exc, res, d, stats, (ci, cmax, cmin), first
 
@@ -97,12 +97,12 @@ def thesis_cases_table() -> str:
     for stem in stems:
         case, P, exc, res, d, stats, _, first = case_row(stem)
         model = "III" if stem.startswith("model-iii") else "II"
-        f = exc.f
+        f = exc.frequency
         exp = EXPERIMENT.get((model, f)) if stem.startswith("model-") else None
         ours_err = (f"{100 * abs(np.abs(d).max() - exp) / exp:.0f} %" if exp else "-")
         th_err = (f"{THESIS_ERROR[(model, f)]:.1f} % (mean)" if stem.startswith("model-")
                   and (model, f) in THESIS_ERROR else "-")
-        rows.append(f"| {stem} | {f:g} | {1e3 * exc.A:.2f} | {exc.peak:.2f} | {res.status} | "
+        rows.append(f"| {stem} | {f:g} | {1e3 * exc.amplitude:.2f} | {exc.peak_acceleration:.2f} | {res.status} | "
                     f"{'never' if first is None else f'{first:.3f} s'} | {1e3 * np.abs(d).max():.2f} | "
                     f"{thesis_amp.get(stem, '10-15 mm' if model == 'II' and stem.startswith('model') else 'see text')} | "
                     f"{mm(exp) if exp else '-'} | {ours_err} | {th_err} |")
@@ -151,12 +151,12 @@ def dem_comparison() -> str:
     sys.path.insert(0, str(ROOT / "tests"))
     import test_rocking_vs_dem as tv
     from dem.case import parse_case
-    from dem.rocking.excitation import Excitation
     from dem.rocking.integrate import Settings, integrate_rocking
+    from dem.table_motion import TableMotion
     from dem.runner import simulate as dem_simulate
 
     P = RockingParams(thickness=tv.T, h1=tv.H1, m1=tv.M1, h2=tv.H2, m2=tv.M2)
-    red = integrate_rocking(P, Excitation(), Settings(duration=0.8), (tv.THETA0, tv.THETA0, 0, 0))
+    red = integrate_rocking(P, TableMotion(), Settings(duration=0.8), (tv.THETA0, tv.THETA0, 0, 0))
     case = parse_case({
         "name": "two-block-release",
         "scene": {"blocks": [tv._block(tv.H1, tv.H1 / 2, tv.M1), tv._block(tv.H2, tv.H1 + tv.H2 / 2, tv.M2)]},
@@ -225,15 +225,15 @@ def top_contact_cases_table() -> str:
             stats, _ = an.pattern_statistics(res.episodes, float(res.t[-1]))
             first = next((e["t"] for e in res.events if e["before"] == "rest"), None)
             ci, cmax, cmin = an.cycle_amplitudes(res.t, d, exc.period,
-                                                 min(exc.t_stop, float(res.t[-1]) + 1e-12))
+                                                 min(exc.t_end, float(res.t[-1]) + 1e-12))
             steady = "-"
             if res.status == "ok" and len(ci):
                 half = ci >= (ci.max() + 1) / 2
                 steady = f"+{mm(float(np.mean(cmax[half])))} / {mm(float(np.mean(cmin[half])))}"
             model = "III" if stem.startswith("model-iii") else "II"
-            exp = EXPERIMENT.get((model, exc.f)) if stem.startswith("model-") else None
+            exp = EXPERIMENT.get((model, exc.frequency)) if stem.startswith("model-") else None
             ours = abs(float(np.abs(d).max()) - exp) / exp if exp else None
-            th_err = THESIS_ERROR.get((model, exc.f)) if stem.startswith("model-") else None
+            th_err = THESIS_ERROR.get((model, exc.frequency)) if stem.startswith("model-") else None
             pats = ", ".join(f"{k} {100 * v['time_fraction']:.0f}%" for k, v in stats.items()
                              if v["time_fraction"] >= 0.005)
             st = res.status if res.status != "collapsed" else f"collapsed ({res.t[-1]:.2f} s)"
@@ -244,7 +244,7 @@ def top_contact_cases_table() -> str:
                        f"{fd['impact_max_abs_H_over_V']:.2f} impacts")
             s = res.stats
             rows.append(
-                f"| {stem} | {exc.peak:.2f} | {tc} | {an.uplift_thresholds(P)['governing']:.2f} | {st} | "
+                f"| {stem} | {exc.peak_acceleration:.2f} | {tc} | {an.uplift_thresholds(P)['governing']:.2f} | {st} | "
                 f"{'never' if first is None else f'{first:.3f}'} | {1e3 * np.abs(d).max():.1f} | {steady} | "
                 f"{pats} | {s['impacts_base']}/{s['impacts_interface']}/{s.get('impacts_top', 0)} | {dem} | "
                 f"{mm(exp) if exp else '-'} | {'-' if ours is None else f'{100 * ours:.0f} %'} | "

@@ -30,6 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from dem.rocking import analysis as an
+from dem.rocking.integrate import RockingError, RockingResult, integrate_rocking
 from dem.rocking.model import PATTERNS, energy_arrays
 from dem.rocking.schema import (
     RockingCase,
@@ -40,7 +41,6 @@ from dem.rocking.schema import (
     params_from_case,
     settings_from_case,
 )
-from dem.rocking.integrate import RockingError, RockingResult, integrate_rocking
 
 EXIT_OK, EXIT_RUN_FAILED, EXIT_BAD_INPUT = 0, 1, 2
 
@@ -57,13 +57,22 @@ def run_case(case: RockingCase):
         return P, exc, err.partial, err
 
 
+def loading_summary(case: RockingCase, exc) -> dict:
+    """summary.json's ``loading``, in the DEM's layout (dem.loading.Shake.describe): the table
+    moves by amplitude_m * direction * sin(2 pi f t), here with the unit direction of the case."""
+    if case.loading.type == "none":
+        return exc.describe()
+    d = np.asarray(case.loading.direction, dtype=float)
+    return {"type": "shake", "direction": (d / np.linalg.norm(d)).tolist(), **exc.describe()}
+
+
 def summarize(case: RockingCase, P, exc, res: RockingResult, wall: float) -> tuple[dict, dict]:
     """summary.json content and the derived arrays for rocking.npz."""
     d = an.top_displacement(P, res.theta1, res.theta2)
     t_end = float(res.t[-1]) if len(res.t) else 0.0
     arrays = {}
     if exc.period:
-        ci, cmax, cmin = an.cycle_amplitudes(res.t, d, exc.period, min(exc.t_stop, t_end + 1e-12))
+        ci, cmax, cmin = an.cycle_amplitudes(res.t, d, exc.period, min(exc.t_end, t_end + 1e-12))
     else:
         ci, cmax, cmin = np.zeros(0, int), np.zeros(0), np.zeros(0)
     tp, dp = an.oscillation_peaks(res.t, d)
@@ -97,7 +106,7 @@ def summarize(case: RockingCase, P, exc, res: RockingResult, wall: float) -> tup
             "locked": P.locked, "top_contact": P.top_contact,
             "top_mass_kg": P.mN,
         },
-        "loading": exc.describe(),
+        "loading": loading_summary(case, exc),
         "closed_form": {
             # thresholds of the chosen top contact (docs/rocking_model.md, section 4)
             "top_contact": P.top_contact,
@@ -107,8 +116,8 @@ def summarize(case: RockingCase, P, exc, res: RockingResult, wall: float) -> tup
             "first_pattern": an.uplift_thresholds(P)["first_pattern"],
             "thesis_eq_5_4_threshold_m_s2": an.thesis_uplift_threshold(P),
             "housner_restitution_locked": an.housner_restitution(P),
-            "peak_over_threshold": (exc.peak / an.uplift_thresholds(P)["governing"])
-            if getattr(exc, "peak", None) else None,
+            "peak_over_threshold": (exc.peak_acceleration / an.uplift_thresholds(P)["governing"])
+            if getattr(exc, "peak_acceleration", None) else None,
         },
         "sim_time": t_end,
         "wall_seconds": wall,
@@ -150,7 +159,7 @@ def write_outputs(out: Path, case: RockingCase, P, exc, res: RockingResult, wall
     atomic.save_npz(out / "rocking.npz", dict(
         t=res.t, theta1=res.theta1, theta2=res.theta2, omega1=res.omega1, omega2=res.omega2,
         pattern=res.pattern.astype("<U4"), top_disp=d, top_stick=res.top_stick, mode=res.mode,
-        base_disp=exc.disp(res.t), base_acc=exc.acc_array(res.t),
+        base_disp=exc.displacement(res.t), base_acc=exc.acceleration(res.t),
         kinetic_energy=ke, potential_energy=v,
         event_t=np.array([e["t"] for e in ev], dtype=float),
         event_kind=np.array([e["kind"] for e in ev], dtype="<U20"),
@@ -190,10 +199,10 @@ def plot_results(out: Path, case, P, exc, res, d, arrays) -> None:
     ax[0].set_ylabel("angle (rad)")
     ax[0].legend(loc="upper right")
     ax[1].plot(t, 1e3 * d, lw=0.8, label="top displacement d")
-    ax[1].plot(t, 1e3 * exc.disp(t), lw=0.6, color="0.6", label="table displacement")
+    ax[1].plot(t, 1e3 * exc.displacement(t), lw=0.6, color="0.6", label="table displacement")
     ax[1].set_ylabel("mm")
     ax[1].legend(loc="upper right")
-    ax[2].plot(t, exc.acc_array(t), lw=0.6, color="0.4")
+    ax[2].plot(t, exc.acceleration(t), lw=0.6, color="0.4")
     thr = an.uplift_threshold(P)
     for s in (1, -1):
         ax[2].axhline(s * thr, color="r", lw=0.6, ls="--")

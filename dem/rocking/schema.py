@@ -24,9 +24,11 @@ exactly as written; everything below ``# extensions`` is optional.  SI units, an
     solver: {method: DOP853, rtol: 1.0e-10, atol: 1.0e-12, max_step_fraction: 0.0625,
              zeno_velocity: 1.0e-6, zeno_time: 1.0e-4, max_events: 200000}
 
-The loading is along ``direction`` (used as given, as in the DEM's case format: the rocking plane
-contains it and the displacement amplitude is ``amplitude * |direction|``); give ``amplitude`` (m)
-or ``peak_acceleration`` (m/s2).  ``loading: {type: none}`` is free motion from ``initial``.
+The shake is the DEM's (:class:`dem.case.ShakeLoading`: the same fields, defaults and checks, and
+the same table motion, dem.table_motion), with a horizontal ``direction``: used as given, the
+rocking plane contains it and the displacement amplitude is ``amplitude * |direction|``; give
+``amplitude`` (m) or ``peak_acceleration`` (m/s2).  After the last cycle the table stops.
+``loading: {type: none}`` is free motion from ``initial``.
 Unknown keys are rejected; errors name the field, e.g. ``rocking.lower.mass: must be > 0 kg``.
 """
 
@@ -38,6 +40,8 @@ from typing import Annotated, Literal, Union
 
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+
+from dem.case import ShakeLoading as DemShakeLoading
 
 
 class RockingCaseError(ValueError):
@@ -138,60 +142,23 @@ class RockingSpec(_Strict):
         return float(v)
 
 
-Vec3 = Annotated[list[float], Field(min_length=3, max_length=3)]
-
-
-class ShakeSpec(_Strict):
-    """u(t) = amplitude * direction * sin(2 pi f t) for ``cycles`` cycles (as the DEM's shake)."""
-
-    type: Literal["shake"]
-    direction: Vec3
-    frequency: float = Field(description="Hz")
-    amplitude: float | None = Field(default=None, description="m")
-    peak_acceleration: float | None = Field(default=None, description="m/s2")
-    cycles: float = Field(default=50.0, description="number of cycles")
-
-    _f = field_validator("frequency")(lambda cls, v: _positive("Hz")(v))
-    _c = field_validator("cycles")(lambda cls, v: _positive("")(v))
-
-    @field_validator("amplitude")
-    @classmethod
-    def _amp(cls, v):
-        return None if v is None else _positive("m")(v)
-
-    @field_validator("peak_acceleration")
-    @classmethod
-    def _peak(cls, v):
-        return None if v is None else _positive("m/s2")(v)
+class ShakeLoading(DemShakeLoading):
+    """The DEM's shake (dem.case.ShakeLoading: the same fields, defaults and checks), with a
+    horizontal direction: the rocking plane contains it."""
 
     @field_validator("direction")
     @classmethod
-    def _dir(cls, v):
-        if any(not math.isfinite(x) for x in v) or math.sqrt(sum(x * x for x in v)) == 0.0:
-            raise ValueError(f"must be a finite non-zero vector, got {v}")
+    def _horizontal(cls, v):
         if abs(v[2]) > 1e-12:
             raise ValueError(f"must be horizontal (z = 0) for the rocking model, got {v}")
         return v
-
-    @model_validator(mode="after")
-    def _one(self) -> "ShakeSpec":
-        if (self.amplitude is None) == (self.peak_acceleration is None):
-            raise ValueError("give exactly one of amplitude (m) or peak_acceleration (m/s2)")
-        return self
-
-    @property
-    def axis_amplitude(self) -> float:
-        """Displacement amplitude along the direction, m (= amplitude * |direction|)."""
-        A = self.amplitude if self.amplitude is not None else \
-            self.peak_acceleration / (2 * math.pi * self.frequency) ** 2
-        return A * math.sqrt(sum(x * x for x in self.direction))
 
 
 class NoneSpec(_Strict):
     type: Literal["none"]
 
 
-LoadingSpec = Annotated[Union[ShakeSpec, NoneSpec], Field(discriminator="type")]
+LoadingSpec = Annotated[Union[ShakeLoading, NoneSpec], Field(discriminator="type")]
 
 
 class RunSpec(_Strict):
@@ -304,12 +271,13 @@ def params_from_case(case: RockingCase):
 
 
 def excitation_from_case(case: RockingCase):
-    from dem.rocking.excitation import Excitation, Sine
+    """The table motion along the rocking plane (dem.table_motion, shared with the DEM)."""
+    from dem.table_motion import SineMotion, TableMotion
 
     L = case.loading
     if L.type == "none":
-        return Excitation()
-    return Sine(L.axis_amplitude, L.frequency, L.cycles)
+        return TableMotion()
+    return SineMotion(L.axis_amplitude, L.frequency, L.cycles)
 
 
 def settings_from_case(case: RockingCase):

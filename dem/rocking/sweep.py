@@ -12,9 +12,9 @@ import math
 import numpy as np
 
 from dem.rocking import analysis as an
-from dem.rocking.excitation import Sine
-from dem.rocking.model import RockingParams
 from dem.rocking.integrate import RockingError, Settings, integrate_rocking
+from dem.rocking.model import RockingParams
+from dem.table_motion import SineMotion
 
 
 def sweep(P: RockingParams, frequencies, peak_acceleration: float | None = None,
@@ -26,7 +26,7 @@ def sweep(P: RockingParams, frequencies, peak_acceleration: float | None = None,
     rows = []
     for f in frequencies:
         A = amplitude if amplitude is not None else peak_acceleration / (2 * math.pi * f) ** 2
-        exc = Sine(A, f, cycles)
+        exc = SineMotion(A, f, cycles)
         S = Settings(duration=cycles / f + free_time, **(settings or {}))
         try:
             res = integrate_rocking(P, exc, S)
@@ -34,11 +34,11 @@ def sweep(P: RockingParams, frequencies, peak_acceleration: float | None = None,
         except RockingError as e:
             res, err = e.partial, str(e)
         d = an.top_displacement(P, res.theta1, res.theta2)
-        ci, cmax, cmin = an.cycle_amplitudes(res.t, d, exc.period, exc.t_stop)
+        ci, cmax, cmin = an.cycle_amplitudes(res.t, d, exc.period, exc.t_end)
         stats, _ = an.pattern_statistics(res.episodes, float(res.t[-1]) if len(res.t) else 0.0)
         steady = ci >= (cycles / 2) if len(ci) else ci
         rows.append({
-            "frequency": float(f), "amplitude": A, "peak_acceleration": exc.peak,
+            "frequency": float(f), "amplitude": A, "peak_acceleration": exc.peak_acceleration,
             "status": res.status, "error": err,
             "t_end": float(res.t[-1]) if len(res.t) else 0.0,
             "amp_pos": float(np.mean(cmax[steady])) if res.status == "ok" and np.any(steady) else math.nan,
