@@ -11,17 +11,13 @@ horizontal axis; instead of moving the table, gravity turns the other way:
 g_table = R(axis, theta)^T g.  theta(t) = min(start + rate t, max_angle), optionally in steps
 with holds and after a smooth approach to the start angle (see dem.case.TiltLoading).
 Record: any sampled table acceleration (dem.case.RecordLoading), integrated from rest.
-Shake: u(t) = A d sin(2 pi f t) for t <= T = cycles / f, with a(t) = u''(t); after T the table
-acceleration is zero (the table keeps the velocity it had, so u continues linearly).  The table
-starts with velocity A w d (w = 2 pi f) and zero acceleration: blocks at rest on the table move
-with it, so nothing jumps; a block that is free (no friction) keeps that initial velocity and
-drifts relative to the table by A w t.  (Started from rest, the acceleration -A w^2 sin(w t)
-would carry the table away by 2 pi A per cycle; the start at velocity A w is what keeps u
-bounded by A while it shakes.  After the last cycle the table keeps that velocity, so base_disp
-grows by A w per second of margin; the blocks feel nothing.  Stopping it would need a
-deceleration they feel: not done, see docs/failures.md "Known limits".)  A shake whose period is
-shorter than 20 time steps, or a record that ends before the run with the table still moving,
-is refused by dem.validate.
+Shake: the table moves by u(t) d along the direction d (used as given), with the sinusoidal
+u(t) = A sin(2 pi f t) of dem.table_motion (shared with the two-body model): a(t) = u''(t) while
+it shakes (0 <= t < T = cycles / f); after T the table has stopped where the last cycle left it
+(u = u(T), v = 0, a = 0).  Neither velocity jump (to A w at t = 0, to 0 after T) is applied as
+an impulse: the blocks, in the table frame, feel only -m a(t) (see dem.table_motion).
+A shake whose period is shorter than 20 time steps, or a record that ends before the run with
+the table still moving, is refused by dem.validate.
 """
 
 from __future__ import annotations
@@ -30,6 +26,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from dem.case import Case, NoLoading, RecordLoading, ShakeLoading, TiltLoading
+from dem.table_motion import SineMotion
 
 AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "-x": (-1.0, 0.0, 0.0), "-y": (0.0, -1.0, 0.0)}
 
@@ -109,44 +106,34 @@ class Tilt(Loading):
 
 
 class Shake(Loading):
+    """The table shaking along ``direction``: base quantities = SineMotion quantities x direction."""
+
     kind = "shake"
 
     def __init__(self, g0, direction, frequency: float, amplitude: float, cycles: float):
         super().__init__(g0)
         self.direction = np.asarray(direction, dtype=float)
-        self.f = float(frequency)
-        self.A = float(amplitude)
-        self.cycles = float(cycles)
-        self.t_end = self.cycles / self.f
-        self.omega = 2.0 * np.pi * self.f
+        self.motion = SineMotion(amplitude, frequency, cycles)
 
-    def _u(self, t):
-        """Scalar displacement history (m) before the direction is applied."""
-        t = np.atleast_1d(t)
-        te = np.minimum(t, self.t_end)
-        u = self.A * np.sin(self.omega * te)
-        after = t > self.t_end
-        u = u + np.where(after, self.A * self.omega * np.cos(self.omega * self.t_end)
-                         * (t - self.t_end), 0.0)
-        return u
+    @property
+    def t_end(self) -> float:
+        """End of the shaking, s (the table is at rest from then on)."""
+        return self.motion.t_end
+
+    def _along(self, q) -> np.ndarray:
+        return q[:, None] * self.direction[None, :]
 
     def base_disp(self, t):
-        return self._u(t)[:, None] * self.direction[None, :]
+        return self._along(self.motion.displacement(np.atleast_1d(t)))
 
     def base_vel(self, t):
-        t = np.atleast_1d(t)
-        v = self.A * self.omega * np.cos(self.omega * np.minimum(t, self.t_end))
-        return v[:, None] * self.direction[None, :]
+        return self._along(self.motion.velocity(np.atleast_1d(t)))
 
     def base_accel(self, t):
-        t = np.atleast_1d(t)
-        a = -self.A * self.omega**2 * np.sin(self.omega * t) * (t < self.t_end)
-        return a[:, None] * self.direction[None, :]
+        return self._along(self.motion.acceleration(np.atleast_1d(t)))
 
     def describe(self):
-        return {"type": "shake", "direction": self.direction.tolist(), "frequency_hz": self.f,
-                "amplitude_m": self.A, "peak_acceleration_m_s2": self.A * self.omega**2,
-                "cycles": self.cycles, "end_time_s": self.t_end}
+        return {"type": "shake", "direction": self.direction.tolist(), **self.motion.describe()}
 
 
 class Record(Loading):
