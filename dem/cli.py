@@ -131,7 +131,7 @@ def run(
 
 
 def _rocking(case: Path, out: Path, plots: bool, force: bool) -> int:
-    from dem.rocking.runner import run_rocking_case_file
+    from dem.commands.rocking import run_rocking_case_file
     from dem.rundir import RunDirError, claim
 
     try:

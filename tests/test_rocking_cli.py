@@ -12,6 +12,7 @@ import yaml
 from typer.testing import CliRunner
 
 from dem.cli import app
+from dem.commands.rocking import run_rocking_case_file
 from dem.rocking.analysis import uplift_threshold
 from dem.rocking.schema import (
     RockingCaseError,
@@ -19,7 +20,6 @@ from dem.rocking.schema import (
     params_from_case,
     parse_rocking_case,
 )
-from dem.rocking.runner import run_rocking_case_file
 
 CASES = sorted((Path(__file__).resolve().parents[1] / "cases" / "rocking").glob("*.yaml"))
 

@@ -11,7 +11,8 @@ beams, under a horizontal base acceleration.  Modules:
 * :mod:`dem.rocking.recording`  output samples, event log, episodes; RockingResult, RockingError
 * :mod:`dem.table_motion`      the table motion (shared with the DEM: dem.loading.Shake)
 * :mod:`dem.rocking.analysis`   closed forms (Housner limits, thresholds), amplitudes, statistics
-* :mod:`dem.rocking.schema`     the case format; :mod:`dem.rocking.runner` ``dem rocking``
+* :mod:`dem.rocking.schema`     the case format; :mod:`dem.rocking.runner` run a case, write its
+  outputs (the ``dem rocking`` command: dem.commands.rocking)
 
 Derivation and choices: docs/rocking_model.md; results against the thesis: docs/rocking_results.md.
 """

@@ -1,4 +1,5 @@
-"""``dem rocking CASE.yaml --out DIR``: run the two-body model and write its outputs.
+"""Run a two-body case and write its outputs: the model-level half of ``dem rocking`` (the
+command itself, with its exit codes, is dem.commands.rocking).
 
 Outputs (contract of ../shared/DESIGN.md, extended):
 
@@ -13,36 +14,26 @@ Outputs (contract of ../shared/DESIGN.md, extended):
 * ``summary.json`` (name, status, message, model, loading, closed-form thresholds, pattern
   statistics, amplitudes, event counts, sim_time, wall_seconds ...);
 * ``events.csv``; ``rocking.png`` (time histories), ``amplitudes.png`` (per cycle).
-
-Exit codes: 0 ok (also when the wall collapses: that is a result), 1 the integration failed (what
-was computed is written, the message says where and why), 2 bad input.
 """
 
 from __future__ import annotations
 
-from dem.output import atomic
-from dem.output.atomic import savefig as _atomic_savefig
-
-import json
-import time
 from pathlib import Path
 
 import numpy as np
 
+from dem.output import atomic
+from dem.output.atomic import savefig as _atomic_savefig
 from dem.rocking import analysis as an
 from dem.rocking.integrate import RockingError, RockingResult, integrate_rocking
 from dem.rocking.model import PATTERNS, energy_arrays
 from dem.rocking.schema import (
     RockingCase,
-    RockingCaseError,
     excitation_from_case,
     initial_from_case,
-    load_rocking_case,
     params_from_case,
     settings_from_case,
 )
-
-EXIT_OK, EXIT_RUN_FAILED, EXIT_BAD_INPUT = 0, 1, 2
 
 
 def run_case(case: RockingCase):
@@ -178,14 +169,6 @@ def write_outputs(out: Path, case: RockingCase, P, exc, res: RockingResult, wall
     return summary
 
 
-def _json_default(o):
-    if isinstance(o, (np.floating, np.integer)):
-        return o.item()
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    raise TypeError(type(o))
-
-
 def plot_results(out: Path, case, P, exc, res, d, arrays) -> None:
     import matplotlib
 
@@ -232,34 +215,3 @@ def plot_results(out: Path, case, P, exc, res, d, arrays) -> None:
     fig.tight_layout()
     _atomic_savefig(fig, out / "amplitudes.png", dpi=110)
     plt.close(fig)
-
-
-def run_rocking_case_file(path, out, plots: bool = True, echo=print, err=print,
-                          overrides: dict | None = None) -> int:
-    """Load, run, write; returns the exit code (0 ok, 1 run failed, 2 bad input)."""
-    t0 = time.perf_counter()
-    try:
-        case = load_rocking_case(path, overrides)
-    except RockingCaseError as e:
-        err(f"error: {path}:\n{e}")
-        return EXIT_BAD_INPUT
-    try:
-        P, exc, res, failure = run_case(case)
-    except ValueError as e:  # parameters the model refuses (should have been caught by the schema)
-        err(f"error: {path}:\n{e}")
-        return EXIT_BAD_INPUT
-    out = Path(out)
-    summary = write_outputs(out, case, P, exc, res, time.perf_counter() - t0, plots=plots)
-    if failure is not None:
-        err(f"error: {case.name}: the integration failed: {failure}\n"
-            f"(results up to t = {summary['sim_time']:.6g} s written to {out})")
-        return EXIT_RUN_FAILED
-    amp = summary["response"]["amplitude_steady"]
-    amp_txt = (f", steady amplitude +{1e3 * amp['positive_mean_m']:.2f} / "
-               f"{1e3 * amp['negative_mean_m']:.2f} mm") if amp else ""
-    echo(f"{case.name}: {res.status} in {summary['wall_seconds']:.2f} s, "
-         f"{summary['sim_time']:.3g} s simulated, {len(res.events)} events, most frequent "
-         f"pattern {summary['most_frequent_pattern_by_occurrences']}{amp_txt} -> {out}")
-    if res.status == "collapsed":
-        echo(f"  {res.message}")
-    return EXIT_OK
