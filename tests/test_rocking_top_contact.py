@@ -226,11 +226,11 @@ def test_summary_reports_the_thresholds_of_the_chosen_top_contact(tmp_path):
 
 
 def test_dem_sweep_comparison_reads_the_stored_dem_sweep():
-    """dem.rocking.dem_sweep_compare (docs/rocking_results.md section 9): the DEM's Model II y
+    """postprocess.rocking_vs_dem_sweep (docs/rocking_results.md section 9): the DEM's Model II y
     4.0 m/s2 sweep is read from results/shake/ (no DEM run); the two-body model at the same point
     stays at rest with the sliding roof (4.0 < 8.36 m/s2), overturns with the co-moving one at
     2.8 Hz, and the DEM's ds amplification is computed on a co-moving run that rocks to the end."""
-    from dem.rocking import dem_sweep_compare as dc
+    from postprocess import rocking_vs_dem_sweep as dc
 
     sw, dem = dc.load_dem()
     assert sw["peak_acceleration_m_s2"] == 4.0 and [r["f"] for r in dem] == [1.8, 2.0, 2.4, 2.8, 3.2, 3.6]

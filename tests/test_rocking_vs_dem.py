@@ -10,8 +10,9 @@ compliant: it measured 3 % later than the rigid model here.  After the impact th
 by design (DEM: spring-dashpot contact, restitution set by the contact damping; reduced model:
 plastic Housner impact); see docs/rocking_results.md.
 
-Needs ``dem.runner.simulate`` (the Taichi engine); skipped when it cannot be imported.  The
-Taichi kernel compilation dominates the run time (~30 s on the 2-core test machine).
+Needs the DEM's run loop ``dem.run.run_case`` (the Taichi engine); skipped when it cannot be
+imported.  The Taichi kernel compilation dominates the run time (~30 s on the 2-core test
+machine).
 """
 
 from __future__ import annotations
@@ -21,14 +22,12 @@ import math
 import numpy as np
 import pytest
 
-runner = pytest.importorskip("dem.runner", reason="the DEM engine (dem.runner) is not available")
-if not hasattr(runner, "simulate"):  # pragma: no cover
-    pytest.skip("dem.runner has no simulate()", allow_module_level=True)
+dem_run = pytest.importorskip("dem.run", reason="the DEM engine (dem.run) is not available")
 
 from dem.case import parse_case  # noqa: E402
-from dem.rocking.excitation import Excitation  # noqa: E402
-from dem.rocking.model import RockingParams  # noqa: E402
 from dem.rocking.integrate import Settings, integrate_rocking  # noqa: E402
+from dem.rocking.model import RockingParams  # noqa: E402
+from dem.table_motion import TableMotion  # noqa: E402
 
 T, H1, H2, M1, M2 = 0.05, 0.14, 0.14, 6.05, 9.41
 LENGTH = 0.3       # m, along y (the rocking model is planar; masses are given explicitly)
@@ -59,7 +58,7 @@ def _first_zero_crossing(t, f):
 @pytest.fixture(scope="module")
 def runs():
     P = RockingParams(thickness=T, h1=H1, m1=M1, h2=H2, m2=M2)
-    reduced = integrate_rocking(P, Excitation(), Settings(duration=0.3), (THETA0, THETA0, 0.0, 0.0))
+    reduced = integrate_rocking(P, TableMotion(), Settings(duration=0.3), (THETA0, THETA0, 0.0, 0.0))
     t_imp = next(e["t"] for e in reduced.events if e["kind"].startswith("impact"))
     case = parse_case({
         "name": "two-block-release",
@@ -68,7 +67,7 @@ def runs():
         "loading": {"type": "none"},
         "run": {"duration": round(1.5 * t_imp, 4), "output_interval": 0.0005},
     })
-    dem = runner.simulate(case)
+    dem = dem_run.run_case(case)
     return reduced, t_imp, dem
 
 

@@ -1,10 +1,14 @@
 """Tables of docs/rocking_results.md: the two-block model against the thesis (Chapter 5).
 
-    python -m dem.rocking.report [--dem]      # markdown on stdout; --dem adds the DEM comparison
-    python -m dem.rocking.report --top-contact   # section 9: the two top contacts (issue 14)
-    python -m dem.rocking.report --dem-sweep     # section 9: against the DEM's rocking sweep
-                                                 # (reads results/shake/, runs no DEM)
+    python -m postprocess.rocking_report [--dem]        # markdown on stdout; --dem adds the DEM
+                                                        # comparison (runs the DEM, dem.run)
+    python -m postprocess.rocking_report --top-contact  # section 9: the two top contacts (issue 14)
+    python -m postprocess.rocking_report --dem-sweep    # section 9: against the DEM's rocking
+                                                        # sweep (reads results/shake/, runs no DEM)
 
+A study above both models (it runs the two-body model and, with --dem, the DEM's run loop), so it
+lives with the other studies in postprocess/ (shake_study, tilt_study), not in the model package
+(tests/test_layers.py puts it in the top layer, with the commands and the studies).
 Every number is computed here from the case files in cases/rocking/ and the closed forms of
 dem.rocking.analysis; the thesis' numbers are quoted from ../shared/REFERENCE.md and the thesis.
 """
@@ -23,7 +27,7 @@ from dem.rocking.runner import run_case
 from dem.rocking.schema import load_rocking_case
 from dem.rocking.sweep import sweep
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[1]
 CASES = ROOT / "cases" / "rocking"
 MODEL = {
     "II": dict(thickness=0.05, h1=0.14, m1=6.05, h2=0.14, m2=9.41),
@@ -152,8 +156,8 @@ def dem_comparison() -> str:
     import test_rocking_vs_dem as tv
     from dem.case import parse_case
     from dem.rocking.integrate import Settings, integrate_rocking
+    from dem.run import run_case as run_dem_case
     from dem.table_motion import TableMotion
-    from dem.runner import simulate as dem_simulate
 
     P = RockingParams(thickness=tv.T, h1=tv.H1, m1=tv.M1, h2=tv.H2, m2=tv.M2)
     red = integrate_rocking(P, TableMotion(), Settings(duration=0.8), (tv.THETA0, tv.THETA0, 0, 0))
@@ -162,7 +166,7 @@ def dem_comparison() -> str:
         "scene": {"blocks": [tv._block(tv.H1, tv.H1 / 2, tv.M1), tv._block(tv.H2, tv.H1 + tv.H2 / 2, tv.M2)]},
         "material": {"friction": 2.0}, "loading": {"type": "none"},
         "run": {"duration": 0.8, "output_interval": 0.0005}})
-    dem = dem_simulate(case)
+    dem = run_dem_case(case)
     th = tv._tilt_about_y(dem.quat)
     s = np.sign(th[:, 0])
     idx = np.flatnonzero(np.diff(s) != 0)
@@ -290,10 +294,10 @@ def main() -> None:
                     help="only the tables comparing the two top contacts (issue 14)")
     ap.add_argument("--dem-sweep", action="store_true",
                     help="only the comparison with the DEM's Model II y 4.0 m/s2 sweep "
-                         "(dem.rocking.dem_sweep_compare; reads results/shake/, runs no DEM)")
+                         "(postprocess.rocking_vs_dem_sweep; reads results/shake/, runs no DEM)")
     args = ap.parse_args()
     if args.dem_sweep:
-        from dem.rocking.dem_sweep_compare import comparison
+        from postprocess.rocking_vs_dem_sweep import comparison
 
         print("## The two-body model against the DEM's rocking sweep (Model II y, 4.0 m/s2)\n")
         print(comparison())

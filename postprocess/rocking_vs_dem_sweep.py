@@ -1,8 +1,8 @@
 """The two-body model against the DEM's rocking sweep (issue 14: "compare with the DEM's rocking
 portions where the DEM rocks").
 
-    python -m dem.rocking.dem_sweep_compare          # markdown on stdout, ~10 s
-    python -m dem.rocking.report --dem-sweep         # the same
+    python -m postprocess.rocking_vs_dem_sweep        # markdown on stdout, ~10 s
+    python -m postprocess.rocking_report --dem-sweep  # the same
 
 The DEM rocks only in one shaking study: Model II, y, 4.0 m/s2 constant peak acceleration, 10
 cycles + 1 s margin at 1.8, 2.0, 2.4, 2.8, 3.2, 3.6 Hz (results/shake/model-ii-y-amplified/,
@@ -10,7 +10,7 @@ FINDINGS.md section 2).  This module READS those result files (sweep.json and ea
 analysis.json; the DEM engine is not run) and runs the two-body model with Model II's Table 5.1
 parts at the same peak acceleration, frequencies, cycle count and margin, with both top contacts.
 
-The DEM's measure is the amplification of ds (postprocess/shake.py, Section 4.2.5):
+The DEM's measure is the amplification of ds (postprocess/signal_analysis.py, Section 4.2.5):
 
     A_ds = (P - N) / (P_in - N_in)
 
@@ -19,7 +19,7 @@ the penultimate course (course 8 of 9, mid-height: z = 7.5 x 35 mm = 262.5 mm ab
 dem/instruments.py); P, N = means over the steady cycles of the per-cycle max / min; P_in, N_in
 the same for the table displacement; the steady window is cycle 0 dropped, then the first cycle
 from which every per-cycle peak-to-peak lies within 25 % of their median.  The same functions
-(postprocess.shake.steady_window / amplification / phase_lag) are applied here to the two-body
+(postprocess.signal_analysis.steady_window / amplification / phase_lag) are applied here to the two-body
 output, so the two numbers are computed by one code path.
 
 Where ds sits in the two-body model: Table 5.1's parts are 4 + 4 courses (H1 = H2 = 140 mm) of a
@@ -53,7 +53,7 @@ from dem.rocking.model import RockingParams
 from dem.table_motion import SineMotion
 from postprocess.signal_analysis import amplification, cycle_extrema, phase_lag, steady_window
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[1]
 DEM_SWEEP = ROOT / "results" / "shake" / "model-ii-y-amplified"
 TABLE_5_1_II = dict(thickness=0.05, h1=0.14, m1=6.05, h2=0.14, m2=9.41)
 TOP_LOAD, TOP_FRICTION = 58.8, 0.81
