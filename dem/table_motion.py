@@ -7,17 +7,20 @@ the n cycles (A in m, f in Hz, t in s):
     v(t) = A w cos(w t)        m/s     table velocity         for 0 <= t <= T,
     a(t) = -A w^2 sin(w t)     m/s2    table acceleration     for 0 <= t <  T;
 
-before t = 0 the table is at rest at u = 0; after T it has stopped where the last cycle left
-it: u = u(T) = A sin(2 pi n), v = 0, a = 0 (the thesis' table stops after the test).  The peak
-acceleration is A w^2.  At the ends, u and v belong to the shaking (a sample at T reports the
-table at the end of its last cycle, v(0) = A w) while a(T) = 0: a time step that starts at T
-feels no more shaking (a(t) is sampled at the start of each DEM step).
+before t = 0 the table is at rest at u = 0; after T, a = 0 and u, v are the exact integrals of
+that: the table keeps the velocity of the end of its last cycle, v = v(T) = A w cos(2 pi n),
+u = u(T) + v(T) (t - T).  (The thesis' table stops after the test; stopping it takes a
+deceleration that the bodies would feel.  Reporting a stopped table without applying that
+deceleration made the absolute motion of the bodies jump by A w at T: the shake analysis,
+which rebuilds absolute accelerations from relative motion plus the table's, saw a spike there
+(tried in 1955d72 and reverted).)  The peak acceleration is A w^2.  At the ends a(T) = 0: a
+time step that starts at T feels no more shaking (a(t) is sampled at the start of each DEM
+step).
 
 Both models work in the table's frame: a body feels the inertia force -m a(t) and nothing else
-of the table.  So the two velocity jumps, v: 0 -> A w at t = 0 and v(T) -> 0 just after T, are
-not applied as impulses: seen from the lab, every body jumps with the table (a body the table
-carries moves off with it and stops with it; one that could slide freely would, in reality,
-keep its lab velocity at either jump).  The start at velocity A w is what keeps u bounded by A
+of the table.  So the velocity jump v: 0 -> A w at t = 0 is not applied as an impulse: seen
+from the lab, every body jumps with the table (a body the table carries moves off with it; one
+that could slide freely would, in reality, keep its lab velocity).  The start at velocity A w is what keeps u bounded by A
 while the table shakes: started from rest, -A w^2 sin(w t) would carry it away by 2 pi A per
 cycle.  Only a(t) enters the dynamics; u and v are reported (the DEM's frames and instruments,
 the rocking model's ``base_disp``).
@@ -64,7 +67,8 @@ class TableMotion:
 
 
 class SineMotion(TableMotion):
-    """u(t) = A sin(2 pi f t) for ``cycles`` cycles, then at rest (module docstring)."""
+    """u(t) = A sin(2 pi f t) for ``cycles`` cycles, then the final velocity kept (module
+    docstring)."""
 
     def __init__(self, amplitude: float, frequency: float, cycles: float):
         if not (amplitude > 0 and frequency > 0 and cycles > 0):
@@ -79,12 +83,14 @@ class SineMotion(TableMotion):
 
     def displacement(self, t) -> np.ndarray:
         t = np.asarray(t, dtype=float)
-        return self.amplitude * np.sin(self.omega * np.clip(t, 0.0, self.t_end))
+        u = self.amplitude * np.sin(self.omega * np.clip(t, 0.0, self.t_end))
+        v_end = self.amplitude * self.omega * np.cos(self.omega * self.t_end)
+        return u + np.where(t > self.t_end, v_end * (t - self.t_end), 0.0)
 
     def velocity(self, t) -> np.ndarray:
         t = np.asarray(t, dtype=float)
-        moving = (t >= 0.0) & (t <= self.t_end)
-        return np.where(moving, self.amplitude * self.omega * np.cos(self.omega * t), 0.0)
+        tc = np.minimum(t, self.t_end)
+        return np.where(t >= 0.0, self.amplitude * self.omega * np.cos(self.omega * tc), 0.0)
 
     def acceleration(self, t) -> np.ndarray:
         t = np.asarray(t, dtype=float)

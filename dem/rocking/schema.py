@@ -27,7 +27,8 @@ exactly as written; everything below ``# extensions`` is optional.  SI units, an
 The shake is the DEM's (:class:`dem.case.ShakeLoading`: the same fields, defaults and checks, and
 the same table motion, dem.table_motion), with a horizontal ``direction``: used as given, the
 rocking plane contains it and the displacement amplitude is ``amplitude * |direction|``; give
-``amplitude`` (m) or ``peak_acceleration`` (m/s2).  After the last cycle the table stops.
+``amplitude`` (m) or ``peak_acceleration`` (m/s2).  After the last cycle a = 0 (the table keeps
+its final velocity, dem.table_motion).
 ``loading: {type: none}`` is free motion from ``initial``.
 Unknown keys are rejected; errors name the field, e.g. ``rocking.lower.mass: must be > 0 kg``.
 """
