@@ -1,16 +1,24 @@
-"""Results of a tilting-table run: mechanism and limit analysis next to the simulated lambda.
+"""Results of a tilting-table run: mechanism and limit analysis next to the simulated lambda,
+and the lean of the wall against the table angle.
 
 ``tilt_mechanism`` is handed to the run loop by ``dem run`` (dem.commands.run) and reads the
 finished run; ``tilt_results`` does the same from a run directory's frames for ``dem post``
-(the collapse replayed with the run loop's detector, dem.collapse.replay).
+(the collapse replayed with the run loop's detector, dem.collapse.replay; a quasi-static tilt's
+collapse is the run's own).  ``classify`` works for any scene: a builder's wall or facade, or
+explicit blocks (their courses, stagger and axis derived by postprocess.wall_geometry).
+``plot_lean`` writes lean.png for both commands.
 """
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from postprocess.limit_analysis import in_plane_limit
-from postprocess.mechanisms import in_plane_mechanism, out_of_plane_mechanism
+from postprocess.mechanisms import (CRACK_ANGLE_DEFINITION, collapsed_portion,
+                                     in_plane_mechanism, out_of_plane_mechanism)
+from postprocess.wall_geometry import WallGeometry, builder_geometry, derive_geometry
 
 
 def wall_layout(scene) -> tuple[str, dict] | None:
@@ -40,9 +48,30 @@ def classification_frame(scene, pos, quat, level: float = CLASSIFY_MOTION) -> in
     return len(pos) - 1
 
 
+def wall_geometry(scene, moving, load_dir) -> WallGeometry:
+    """The wall whose mechanism is read: the builder's wall (its layout) if the scene has one,
+    else the blocks (not fixed) of the groups that hold the moving blocks, their geometry
+    derived from the blocks (postprocess.wall_geometry)."""
+    wall = wall_layout(scene)
+    if wall is not None:
+        return builder_geometry(scene, *wall)
+    free = ~scene.fixed
+    groups = np.unique(scene.group[moving & free] if (moving & free).any() else scene.group[free])
+    return derive_geometry(scene, np.isin(scene.group, groups) & free, load_dir)
+
+
 def classify(case, scene, pos0, quat0, pos, quat, load_dir) -> dict:
-    """Mechanism (in plane or out of plane) from the poses at one frame (see
-    classification_frame) and, for walls loaded in plane, eq 3-1..3-3."""
+    """Mechanism from the poses at one frame (see classification_frame), for any scene:
+
+    * a scene with a "facade" group: out of plane, A / B1 / D / B2 / G (out_of_plane_mechanism;
+      the courses derived from the blocks where no builder laid them);
+    * otherwise the wall (wall_geometry: a builder's, or derived from explicit blocks) is loaded
+      in plane when the load is within ~45 deg of its axis: sliding / overturning / mixed with
+      the overturning share, the main crack line and its angle (crack_angle_deg, defined in
+      crack_angle_definition), and for a bond with a stagger eq 3-1..3-3; else out of plane,
+      the wall taken as the facade;
+    * every scene: the collapsed portion (postprocess.mechanisms.collapsed_portion).
+    """
     from dem.collapse import motion_measure
 
     m = motion_measure(pos0, quat0, pos, quat, 0.5 * np.linalg.norm(scene.size, axis=1))
@@ -52,27 +81,38 @@ def classify(case, scene, pos0, quat0, pos, quat, load_dir) -> dict:
     out: dict = {"max_motion_m": float(m.max())}
     if "facade" in names:
         out["kind"] = "out-of-plane"
-        out.update(out_of_plane_mechanism(scene, pos0, quat0, pos, quat, load_dir))
-        return out
-    wall = wall_layout(scene)
-    if wall is None:
-        out["kind"] = "blocks"
-        out["n_moving"] = int(moved_mask.sum())
-        return out
-    in_plane = abs(load_dir @ np.asarray(wall[1]["along"])) > 0.7
-    if not in_plane:
-        out["kind"] = "out-of-plane"
+        free = ~scene.fixed
+        course = scene.course if (scene.course[free] >= 0).all() else \
+            derive_geometry(scene, free, load_dir).course
         out.update(out_of_plane_mechanism(scene, pos0, quat0, pos, quat, load_dir,
-                                          facade_group=wall[0]))
-        return out
-    out["kind"] = "in-plane"
-    geom = wall[1]
-    normal = np.cross([0.0, 0.0, 1.0], load_dir)
-    out.update(in_plane_mechanism(scene, pos0, quat0, pos, quat, moved_mask, load_dir, normal,
-                                  geom["stagger"], geom["course_height"]))
-    la = in_plane_limit(case.material.friction, geom["s_over_h"], geom["l_over_h"])
-    out["limit_analysis"] = {**la.as_dict(), "s_over_h": geom["s_over_h"],
-                             "l_over_h": geom["l_over_h"], "mu": case.material.friction}
+                                          course=course))
+    else:
+        geom = wall_geometry(scene, moved_mask, load_dir)
+        if not geom.in_plane(load_dir):
+            out["kind"] = "out-of-plane"
+            out.update(out_of_plane_mechanism(scene, pos0, quat0, pos, quat, load_dir,
+                                              facade_group=geom.group or "facade",
+                                              course=geom.course, facade=geom.members))
+        else:
+            out["kind"] = "in-plane"
+            normal = np.cross([0.0, 0.0, 1.0], load_dir)
+            out.update(in_plane_mechanism(scene, pos0, quat0, pos, quat, moved_mask, load_dir,
+                                          normal, geom.stagger, geom.course_height,
+                                          course=geom.course))
+            crack = out.get("crack")
+            out["crack_angle_deg"] = crack["angle_from_vertical_deg"] if crack else None
+            out["crack_angle_from_bottom_line_deg"] = \
+                crack["angle_from_bottom_line_deg"] if crack else None
+            out["crack_angle_definition"] = CRACK_ANGLE_DEFINITION
+            if geom.stagger:
+                la = in_plane_limit(case.material.friction, geom.s_over_h, geom.l_over_h)
+                out["limit_analysis"] = {**la.as_dict(), "s_over_h": geom.s_over_h,
+                                         "l_over_h": geom.l_over_h,
+                                         "mu": case.material.friction}
+        out["geometry"] = geom.as_dict(load_dir)
+    portion = collapsed_portion(scene, pos0, quat0, pos, quat)
+    portion.pop("mask")
+    out["collapsed"] = portion
     return out
 
 
@@ -108,8 +148,6 @@ def analyze_tilt_run(run_dir) -> dict:
     """Collapse and mechanism of a tilt run directory, recomputed from its frames.npz and
     case.json (:func:`tilt_results`: the run loop's detector replayed, the same mechanism
     analysis); written to analysis.json."""
-    from pathlib import Path
-
     from dem.output.atomic import write_json
     from postprocess.block_kinematics import angular_velocity
     from postprocess.shake_signals import ShakeAnalysisError, load_run
@@ -127,8 +165,99 @@ def analyze_tilt_run(run_dir) -> dict:
         frames["vel"] = np.gradient(frames["pos"], frames["t"], axis=0)
     if "omega" not in frames:
         frames["omega"] = angular_velocity(frames["t"], frames["quat"])
-    res = tilt_results(case, scene, frames)
+    if getattr(case.loading, "method", "constant_rate") == "quasi_static":
+        # the search for the loss of equilibrium (dem.run.quasi_static) is not in the frames:
+        # its result stays the run's; the mechanism is read again
+        import json
+
+        try:
+            col = json.loads((run_dir / "summary.json").read_text()).get("collapse")
+        except (OSError, ValueError):
+            col = None
+        col = col or {"detected": False}
+        res = {"collapse": col, **tilt_mechanism(case, scene, frames, {"collapse": col})}
+    else:
+        res = tilt_results(case, scene, frames)
     out = {"kind": "tilt", "case": case.name, "collapse": res["collapse"],
            "mechanism": res.get("mechanism")}
     write_json(run_dir / "analysis.json", out, indent=1, strict=True)
     return out
+
+
+def top_blocks(scene) -> np.ndarray:
+    """bool [N]: the highest blocks (not fixed) at the start, whose tops lie within half the
+    smallest block height of the highest top (the top course of a wall, the top of a stack)."""
+    from postprocess.wall_geometry import block_corners
+
+    free = ~scene.fixed
+    z = block_corners(scene)[:, :, 2]
+    top, height = z.max(axis=1), z.max(axis=1) - z.min(axis=1)
+    if not free.any():
+        return free
+    return free & (top >= top[free].max() - 0.5 * height[free].min())
+
+
+def lean_series(scene, pos, load_dir) -> np.ndarray:
+    """Lean [T] (m) of a tilt run: the displacement relative to the table (frames are in the
+    table frame) of the top blocks (:func:`top_blocks`, mass-weighted mean), its horizontal
+    component along the load direction."""
+    sel = top_blocks(scene)
+    d = np.asarray(load_dir, float) * [1.0, 1.0, 0.0]
+    d /= np.linalg.norm(d)
+    w = scene.mass[sel] / scene.mass[sel].sum()
+    return ((np.asarray(pos)[:, sel] - np.asarray(pos)[0, sel]) @ d) @ w
+
+
+def plot_lean(run_dir, collapse: dict | None = None) -> Path:
+    """lean.png of a tilt run directory: the lean (:func:`lean_series`) against the table angle,
+    linear (mm) and on a log scale (the elastic lean before the collapse is micrometres), with
+    the collapse marked at the angle lambda is read at (``collapse``: the summary's
+    ``collapse`` block; default: summary.json's).  Written atomically; returns its path.
+    Called by ``dem run`` after the run and by ``dem post``."""
+    import json
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from dem.loading import loading_from_case
+    from dem.output.atomic import savefig
+    from postprocess.shake_signals import ShakeAnalysisError, load_run
+
+    run_dir = Path(run_dir)
+    case, scene = load_run(run_dir)
+    if collapse is None:
+        try:
+            collapse = json.loads((run_dir / "summary.json").read_text()).get("collapse")
+        except (OSError, ValueError):
+            collapse = None
+    try:
+        with np.load(run_dir / "frames.npz") as fr:
+            pos, angle = fr["pos"], fr["tilt_angle"]
+    except (OSError, KeyError, ValueError) as err:
+        raise ShakeAnalysisError(f"{run_dir / 'frames.npz'}: no tilt frames ({err})") from None
+    lean_mm = 1e3 * lean_series(scene, pos, loading_from_case(case).load_direction)
+    fig, (ax, axl) = plt.subplots(2, 1, figsize=(7.0, 6.5), sharex=True)
+    for a in (ax, axl):
+        a.plot(angle, lean_mm if a is ax else np.where(lean_mm != 0, np.abs(lean_mm), np.nan), "-",
+               color="C0", lw=1.2, marker="." if len(angle) < 200 else None)
+        a.grid(True, alpha=0.3)
+    axl.set_yscale("log")
+    ax.set_ylabel("lean (mm)")
+    axl.set_ylabel("|lean| (mm), log scale")
+    axl.set_xlabel("table angle (deg)")
+    if collapse and collapse.get("detected"):
+        for a in (ax, axl):
+            a.axvline(collapse["angle_deg"], color="C3", ls="--", lw=1.0,
+                      label=f"collapse: {collapse['angle_deg']:.2f} deg, "
+                            f"lambda = {collapse['load_factor']:.3f}")
+        ax.legend(loc="upper left", fontsize=9)
+    n_top = int(top_blocks(scene).sum())
+    ax.set_title(f"{case.name}: lean of the top ({n_top} block{'s' * (n_top != 1)}) along the "
+                 f"load, relative to the table", fontsize=10)
+    fig.tight_layout()
+    path = run_dir / "lean.png"
+    savefig(fig, path, dpi=110)
+    plt.close(fig)
+    return path
