@@ -35,7 +35,7 @@ def post_command(path) -> int:
     from dem.case import ShakeLoading, TiltLoading
     from postprocess.shake import analyze_run
     from postprocess.shake_signals import ShakeAnalysisError, load_run
-    from postprocess.tilt import analyze_tilt_run
+    from postprocess.tilt import analyze_tilt_run, plot_lean
 
     path = Path(path)
     if not path.is_dir():
@@ -74,8 +74,14 @@ def post_command(path) -> int:
         elif isinstance(case.loading, TiltLoading):
             res = analyze_tilt_run(path)
             mech = res["mechanism"] or {}
-            say(f"{path}/analysis.json: collapse {res['collapse']['detected']}, mechanism "
-                 f"{mech.get('mechanism') or mech.get('kind')}")
+            col = res["collapse"]
+            lam = (f" (load factor {col['load_factor']:.3f} at {col['angle_deg']:.2f} deg)"
+                   if col.get("detected") else "")
+            n_col = (mech.get("collapsed") or {}).get("n_blocks")
+            say(f"{path}/analysis.json: collapse {col['detected']}{lam}, mechanism "
+                 f"{mech.get('mechanism') or mech.get('kind')}"
+                 + (f", {n_col} blocks collapsed" if n_col is not None else ""))
+            say(f"{plot_lean(path, col)}: lean against the table angle")
         else:
             say(f"{path}: loading '{case.loading.type}': no analysis defined")
         return ExitCode.OK

@@ -1,5 +1,6 @@
-"""``dem run CASE.yaml --out DIR``: check the case, claim DIR, run the case (dem.run), print the
-result line.  The analyses a run gets in its summary.json (the mechanism of a tilt) are chosen
+"""``dem run CASE.yaml --out DIR``: check the case, claim DIR, run the case (dem.run), plot the lean
+of a tilt run (lean.png, postprocess.tilt.plot_lean, as ``dem post`` does), print the result
+line.  The analyses a run gets in its summary.json (the mechanism of a tilt) are chosen
 here (``RUN_ANALYSES``), so the run loop never imports the analysis.  Exit codes:
 dem.commands.exit_codes; what each failure prints and keeps: docs/failures.md.
 """
@@ -13,7 +14,7 @@ import numpy as np
 
 from dem.commands.exit_codes import ExitCode, exit_code_for
 from dem.run import OutputError, run_case
-from postprocess.tilt import tilt_mechanism
+from postprocess.tilt import plot_lean, tilt_mechanism
 
 RUN_ANALYSES = (tilt_mechanism,)  # read the finished run, merged into summary.json
 
@@ -30,8 +31,11 @@ def result_line(summary: dict, arrays: dict | None = None) -> str:
         if col.get("detected"):
             mech = summary.get("mechanism") or {}
             label = mech.get("mechanism") or mech.get("kind")
-            parts.append(f"collapse at {col['angle_deg']:.2f} deg, load factor "
-                         f"{col['load_factor']:.3f}" + (f", mechanism {label}" if label else ""))
+            n_col = (mech.get("collapsed") or {}).get("n_blocks", col.get("n_moved"))
+            parts.append(f"load factor {col['load_factor']:.3f} at {col['angle_deg']:.2f} deg"
+                         + (f", mechanism {label}" if label else "")
+                         + (f", {n_col} of {summary.get('n_blocks', '?')} blocks collapsed"
+                            if n_col is not None else ""))
         elif col:
             parts.append(f"no collapse up to {col.get('last_angle_deg', 0.0):.2f} deg")
     if arrays is not None and len(arrays.get("t", [])) and kind != "tilt":
@@ -114,6 +118,8 @@ def _run_case_file(path, out, progress, force, max_blocks) -> int:
     finally:
         rd.release()
     s = res.summary
+    if case.loading.type == "tilt":
+        _plot_lean(out, err)
     typer.echo(
         f"{s['name']}: {s['n_blocks']} blocks, {s['steps']} steps of {s['dt']:.3g} s, "
         f"t = {s['sim_time']:.3f} s in {s['wall_seconds']:.1f} s wall "
@@ -121,6 +127,15 @@ def _run_case_file(path, out, progress, force, max_blocks) -> int:
         f"output in {out}")
     typer.echo(result_line(s, {"t": res.t, "pos": res.pos}))
     return ExitCode.OK
+
+
+def _plot_lean(out: Path, err) -> None:
+    """lean.png of a finished tilt run (postprocess.tilt.plot_lean, what ``dem post`` also
+    writes); a plot that cannot be made is reported, not fatal: the run's results are written."""
+    try:
+        plot_lean(out)
+    except Exception as e:  # noqa: BLE001 - the run is done; say why the plot is missing
+        err(f"warning: lean.png not written: {e}")
 
 
 def _summary_result(out: Path) -> str:

@@ -30,32 +30,74 @@ def snapshot_png(
     title: str | None = None,
     scalar_name: str = "value",
     window_size=(1200, 900),
+    tilt=None,
 ) -> str:
     """Render the blocks at ``pos`` [N,3] (m) / ``quat`` [N,4] (w, x, y, z) into a PNG at ``path``.
 
     Blocks are coloured by ``scalars`` ([N], e.g. displacement magnitude in m; a colour bar
     named ``scalar_name`` is drawn) or, by default, by group (wall label).  The table is drawn
     as a grey plane at z = 0; the camera looks from the front (-y) and above.
+    ``tilt``: (angle in degrees, axis [3]) of a tilting table: the poses are in the table frame,
+    and the table with the blocks on it is drawn turned by the angle about the axis (through
+    the middle of the blocks' footprint at table level), as it stands in the laboratory
+    (table_to_lab), so that the tilt shows.
     Returns "pyvista" or "matplotlib" (the renderer that was used).
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     pos = np.asarray(pos, dtype=np.float64).reshape(scene.n_blocks, 3)
     quat = np.asarray(quat, dtype=np.float64).reshape(scene.n_blocks, 4)
+    lo, hi = _footprint(scene, pos, quat)
+    table = _table_corners(lo, hi)
+    if tilt is not None:
+        pivot = np.array([0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]), 0.0])
+        pos, quat, table = table_to_lab(pos, quat, table, tilt[0], tilt[1], pivot)
     from dem.output.atomic import atomic_path
 
     with atomic_path(path) as tmp:  # a failed write (disk full) leaves no half PNG
         try:
-            _pyvista(tmp, scene, pos, quat, scalars, title, scalar_name, window_size)
+            _pyvista(tmp, scene, pos, quat, scalars, title, scalar_name, window_size, table)
             return "pyvista"
         except OSError:
             raise
         except Exception:  # noqa: BLE001 - no OpenGL: draw with matplotlib instead
-            _matplotlib(tmp, scene, pos, quat, scalars, title, window_size)
+            _matplotlib(tmp, scene, pos, quat, scalars, title, window_size, table)
             return "matplotlib"
 
 
-def _pyvista(path, scene, pos, quat, scalars, title, scalar_name, window_size) -> None:
+def _footprint(scene, pos, quat):
+    """Bounds (lo, hi) [3] of the blocks' corners."""
+    c = block_corners(scene.size, pos, quat).reshape(-1, 3)
+    return c.min(axis=0), c.max(axis=0)
+
+
+def _table_corners(lo, hi) -> np.ndarray:
+    """Corners [4,3] of the table drawn under blocks with bounds lo, hi: at z = 0, a margin of
+    0.3 x the largest extent around them."""
+    span = max(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2], 1e-3)
+    x0, x1 = lo[0] - 0.3 * span, hi[0] + 0.3 * span
+    y0, y1 = lo[1] - 0.3 * span, hi[1] + 0.3 * span
+    return np.array([[x0, y0, 0.0], [x1, y0, 0.0], [x1, y1, 0.0], [x0, y1, 0.0]])
+
+
+def table_to_lab(pos, quat, points, angle_deg: float, axis, pivot=(0.0, 0.0, 0.0)):
+    """Poses (pos [N,3], quat [N,4]) and points [M,3] given in the frame of a table tilted by
+    ``angle_deg`` about ``axis``, in the laboratory frame: turned by +angle about the axis
+    through ``pivot`` (dem.loading.Tilt turns gravity the other way, g_table = R^T g, so about
+    +y the table's +x side goes down and the load points to +x)."""
+    from scipy.spatial.transform import Rotation
+
+    from dem import quaternion
+
+    a = np.asarray(axis, dtype=np.float64)
+    rot = Rotation.from_rotvec(np.radians(angle_deg) * a / np.linalg.norm(a))
+    pivot = np.asarray(pivot, dtype=np.float64)
+    pos_lab = pivot + rot.apply(np.asarray(pos) - pivot)
+    quat_lab = quaternion.from_rotation(rot * quaternion.rotation(quat))
+    return pos_lab, quat_lab, pivot + rot.apply(np.asarray(points) - pivot)
+
+
+def _pyvista(path, scene, pos, quat, scalars, title, scalar_name, window_size, table_pts) -> None:
     if not os.environ.get("DISPLAY"):
         # without X, go straight to EGL (VTK would first try X and print a warning)
         os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
@@ -66,12 +108,7 @@ def _pyvista(path, scene, pos, quat, scalars, title, scalar_name, window_size) -
     span = max(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2], 1e-3)
     plotter = pv.Plotter(off_screen=True, window_size=list(window_size))
     plotter.set_background("white")
-    table = pv.Plane(
-        center=(0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]), 0.0),
-        direction=(0, 0, 1),
-        i_size=(hi[0] - lo[0]) + 0.6 * span,
-        j_size=(hi[1] - lo[1]) + 0.6 * span,
-    )
+    table = pv.PolyData(np.asarray(table_pts, dtype=np.float64), faces=[4, 0, 1, 2, 3])
     plotter.add_mesh(table, color="#d9d9d9")
     if scalars is not None:
         grid.cell_data[scalar_name] = np.asarray(scalars, dtype=np.float64).reshape(scene.n_blocks)
@@ -106,7 +143,7 @@ def _tab10(i: int) -> str:
     return matplotlib.colors.to_hex(matplotlib.colormaps["tab10"](i % 10))
 
 
-def _matplotlib(path, scene, pos, quat, scalars, title, window_size) -> None:
+def _matplotlib(path, scene, pos, quat, scalars, title, window_size, table_pts=None) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -127,12 +164,17 @@ def _matplotlib(path, scene, pos, quat, scalars, title, window_size) -> None:
             fc.append(colours[i])
     fig = plt.figure(figsize=(window_size[0] / 100, window_size[1] / 100), dpi=100)
     ax = fig.add_subplot(projection="3d")
+    if table_pts is None:
+        table_pts = _table_corners(*_footprint(scene, pos, quat))
+    table_pts = np.asarray(table_pts, dtype=np.float64)
+    ax.add_collection3d(Poly3DCollection([table_pts], facecolors="#d9d9d9", edgecolors="none"))
     ax.add_collection3d(Poly3DCollection(polys, facecolors=fc, edgecolors="#333333", linewidths=0.2))
-    lo, hi = corners.reshape(-1, 3).min(axis=0), corners.reshape(-1, 3).max(axis=0)
+    pts = np.concatenate([corners.reshape(-1, 3), table_pts])
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
     ax.set_xlim(lo[0], hi[0])
     ax.set_ylim(lo[1], hi[1])
-    ax.set_zlim(min(lo[2], 0.0), hi[2])
-    ax.set_box_aspect(np.maximum(hi - np.minimum(lo, [lo[0], lo[1], 0.0]), 1e-3))
+    ax.set_zlim(lo[2], hi[2])
+    ax.set_box_aspect(np.maximum(hi - lo, 1e-3))
     ax.view_init(elev=25, azim=-120)
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")

@@ -90,14 +90,21 @@ def engine_results(sim, n_blocks: int, wall0: float, compile_seconds: float) -> 
     return out
 
 
-def _snapshot(path: Path, scene: Scene, frames, title: str) -> None:
-    """final.png: the last frame coloured by displacement from the start."""
+def _snapshot(path: Path, scene: Scene, frames, case: Case) -> None:
+    """final.png: the last frame coloured by displacement from the start; a tilt run's table
+    drawn at its last angle (the frames are in the table frame)."""
+    from dem.loading import AXES
     from dem.output.snapshot import snapshot_png
 
     pos, quat = frames.cols["pos"], frames.cols["quat"]
     disp = np.linalg.norm(pos[-1] - pos[0], axis=1)
+    title, tilt = case.name, None
+    if frames.extra.get("tilt_angle"):
+        ax = case.loading.axis
+        tilt = (float(frames.extra["tilt_angle"][-1]), AXES[ax] if isinstance(ax, str) else ax)
+        title = f"{case.name}: table at {tilt[0]:.2f} deg"
     snapshot_png(path, scene, pos[-1], quat[-1], scalars=disp, scalar_name="displacement (m)",
-                 title=title)
+                 title=title, tilt=tilt)
 
 
 class RunWriter:
@@ -153,7 +160,7 @@ class RunWriter:
             summary["vtk_bytes"] = rec.vtk.bytes_written
         if case.run.snapshot and rec.frames.n_frames and not self.write_errors:
             self.guarded("final.png", _snapshot, out / "final.png", self.scene, rec.frames,
-                         case.name)
+                         case)
         errors = self.write_errors
         if errors:
             summary["status"] = "failed"
