@@ -142,7 +142,10 @@ class Material(_Strict):
     friction: float = Field(ge=0.0, le=MAX_FRICTION,
                             description="Coulomb friction coefficient mu, - (at most 10, see "
                             "MAX_FRICTION)")
-    normal_stiffness: float = Field(default=5.0e9, gt=0.0, description="kn, Pa/m")
+    normal_stiffness: Union[Literal["rigid"], Annotated[float, Field(gt=0.0)]] = Field(
+        default=5.0e9,
+        description="kn, Pa/m; or 'rigid': the kn that keeps the elastic offset of every block's "
+        "tipping load factor at 0.5 % (dem/compliance.py; the run reports the kn chosen)")
     shear_stiffness: float | None = Field(
         default=None, gt=0.0, description="ks, Pa/m (default 0.4 kn)"
     )
@@ -156,9 +159,9 @@ class Material(_Strict):
         description="friction against the table (default: friction; at most 10)"
     )
 
-    @property
-    def ks(self) -> float:
-        return self.shear_stiffness if self.shear_stiffness is not None else 0.4 * self.normal_stiffness
+    def ks(self, kn: float) -> float:
+        """Shear stiffness, Pa/m, for the normal stiffness ``kn`` in use."""
+        return self.shear_stiffness if self.shear_stiffness is not None else 0.4 * kn
 
     @property
     def mu_base(self) -> float:
@@ -186,6 +189,36 @@ class CollapseSpec(_Strict):
         return self
 
 
+class QuasiStaticSpec(_Strict):
+    """How a quasi-static tilt finds the angle at which equilibrium is lost (dem.run.quasi_static).
+
+    The angle advances by ``increment``; after each advance the scene relaxes with Cundall local
+    damping (``local_damping``: it does not change a static equilibrium, it only removes the
+    motion) until the unbalanced-force ratio (sum over blocks of |net force| + |net torque| /
+    radius, over the sum of their weights) is below ``tolerance``; equilibrium is lost when a
+    block moves ``collapse.confirm`` while relaxing or ``max_relax_time`` passes without
+    reaching the tolerance while still moving.  The first failing increment is bisected down to
+    ``resolution``;
+    lambda = tan(last angle in equilibrium).  Then the run goes on dynamically (no local damping)
+    at the failing angle for ``collapse.after`` s or until a block moved ``collapse.stop``, to
+    show the mechanism.
+    """
+
+    increment: float = Field(default=1.0, gt=0.0, le=10.0, description="degrees per advance")
+    resolution: float = Field(default=0.05, gt=0.0, description="bisection width, degrees")
+    tolerance: float = Field(
+        default=1e-3, gt=0.0, lt=1.0,
+        description="unbalanced-force ratio of equilibrium, -: an angle up to about this much "
+        "load factor above a sliding limit can pass (benchmarks/quasi_static_tilt.py: 1e-3 "
+        "reads lambda within 0.2 %; 1e-4 is below the floor some walls' joint vibrations give)")
+    local_damping: float = Field(default=0.8, gt=0.0, lt=1.0,
+                                 description="Cundall local damping while relaxing, -")
+    ramp_time: float = Field(default=0.005, ge=0.0,
+                             description="s over which each advance turns the table (smoothstep)")
+    max_relax_time: float = Field(default=1.0, gt=0.0,
+                                  description="s of relaxation before an angle counts as failed")
+
+
 class TiltLoading(_Strict):
     """The table turns about a horizontal axis (pseudo-static collapse, thesis Chapter 3).
 
@@ -194,15 +227,26 @@ class TiltLoading(_Strict):
     so about +x blocks are pushed towards -y, about +y towards +x; the load factor is
     lambda = tan(theta).  Where the pivot edge is does not matter in this frame: the fictitious
     forces of the rotation (of order rate^2 * size, < 1e-5 g at 2 deg/s) are neglected.
-    The angle rises at ``rate``; with ``step`` it rises by ``step`` degrees, then holds for
-    ``hold`` seconds, and so on.  It stays at ``max_angle`` once reached.
+    ``method``: "constant_rate": the angle rises at ``rate``; with ``step`` it rises by ``step``
+    degrees, then holds for ``hold`` seconds, and so on; it stays at ``max_angle`` once reached;
+    collapse as dem.collapse detects it.  "quasi_static": the angle advances by increments, each
+    followed by relaxation to equilibrium, until equilibrium is lost (``quasi_static``).
     """
 
     type: Literal["tilt"]
     axis: Union[Literal["x", "y", "-x", "-y"], Vec3] = Field(
         description="table rotation axis (horizontal): x, y, -x, -y or a vector"
     )
-    rate: float = Field(gt=0.0, description="tilt rate while turning, degrees per second")
+    method: Literal["constant_rate", "quasi_static"] = Field(
+        default="quasi_static",
+        description="quasi_static (the default, and what a tilt without a rate gets): "
+        "increments, each relaxed to equilibrium, then bisection of the first that fails "
+        "(`quasi_static`); constant_rate (what a tilt with a rate gets): the angle rises at "
+        "`rate`")
+    rate: float | None = Field(default=None, gt=0.0,
+                               description="tilt rate while turning, degrees per second "
+                               "(constant_rate)")
+    quasi_static: QuasiStaticSpec = Field(default_factory=QuasiStaticSpec)
     max_angle: float = Field(default=60.0, gt=0.0, le=90.0, description="degrees")
     start_angle: float = Field(default=0.0, ge=0.0, le=90.0, description="degrees at t = 0")
     start_time: float = Field(
@@ -214,6 +258,15 @@ class TiltLoading(_Strict):
     step: float | None = Field(default=None, gt=0.0, description="degrees per step (with holds)")
     hold: float = Field(default=0.0, ge=0.0, description="s held after every step")
     collapse: CollapseSpec = Field(default_factory=CollapseSpec)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _method_from_rate(cls, data):
+        """A tilt that gives a rate and no method is a constant-rate tilt (every case file
+        written before the quasi-static tilt existed); without a rate it is quasi-static."""
+        if isinstance(data, dict) and "method" not in data and data.get("rate") is not None:
+            data = {**data, "method": "constant_rate"}
+        return data
 
     @field_validator("axis")
     @classmethod
@@ -227,6 +280,12 @@ class TiltLoading(_Strict):
     def _start_below_max(self) -> "TiltLoading":
         if self.start_angle > self.max_angle:
             raise ValueError("start_angle must not exceed max_angle")
+        if self.method == "constant_rate" and self.rate is None:
+            raise ValueError("rate: a constant_rate tilt needs a rate (degrees per second); or "
+                             "give method: quasi_static")
+        if self.method == "quasi_static" and (self.rate is not None or self.step is not None):
+            raise ValueError("rate / step: they apply to method: constant_rate; a quasi_static "
+                             "tilt advances by quasi_static.increment")
         return self
 
 
@@ -235,7 +294,7 @@ class ShakeLoading(_Strict):
 
     ``direction`` is used as given (not normalised): [1, 1, 0] moves x and y each by the amplitude
     (the thesis' diagonal tests).  Give the amplitude A (m) or the peak acceleration
-    a_p = A (2 pi f)^2 (m/s2).  After the last cycle the table stops (u frozen, v = a = 0).  The
+    a_p = A (2 pi f)^2 (m/s2).  After the last cycle a = 0 and the table keeps its final velocity (see dem.table_motion).  The
     motion itself is dem.table_motion.SineMotion; the two-body model's case format uses this
     class too (dem.rocking.schema.ShakeLoading adds that its direction must be horizontal).
     """

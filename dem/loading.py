@@ -13,9 +13,10 @@ with holds and after a smooth approach to the start angle (see dem.case.TiltLoad
 Record: any sampled table acceleration (dem.case.RecordLoading), integrated from rest.
 Shake: the table moves by u(t) d along the direction d (used as given), with the sinusoidal
 u(t) = A sin(2 pi f t) of dem.table_motion (shared with the two-body model): a(t) = u''(t) while
-it shakes (0 <= t < T = cycles / f); after T the table has stopped where the last cycle left it
-(u = u(T), v = 0, a = 0).  Neither velocity jump (to A w at t = 0, to 0 after T) is applied as
-an impulse: the blocks, in the table frame, feel only -m a(t) (see dem.table_motion).
+it shakes (0 <= t < T = cycles / f); after T, a = 0 and the table keeps its final velocity
+(u, v the exact integrals of the applied a(t); see dem.table_motion for why it is not stopped).
+The velocity jump to A w at t = 0 is not applied as an impulse: the blocks, in the table frame,
+feel only -m a(t).
 A shake whose period is shorter than 20 time steps, or a record that ends before the run with
 the table still moving, is refused by dem.validate.
 """
@@ -105,6 +106,32 @@ class Tilt(Loading):
                 "load_direction": self.load_direction.tolist()}
 
 
+class HeldTilt(Tilt):
+    """A tilt whose angle is set by a controller (the quasi-static tilt, dem.run.quasi_static):
+    ``turn(t0, a1, ramp)`` turns the table from its angle at t0 to a1 over ``ramp`` s
+    (smoothstep), then holds it."""
+
+    def __init__(self, g0, axis, max_angle_deg: float, start_angle_deg: float = 0.0):
+        super().__init__(g0, axis, 0.0, max_angle_deg, start_angle_deg)
+        self._t0, self._a0, self._a1, self._ramp = 0.0, self.start_angle, self.start_angle, 0.0
+
+    def turn(self, t0: float, a1: float, ramp: float) -> None:
+        self._a0 = float(self.angle(t0)[0])
+        self._t0, self._a1, self._ramp = float(t0), float(a1), float(ramp)
+
+    def angle(self, t) -> np.ndarray:
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        if self._ramp <= 0.0:
+            return np.full(t.shape, self._a1)
+        s = np.clip((t - self._t0) / self._ramp, 0.0, 1.0)
+        return self._a0 + (self._a1 - self._a0) * s * s * (3 - 2 * s)
+
+    def describe(self):
+        out = super().describe()
+        out.update({"method": "quasi_static", "rate_deg_per_s": None})
+        return out
+
+
 class Shake(Loading):
     """The table shaking along ``direction``: base quantities = SineMotion quantities x direction."""
 
@@ -117,7 +144,7 @@ class Shake(Loading):
 
     @property
     def t_end(self) -> float:
-        """End of the shaking, s (the table is at rest from then on)."""
+        """End of the shaking, s (no table acceleration from then on)."""
         return self.motion.t_end
 
     def _along(self, q) -> np.ndarray:
@@ -191,6 +218,8 @@ class Record(Loading):
 def loading_from_case(case: Case) -> Loading:
     g0 = case.gravity_vector()
     ld = case.loading
+    if isinstance(ld, TiltLoading) and ld.method == "quasi_static":
+        return HeldTilt(g0, ld.axis, ld.max_angle, ld.start_angle)
     if isinstance(ld, TiltLoading):
         return Tilt(g0, ld.axis, ld.rate, ld.max_angle, ld.start_angle, ld.step, ld.hold,
                     ld.start_time)

@@ -79,6 +79,7 @@ class Checked:
     n_frames: int | None = None
     memory_bytes: float | None = None
     disk_bytes: float | None = None
+    joints: dict | None = None
 
     @property
     def ok(self) -> bool:
@@ -92,7 +93,21 @@ class Checked:
             parts.append(f"{self.n_frames:,} frames, output about {_fmt_bytes(self.disk_bytes)}")
         if self.dt is not None:
             parts.append(f"time step {self.dt:.3g} s")
-        return "size: " + ", ".join(parts)
+        return "size: " + ", ".join(parts) + (f"\n{joint_line(self.joints)}" if self.joints
+                                                else "")
+
+
+def joint_line(joints: dict) -> str:
+    """One line on the joint stiffness and what its compliance does to tipping load factors."""
+    eo = joints["elastic_offset"]
+    line = (f"joints: kn = {joints['normal_stiffness_Pa_m']:.3g} Pa/m ({joints['chosen']}); "
+            f"estimated elastic offset of tipping load factors: single blocks "
+            f"{100 * eo['block']['relative']:.2g} %, columns on the table "
+            f"{100 * eo['column']['relative']:.2g} % (dem/compliance.py)")
+    cost = joints.get("time_step_cost")
+    if cost:
+        line += f"; {cost['steps_factor']:.3g} x the steps of kn = {cost['vs_kn_Pa_m']:.3g}"
+    return line
 
 
 def _fmt_bytes(b: float) -> str:
@@ -156,13 +171,16 @@ def _timestep_module():
 
 def critical_step(case: Case, scene) -> float:
     """The largest critical time step the engine can find for this scene (s)."""
+    from dem.run.build import case_joint_law
+
     ts = _timestep_module()
-    mat = case.material
+    jl = case_joint_law(case, scene)
     movable = ~np.asarray(scene.fixed, dtype=bool)
     face, _ = ts.face_area_caps(scene.size, scene.mass, scene.inertia(), movable,
-                                mat.normal_stiffness, mat.ks, case.solver.safety)
+                                jl.normal_stiffness, jl.shear_stiffness, case.solver.safety)
     return float(ts.critical_time_step(scene.size, scene.mass, scene.inertia(), movable,
-                                       mat.normal_stiffness, mat.ks, mat.damping, face))
+                                       jl.normal_stiffness, jl.shear_stiffness, jl.damping,
+                                       face))
 
 
 class _Where:
@@ -257,7 +275,10 @@ def check_case(case: Case, source: str | Path | None = None,
     if not report.ok:
         out.errors.append(f"{where(('scene',))}: the scene cannot be run:\n{report.format()}")
 
-    # time step
+    # joints, time step
+    from dem.run.build import case_joint_law, joint_summary
+
+    out.joints = joint_summary(case, scene, case_joint_law(case, scene))
     dt_crit = critical_step(case, scene)
     out.dt_critical = dt_crit if math.isfinite(dt_crit) else None
     sv = case.solver
@@ -265,7 +286,8 @@ def check_case(case: Case, source: str | Path | None = None,
         if math.isfinite(dt_crit) and sv.dt > dt_crit:
             out.errors.append(
                 f"{where(('solver', 'dt'))}: {sv.dt:.3g} s is above the critical time step "
-                f"{dt_crit:.3g} s of this scene (kn = {case.material.normal_stiffness:.3g} Pa/m); "
+                f"{dt_crit:.3g} s of this scene (kn = {out.joints['normal_stiffness_Pa_m']:.3g} "
+                f"Pa/m); "
                 f"use solver.dt <= {sv.safety * dt_crit:.3g} s or leave it out")
             dt = float(sv.safety * dt_crit)  # the other checks with a step that can run
         else:

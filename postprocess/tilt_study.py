@@ -186,7 +186,8 @@ def report(out: Path) -> None:
              "(runs, then this report; `--report` rebuilds the report from results.json).",
              "lambda = tan(tilt angle at the collapse onset, see dem/collapse.py); LA = limit "
              "analysis, eq 3-1..3-3 (postprocess/limit_analysis.py) with the brick friction; "
-             f"joint stiffness {mat.normal_stiffness:.3g} Pa/m, shear {mat.ks:.3g} Pa/m, damping "
+             f"joint stiffness {mat.normal_stiffness:.3g} Pa/m, shear "
+             f"{mat.ks(mat.normal_stiffness):.3g} Pa/m, damping "
              f"{mat.damping} of critical, time-step safety {SolverSpec().safety} (the defaults), "
              "tilt rate 2 deg/s unless stated.", ""]
 

@@ -19,6 +19,7 @@ LAYERS = [
     ("builders", ("dem.builders",)),
     ("case schema", ("dem.case",)),
     ("loads, instruments, outputs", ("dem.loading", "dem.table_motion", "dem.instruments",
+                                     "dem.compliance",
                                      "dem.output")),
     ("engine", ("dem.engine",)),
     ("run loop", ("dem.run", "dem.batch", "dem.validate", "dem.rocking")),

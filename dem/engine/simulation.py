@@ -21,8 +21,8 @@ import numpy as np
 from dem import ti_runtime
 from dem.engine import step as stepk
 from dem.engine.broadphase import candidate_pairs
-from dem.engine.containers import (NONFINITE, REBUILD, SERIAL_CHUNK, STOP, Contacts, Control,
-                                   Model, State)
+from dem.engine.containers import (ENERGY_TERMS, NONFINITE, REBUILD, SERIAL_CHUNK, STOP,
+                                   Contacts, Control, Model, State)
 from dem.engine.launch import CachedLaunch
 from dem.engine.options import JointLaw, StepOptions
 from dem.engine.errors import CapacityError, InputError, InstabilityError, SimulationError
@@ -253,6 +253,53 @@ class Simulation:
             self._deepest_time = self._t_anchor + steps * self.dt
         self.step_count += done
         return done
+
+    def unbalanced_force_ratio(self, gravity, base_accel=(0.0, 0.0, 0.0)) -> float:
+        """Mean unbalanced-force ratio (the static-convergence measure of 3DEC / UDEC / PFC):
+        sum over movable blocks of |F_i| + |T_i| / r_i over the sum of their weights m_i |g|,
+        where F_i, T_i are the net force and torque of the last step's contact wrenches plus
+        m_i (gravity - base_accel) (m/s^2, table frame), before any local damping, r_i the
+        bounding radius.  Zero in static equilibrium; -.  Computed on the host from
+        Contacts.wrench, so the kernels are untouched."""
+        m, c = self.model, self.contacts
+        n = c.n_pairs
+        F = np.zeros((m.n_bodies, 3))
+        T = np.zeros((m.n_bodies, 3))
+        if n:
+            pairs, w = c.pairs[:n], c.wrench[:n]
+            np.add.at(F, pairs[:, 0], w[:, 0])
+            np.add.at(F, pairs[:, 1], -w[:, 0])
+            np.add.at(T, pairs[:, 0], w[:, 1])
+            np.add.at(T, pairs[:, 1], w[:, 2])
+        g = np.asarray(gravity, dtype=float) - np.asarray(base_accel, dtype=float)
+        mov = self._movable
+        F = F[mov] + m.mass_np[mov, None] * g
+        num = (np.linalg.norm(F, axis=1) + np.linalg.norm(T[mov], axis=1)
+               / m.radius_np[mov]).sum()
+        den = (m.mass_np[mov] * np.linalg.norm(gravity)).sum()
+        return float(num / den) if den > 0 else 0.0
+
+    def set_local_damping(self, alpha: float) -> None:
+        """Cundall local damping coefficient from the next step on (0: none)."""
+        self.control.local_damping[0] = alpha
+
+    def save_point(self) -> dict:
+        """Copies of everything that evolves: State, Contacts (neighbour list, shear history),
+        the energy sums.  :meth:`restore_point` puts them back in place (the arrays the kernels
+        hold do not move); time and step count go on."""
+        return {"state": {k: a.copy() for k, a in self.state.arrays().items()},
+                "contacts": {k: a.copy() for k, a in self.contacts.arrays().items()},
+                "n_pairs": self.contacts.n_pairs,
+                "energy": {k: getattr(self.control, k).copy() for k in ENERGY_TERMS}}
+
+    def restore_point(self, point: dict) -> None:
+        for k, a in point["state"].items():
+            getattr(self.state, k)[...] = a
+        for k, a in point["contacts"].items():
+            getattr(self.contacts, k)[...] = a
+        self.contacts.n_pairs = point["n_pairs"]
+        for k, a in point["energy"].items():
+            getattr(self.control, k)[...] = a
 
     def deepest_penetration(self) -> tuple[float, float]:
         """(depth in m, time in s) of the deepest penetration of any contact point at any step

@@ -9,8 +9,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
+
 from dem.builders import build_from_spec, check_scene, require_valid
-from dem.case import Case, Material, SolverSpec
+from dem.case import Case, Material, SolverSpec, TiltLoading
+from dem.compliance import elastic_offset, rigid_stiffness
 from dem.engine.options import JointLaw, StepOptions
 from dem.loading import Loading, loading_from_case
 from dem.scene import Scene, blocks_to_scene
@@ -43,12 +46,60 @@ def scene_from_case(case: Case, check: bool = True) -> Scene:
     return scene
 
 
-def joint_law(material: Material) -> JointLaw:
-    """The engine's joint law from a case's ``material:`` (defaults resolved: ks = 0.4 kn,
-    base friction = friction)."""
+def normal_stiffness(material: Material, scene: Scene | None = None, direction=None,
+                     g: float = 9.81) -> float:
+    """kn in Pa/m: the case's number, or for ``rigid`` the stiffness that keeps the elastic
+    offset of every block's tipping load factor at 0.5 % (dem.compliance.rigid_stiffness; the
+    widths along ``direction``, the load of a tilt, when given)."""
+    if material.normal_stiffness != "rigid":
+        return float(material.normal_stiffness)
+    if scene is None:
+        raise ValueError("material.normal_stiffness: 'rigid' needs the scene to choose kn")
+    return rigid_stiffness(scene, g=g, direction=direction)
+
+
+def joint_law(material: Material, scene: Scene | None = None, direction=None,
+              g: float = 9.81) -> JointLaw:
+    """The engine's joint law from a case's ``material:`` (defaults resolved: kn for 'rigid',
+    ks = 0.4 kn, base friction = friction)."""
+    kn = normal_stiffness(material, scene, direction, g)
     return JointLaw(friction=material.friction, base_friction=material.mu_base,
-                    normal_stiffness=material.normal_stiffness,
-                    shear_stiffness=material.ks, damping=material.damping)
+                    normal_stiffness=kn, shear_stiffness=material.ks(kn),
+                    damping=material.damping)
+
+
+def case_joint_law(case: Case, scene: Scene) -> JointLaw:
+    """The joint law of a case's scene (the load direction of a tilt sets the widths of
+    'rigid')."""
+    return joint_law(case.material, scene, load_direction(case),
+                     float(np.linalg.norm(case.gravity_vector())))
+
+
+def load_direction(case: Case):
+    """The lateral load direction of a tilt (table frame), else None."""
+    if not isinstance(case.loading, TiltLoading):
+        return None
+    return loading_from_case(case).load_direction
+
+
+def joint_summary(case: Case, scene: Scene, joints: JointLaw) -> dict:
+    """summary.json's ``joints``: the kn in use, how it was chosen, and the estimated elastic
+    offset of the scene's tipping load factors at that kn (dem.compliance)."""
+    out = {"normal_stiffness_Pa_m": joints.normal_stiffness,
+           "shear_stiffness_Pa_m": joints.shear_stiffness,
+           "chosen": "rigid (elastic offset of every block <= 0.5 %)"
+           if case.material.normal_stiffness == "rigid" else "case file",
+           "elastic_offset": elastic_offset(scene, joints.normal_stiffness,
+                                            float(np.linalg.norm(case.gravity_vector())),
+                                            load_direction(case))}
+    if case.material.normal_stiffness == "rigid":
+        default_kn = Material.model_fields["normal_stiffness"].default
+        out["time_step_cost"] = {
+            "vs_kn_Pa_m": default_kn,
+            "steps_factor": (joints.normal_stiffness / default_kn) ** 0.5,
+            "note": "the critical step scales as kn^-1/2: this many times the steps of the "
+                    "default kn for the same simulated time"}
+    return out
 
 
 def step_options(solver: SolverSpec) -> StepOptions:
@@ -71,6 +122,6 @@ def build(case: Case, scene: Scene | None = None) -> Built:
 
     scene = scene if scene is not None else scene_from_case(case)
     loading = loading_from_case(case)
-    sim = Simulation(scene, joint_law(case.material), step_options(case.solver),
+    sim = Simulation(scene, case_joint_law(case, scene), step_options(case.solver),
                      gravity=loading.g0)
     return Built(scene, loading, sim)

@@ -1,5 +1,8 @@
 """The run loop: build, (settle), load, record, stop, write.
 
+The load phase advances the engine in time (constant-rate tilt, shake, record) or, for a
+quasi-static tilt, angle by angle to the loss of equilibrium (dem.run.quasi_static).
+
     res = run_case(case, "runs/wall")            # writes the output directory, returns frames
 
 ``analyses``: functions ``f(case, scene, frames, summary) -> dict`` that read the finished run
@@ -18,8 +21,10 @@ from typing import Callable, Sequence
 import numpy as np
 
 from dem.case import Case
-from dem.run.build import build
+from dem.run.build import build, joint_summary
+from dem.loading import HeldTilt
 from dem.run.progress import Progress
+from dem.run.quasi_static import QuasiStaticTilt
 from dem.run.record import FRAME_KEYS, Recording
 from dem.run.stop import StopRule
 from dem.run.write import OutputError, RunWriter, engine_results, initial_summary, write_case
@@ -61,6 +66,7 @@ def run_case(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
         out.mkdir(parents=True, exist_ok=True)
         write_case(out, case)
     summary = initial_summary(case, scene, loading, sim)
+    summary["joints"] = joint_summary(case, scene, sim.joints)
     recording = Recording(case, scene, loading, sim, out)             # record
     stop = StopRule(case, scene, loading, max_steps)                  # stop
     recording.listeners.append(stop.listen)
@@ -78,14 +84,22 @@ def run_case(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
 
     bar = Progress(progress, stop.t_end, case.name)
     run0 = time.perf_counter()
+
+    def progressed(*_) -> None:
+        bar.update(sim.t, sim.step_count / max(time.perf_counter() - run0, 1e-9))
+        writer.checkpoint(summary, sim)
+
     try:
         recording.start()
-        while not stop.at_end(sim):                                   # load
-            sim.advance(stop.limit_steps(sim, recording.steps_to_next(stop.t_end)), loading)
-            if recording.after_advance(last=stop.at_end(sim)) and stop.collapse_stop:
-                break
-            bar.update(sim.t, sim.step_count / max(time.perf_counter() - run0, 1e-9))
-            writer.checkpoint(summary, sim)
+        if isinstance(loading, HeldTilt):                             # load: quasi-static
+            search = QuasiStaticTilt(case, scene, loading, sim, recording, progressed)
+            summary["collapse"] = search.run()
+        else:                                                         # load: in time
+            while not stop.at_end(sim):
+                sim.advance(stop.limit_steps(sim, recording.steps_to_next(stop.t_end)), loading)
+                if recording.after_advance(last=stop.at_end(sim)) and stop.collapse_stop:
+                    break
+                progressed()
     except SimulationError as err:
         bar.close()
         writer.guarded("last frame", recording.frame_at_stop)

@@ -1,7 +1,7 @@
 """Stop phase: when the loop ends.
 
-A run stops at ``run.duration``, at the step limit (``max_steps``, smoke runs), or, on a tilting
-table with ``loading.collapse.enabled``, once the collapse detector (dem.collapse) has seen the
+A run stops at ``run.duration``, at the step limit (``max_steps``, smoke runs), or, on a
+constant-rate tilt with ``loading.collapse.enabled``, once the collapse detector (dem.collapse) has seen the
 collapse confirmed and the run gone on for ``collapse.after`` s or a block moved ``collapse.stop``.
 The detector sees every recorded frame (it listens to the recording), so its result, written to
 summary.json as ``collapse``, is the one ``dem post`` gets by replaying frames.npz.
@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from dem.case import Case
 from dem.collapse import CollapseDetector
-from dem.loading import Loading, Tilt
+from dem.loading import HeldTilt, Loading, Tilt
 from dem.scene import Scene
 
 
@@ -21,7 +21,8 @@ class StopRule:
         self.step_limit = int(max_steps) if max_steps is not None else None
         self.detector = None
         self.collapse_stop = False
-        if isinstance(loading, Tilt) and case.loading.collapse.enabled:
+        if isinstance(loading, Tilt) and not isinstance(loading, HeldTilt) and \
+                case.loading.collapse.enabled:
             self.detector = CollapseDetector.for_scene(scene, case.loading.collapse)
 
     def listen(self, t, angle, pos, quat, vel, omega) -> None:

@@ -1,0 +1,191 @@
+"""Load phase of a quasi-static tilt: the angle at which static equilibrium is lost.
+
+The constant-rate tilt reads lambda while the wall moves (at 2 deg/s it reads 3.5 % low in plane
+and 12 % low out of plane, results/tilt/FINDINGS.md).  Here the table angle is the control
+variable (thesis Chapter 3: "the table was tilted slowly"; the static answer is what limit
+analysis predicts), as 3DEC / UDEC find static solutions:
+
+1. advance the angle by ``increment`` (turned over ``ramp_time`` s, smoothstep), then relax with
+   Cundall local damping alpha (a force -alpha |F| sign(v) per component: it removes motion and
+   leaves every static equilibrium as it is) until the unbalanced-force ratio R (sum of
+   |F_i| + |T_i| / r_i over the sum of the weights, dem.engine.Simulation.unbalanced_force_ratio)
+   is below ``tolerance`` and every block is at rest (|v| + r |omega| below
+   ``collapse.onset_speed``) at ``CALM_CHECKS`` looks in a row;
+2. equilibrium is lost at an angle when, while relaxing, a block moves ``collapse.confirm`` (the
+   motion measure of dem.collapse, from the poses at the start of the relaxation) or
+   ``max_relax_time`` passes with R above the tolerance and the blocks still moving (at rest
+   and nearly where they started, they are in equilibrium: ``REST_MOTION``).  (A rise of the block speeds is no
+   sign: near its limit a wall creeps at mm/s for tens of ms while slip spreads, then settles;
+   taken as a failure it read lambda 5 % low on the 5 x 7 wall.)
+3. the first failing increment is bisected: each trial starts from the saved state of the last
+   angle in equilibrium (poses, velocities, contacts with their shear history:
+   Simulation.save_point / restore_point) until the bracket is narrower than ``resolution``;
+   lambda = tan(theta_eq), theta_eq the last angle in equilibrium (the true limit lies in
+   [theta_eq, theta_eq + resolution]);
+4. from the state at theta_eq the table turns to the first failing increment's angle and the
+   run goes on
+   dynamically (no local damping, true masses) for ``collapse.after`` s or until a block moved
+   ``collapse.stop``, so that the mechanism shows in the frames.
+
+Density scaling is not used: the relaxation runs at the true masses and the critical step.
+Frames: one at the start, one at every angle found in equilibrium, then every
+``run.output_interval`` of the dynamic part.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from dem.collapse import motion_measure
+
+CHECK_STEPS = 100  # steps between two looks at R and the motion while relaxing
+CALM_CHECKS = 3    # equilibrium: R below the tolerance and every block at rest at this many
+                   # looks in a row (R alone can dip below it while a wall swings through)
+REST_MOTION = 0.1  # at max_relax_time, blocks at rest that moved less than this x confirm are in
+                   # equilibrium whatever R says (R has a floor of ~1e-4 on some walls: joint
+                   # vibrations of nanometres give it; a wall failing faster than 0.03 deg above
+                   # its limit moves faster than onset_speed after 1 s of relaxation)
+
+
+class QuasiStaticTilt:
+    def __init__(self, case, scene, loading, sim, recording, on_progress=None):
+        self.spec = case.loading.quasi_static
+        self.collapse = case.loading.collapse
+        self.max_angle = case.loading.max_angle
+        self.t_limit = case.run.duration
+        self.loading, self.sim, self.recording = loading, sim, recording
+        self.radius = 0.5 * np.linalg.norm(scene.size, axis=1)
+        self.n = scene.n_blocks
+        self.on_progress = on_progress
+        self.relaxations = 0
+        self.relax_steps = 0
+        self.angles: list[dict] = []  # every angle tried: angle, equilibrium, R, time, steps
+
+    # -- one angle -----------------------------------------------------------------------
+    def relax(self, angle: float) -> tuple[bool, float, float]:
+        """Turn to ``angle`` and relax; (in equilibrium, R, largest motion in m)."""
+        sim, sp = self.sim, self.spec
+        st = sim.state
+        pos0, quat0 = st.pos[: self.n].copy(), st.quat[: self.n].copy()
+        t0, steps0 = sim.t, sim.step_count
+        self.loading.turn(t0, angle, sp.ramp_time)
+        sim.set_local_damping(sp.local_damping)
+        ok, ratio, moved, why = False, math.inf, 0.0, "max_relax_time"
+        calm = 0
+        while True:
+            sim.advance(CHECK_STEPS, self.loading)
+            ratio = sim.unbalanced_force_ratio(self.loading.gravity(np.array([sim.t]))[0])
+            moved = float(motion_measure(pos0, quat0, st.pos[: self.n], st.quat[: self.n],
+                                         self.radius).max())
+            if moved >= self.collapse.confirm:
+                why = "moved"
+                break
+            turned = sim.t - t0 >= sp.ramp_time
+            at_rest = self._speed() < self.collapse.onset_speed
+            calm = calm + 1 if turned and ratio < sp.tolerance and at_rest else 0
+            if calm >= CALM_CHECKS:
+                ok, why = True, "equilibrium"
+                break
+            if sim.t - t0 >= sp.max_relax_time or sim.t >= self.t_limit:
+                if at_rest and moved < REST_MOTION * self.collapse.confirm:
+                    ok, why = True, "at rest"
+                break
+        self.relaxations += 1
+        self.relax_steps += sim.step_count - steps0
+        self.angles.append({"angle_deg": angle, "equilibrium": ok, "why": why,
+                            "unbalanced_ratio": ratio, "motion_m": moved,
+                            "speed_m_s": self._speed(),
+                            "relax_time_s": sim.t - t0})
+        if self.on_progress is not None:
+            self.on_progress(angle)
+        return ok, ratio, moved
+
+    def _speed(self) -> float:
+        """Largest block speed bound |v| + r |omega|, m/s."""
+        st = self.sim.state
+        return float((np.linalg.norm(st.vel[: self.n], axis=1)
+                      + self.radius * np.linalg.norm(st.omega[: self.n], axis=1)).max())
+
+    # -- the search ----------------------------------------------------------------------
+    def run(self) -> dict:
+        """The search, then the dynamic continuation; returns summary.json's ``collapse``."""
+        sp, sim, rec = self.spec, self.sim, self.recording
+        start = float(self.loading.start_angle)
+        ok, ratio, _ = self.relax(start)
+        if not ok:
+            return self._result(False, None, start, ratio, "no equilibrium at the start angle")
+        rec.frame()
+        eq, eq_ratio, saved = start, ratio, sim.save_point()
+        fail = None
+        while fail is None and eq < self.max_angle and sim.t < self.t_limit:
+            trial = min(eq + sp.increment, self.max_angle)
+            ok, ratio, _ = self.relax(trial)
+            if ok:
+                eq, eq_ratio, saved = trial, ratio, sim.save_point()
+                rec.frame()
+            else:
+                fail = first_fail = trial
+        if fail is None:
+            note = "max_angle reached in equilibrium" if eq >= self.max_angle else \
+                "run.duration reached before equilibrium was lost"
+            return self._result(False, None, eq, eq_ratio, note)
+        while fail - eq > sp.resolution and sim.t < self.t_limit:
+            sim.restore_point(saved)
+            mid = 0.5 * (eq + fail)
+            ok, ratio, _ = self.relax(mid)
+            if ok:
+                eq, eq_ratio, saved = mid, ratio, sim.save_point()
+                rec.frame()
+            else:
+                fail = mid
+        sim.restore_point(saved)
+        return self._continue_dynamically(eq, fail, eq_ratio, first_fail)
+
+    def _continue_dynamically(self, eq: float, fail: float, eq_ratio: float,
+                              to_angle: float) -> dict:
+        """From the state at ``eq``, the table turns to ``to_angle`` (the first increment that
+        failed, so that the mechanism develops in a short time) and the run goes on."""
+        sim, rec, col = self.sim, self.recording, self.collapse
+        sim.set_local_damping(0.0)
+        self.loading.turn(sim.t, to_angle, self.spec.ramp_time)
+        st = sim.state
+        pos0, quat0 = st.pos[: self.n].copy(), st.quat[: self.n].copy()
+        t0 = sim.t
+        first_moving = None
+        rec.next_frame = t0 + rec.run.output_interval
+        while sim.t < min(t0 + col.after, self.t_limit):
+            sim.advance(rec.steps_to_next(t0 + col.after), self.loading)
+            rec.after_advance(last=sim.t >= t0 + col.after)
+            m = motion_measure(pos0, quat0, st.pos[: self.n], st.quat[: self.n], self.radius)
+            if first_moving is None and m.max() >= col.confirm:
+                first_moving = np.flatnonzero(m >= 0.5 * col.confirm)
+            if m.max() >= col.stop:
+                break
+        rec.frame_at_stop()
+        m = motion_measure(pos0, quat0, st.pos[: self.n], st.quat[: self.n], self.radius)
+        moved = np.flatnonzero(m >= 0.5 * col.confirm)
+        out = self._result(True, fail, eq, eq_ratio, None)
+        out.update({"first_moving_blocks": [] if first_moving is None else first_moving.tolist(),
+                    "moved_blocks": moved.tolist(), "n_moved": int(len(moved)),
+                    "dynamic_from_s": t0, "dynamic_angle_deg": to_angle,
+                    "dynamic_max_motion_m": float(m.max())})
+        return out
+
+    def _result(self, detected: bool, fail, eq: float, eq_ratio: float, note) -> dict:
+        sp = self.spec
+        out = {"detected": detected, "method": "quasi_static",
+               "angle_deg": eq, "load_factor": math.tan(math.radians(eq)),
+               "failed_angle_deg": fail,
+               "resolution_deg": (fail - eq) if fail is not None else None,
+               "unbalanced_ratio_at_angle": eq_ratio,
+               "criterion": {"tolerance": sp.tolerance, "local_damping": sp.local_damping,
+                             "increment_deg": sp.increment, "resolution_deg": sp.resolution,
+                             "max_relax_time_s": sp.max_relax_time,
+                             "confirm_m": self.collapse.confirm},
+               "relaxations": self.relaxations, "relax_steps": self.relax_steps,
+               "angles": self.angles}
+        if not detected:
+            out.update({"last_angle_deg": eq, "note": note})
+        return out
