@@ -1,0 +1,127 @@
+"""The whole case file: ``Case``, and loading it from YAML with errors that name the field."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Union
+
+import yaml
+from pydantic import Field, ValidationError, field_validator
+
+from dem.case.base import Vec3, _Strict
+from dem.case.loadings import Loading, NoLoading, RecordLoading
+from dem.case.material import Material
+from dem.case.scene import SceneSpec
+from dem.case.settings import RunSpec, SolverSpec
+
+
+class Case(_Strict):
+    name: str = Field(min_length=1)
+    description: str = ""
+    scene: SceneSpec
+    material: Material
+    loading: Loading = Field(default_factory=lambda: NoLoading(type="none"))
+    run: RunSpec
+    solver: SolverSpec = Field(default_factory=SolverSpec)
+    gravity: Union[float, Vec3] = Field(
+        default=9.81,
+        description="m/s2: a magnitude (pointing -z) or a vector in the table frame",
+    )
+
+    @field_validator("gravity", mode="before")
+    @classmethod
+    def _gravity_finite(cls, v):
+        # before the union is tried: its branches would each report on their own ("a valid
+        # number" for the vector)
+        vals = v if isinstance(v, (list, tuple)) else [v]
+        if all(isinstance(x, (int, float)) for x in vals) and \
+                not all(math.isfinite(x) for x in vals):
+            raise ValueError(f"must be a finite number or vector (m/s2), got {v}")
+        return v
+
+    @field_validator("gravity")
+    @classmethod
+    def _gravity(cls, v):
+        if isinstance(v, (int, float)):
+            if v < 0 or not math.isfinite(v):
+                raise ValueError(f"gravity magnitude must be >= 0, got {v}")
+        return v
+
+    def gravity_vector(self) -> list[float]:
+        if isinstance(self.gravity, (int, float)):
+            return [0.0, 0.0, -float(self.gravity)]
+        return [float(x) for x in self.gravity]
+
+
+# --------------------------------------------------------------------------------------------
+# loading from files, with errors that name the field
+# --------------------------------------------------------------------------------------------
+class CaseError(Exception):
+    """A case that cannot be used; the message names the bad field(s)."""
+
+
+def format_validation_error(
+    err: ValidationError, data=None, node=None, source: str | None = None
+) -> str:
+    """One line per problem naming the field path (and ``source:line`` when the YAML node tree is
+    given), e.g. ``case.yaml:12: loading.frequency: Input should be greater than 0``.  The union
+    tags pydantic inserts (``loading.shake.frequency``) are dropped; see :mod:`dem.case_errors`."""
+    from dem.case_errors import format_errors
+
+    return format_errors(err, Case, data=data, node=node, source=source)
+
+
+def parse_case(data: dict, node=None, source: str | None = None) -> Case:
+    try:
+        return Case.model_validate(data)
+    except ValidationError as err:
+        raise CaseError(format_validation_error(err, data=data, node=node, source=source)) from None
+
+
+def load_case(path: str | Path) -> Case:
+    from dem.case_errors import DuplicateKeyError, compose
+
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except (OSError, UnicodeDecodeError) as err:
+        raise CaseError(f"{path}: cannot read: {getattr(err, 'strerror', None) or err}") from None
+    try:
+        node = compose(text)
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as err:
+        mark = getattr(err, "problem_mark", None)
+        where = f"{path}:{mark.line + 1}" if mark is not None else f"{path}"
+        raise CaseError(f"{where}: not valid YAML: {err}") from None
+    except DuplicateKeyError as err:
+        raise CaseError(f"{path}: {err}") from None
+    if not isinstance(data, dict):
+        raise CaseError(f"{path}: the case must be a YAML mapping, got {type(data).__name__}")
+    case = parse_case(data, node=node, source=str(path))
+    ld = case.loading
+    if isinstance(ld, RecordLoading) and ld.file is not None:
+        f = Path(ld.file)
+        ld.file = str(f if f.is_absolute() else path.parent / f)
+        try:
+            ld.samples()
+        except ValueError as err:
+            raise CaseError(f"{path}: loading.file: {err}") from None
+    return case
+
+
+def case_json_schema() -> str:
+    """JSON schema of case files (``dem schema``; committed as ``cases/case.schema.json``).
+
+    Editors with a YAML language server pick it up from a first line
+    ``# yaml-language-server: $schema=<relative path>/case.schema.json``.
+    """
+    import json
+
+    schema = Case.model_json_schema()
+    schema = {
+        "$schema": "https://json-schema.org/draft/2020-12/schema",
+        **schema,
+        "title": "dem-masonry case file",
+    }
+    return json.dumps(schema, indent=2) + "\n"

@@ -1,0 +1,301 @@
+"""``loading:`` of a case file: tilt (constant rate or quasi-static), shake, record, none.
+
+The loads against time they give are dem.loading's.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Annotated, Literal, Union
+
+from pydantic import Field, field_validator, model_validator
+
+from dem.case.base import Vec3, _Strict
+
+
+class CollapseSpec(_Strict):
+    """When a tilt run counts as collapsed and stops (see dem.collapse for the rule)."""
+
+    enabled: bool = Field(default=True, description="detect collapse and stop the run after it")
+    onset_speed: float = Field(
+        default=1e-3, gt=0.0, description="m/s: blocks slower than this are at rest (onset)"
+    )
+    confirm: float = Field(default=5e-3, gt=0.0, description="motion (m) that confirms collapse")
+    after: float = Field(default=1.0, ge=0.0, description="s to run on after confirmation")
+    stop: float = Field(default=0.03, gt=0.0, description="stop earlier once a block moved this, m")
+
+    @model_validator(mode="after")
+    def _ordered(self) -> "CollapseSpec":
+        if not self.confirm < self.stop:
+            raise ValueError("need confirm < stop")
+        return self
+
+
+class QuasiStaticSpec(_Strict):
+    """How a quasi-static tilt finds the angle at which equilibrium is lost (dem.run.quasi_static).
+
+    The angle advances by ``increment``; after each advance the scene relaxes with Cundall local
+    damping (``local_damping``: it does not change a static equilibrium, it only removes the
+    motion) until the unbalanced-force ratio (sum over blocks of |net force| + |net torque| /
+    radius, over the sum of their weights) is below ``tolerance``; equilibrium is lost when a
+    block moves ``collapse.confirm`` while relaxing or ``max_relax_time`` passes without
+    reaching the tolerance while still moving.  The first failing increment is bisected down to
+    ``resolution``;
+    lambda = tan(last angle in equilibrium).  Then the run goes on dynamically (no local damping)
+    at the failing angle for ``collapse.after`` s or until a block moved ``collapse.stop``, to
+    show the mechanism.
+    """
+
+    increment: float = Field(default=1.0, gt=0.0, le=10.0, description="degrees per advance")
+    resolution: float = Field(default=0.05, gt=0.0, description="bisection width, degrees")
+    tolerance: float = Field(
+        default=1e-3, gt=0.0, lt=1.0,
+        description="unbalanced-force ratio of equilibrium, -: an angle up to about this much "
+        "load factor above a sliding limit can pass (benchmarks/quasi_static_tilt.py: 1e-3 "
+        "reads lambda within 0.2 %; 1e-4 is below the floor some walls' joint vibrations give)")
+    local_damping: float = Field(default=0.8, gt=0.0, lt=1.0,
+                                 description="Cundall local damping while relaxing, -")
+    ramp_time: float = Field(default=0.005, ge=0.0,
+                             description="s over which each advance turns the table (smoothstep)")
+    max_relax_time: float = Field(default=1.0, gt=0.0,
+                                  description="s of relaxation before an angle counts as failed")
+
+
+class TiltLoading(_Strict):
+    """The table turns about a horizontal axis (pseudo-static collapse, thesis Chapter 3).
+
+    Modelled in the table's frame: gravity turns, the table stays.  With the right-hand rule about
+    ``axis`` a positive angle theta gives gravity g_t = -g cos(theta) z + g sin(theta) (axis x z),
+    so about +x blocks are pushed towards -y, about +y towards +x; the load factor is
+    lambda = tan(theta).  Where the pivot edge is does not matter in this frame: the fictitious
+    forces of the rotation (of order rate^2 * size, < 1e-5 g at 2 deg/s) are neglected.
+    ``method``: "constant_rate": the angle rises at ``rate``; with ``step`` it rises by ``step``
+    degrees, then holds for ``hold`` seconds, and so on; it stays at ``max_angle`` once reached;
+    collapse as dem.collapse detects it.  "quasi_static": the angle advances by increments, each
+    followed by relaxation to equilibrium, until equilibrium is lost (``quasi_static``).
+    """
+
+    type: Literal["tilt"]
+    axis: Union[Literal["x", "y", "-x", "-y"], Vec3] = Field(
+        description="table rotation axis (horizontal): x, y, -x, -y or a vector"
+    )
+    method: Literal["constant_rate", "quasi_static"] = Field(
+        default="quasi_static",
+        description="quasi_static (the default, and what a tilt without a rate gets): "
+        "increments, each relaxed to equilibrium, then bisection of the first that fails "
+        "(`quasi_static`); constant_rate (what a tilt with a rate gets): the angle rises at "
+        "`rate`")
+    rate: float | None = Field(default=None, gt=0.0,
+                               description="tilt rate while turning, degrees per second "
+                               "(constant_rate)")
+    quasi_static: QuasiStaticSpec = Field(default_factory=QuasiStaticSpec)
+    max_angle: float = Field(default=60.0, gt=0.0, le=90.0, description="degrees")
+    start_angle: float = Field(default=0.0, ge=0.0, le=90.0, description="degrees at t = 0")
+    start_time: float = Field(
+        default=0.0, ge=0.0,
+        description="s to bring the table smoothly (smoothstep) from 0 to start_angle; 0 = the "
+        "table starts at start_angle (a sudden load: right for a block released on an incline, "
+        "a shock for a wall)",
+    )
+    step: float | None = Field(default=None, gt=0.0, description="degrees per step (with holds)")
+    hold: float = Field(default=0.0, ge=0.0, description="s held after every step")
+    collapse: CollapseSpec = Field(default_factory=CollapseSpec)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _method_from_rate(cls, data):
+        """A tilt that gives a rate and no method is a constant-rate tilt (every case file
+        written before the quasi-static tilt existed); without a rate it is quasi-static."""
+        if isinstance(data, dict) and "method" not in data and data.get("rate") is not None:
+            data = {**data, "method": "constant_rate"}
+        return data
+
+    @field_validator("axis")
+    @classmethod
+    def _horizontal(cls, v):
+        if isinstance(v, list):
+            if abs(v[2]) > 1e-12 or math.hypot(v[0], v[1]) == 0.0:
+                raise ValueError(f"axis must be a non-zero horizontal vector, got {v}")
+        return v
+
+    @model_validator(mode="after")
+    def _start_below_max(self) -> "TiltLoading":
+        if self.start_angle > self.max_angle:
+            raise ValueError("start_angle must not exceed max_angle")
+        if self.method == "constant_rate" and self.rate is None:
+            raise ValueError("rate: a constant_rate tilt needs a rate (degrees per second); or "
+                             "give method: quasi_static")
+        if self.method == "quasi_static" and (self.rate is not None or self.step is not None):
+            raise ValueError("rate / step: they apply to method: constant_rate; a quasi_static "
+                             "tilt advances by quasi_static.increment")
+        return self
+
+
+class ShakeLoading(_Strict):
+    """Sinusoidal table displacement u(t) = A * direction * sin(2 pi f t) for ``cycles`` cycles.
+
+    ``direction`` is used as given (not normalised): [1, 1, 0] moves x and y each by the amplitude
+    (the thesis' diagonal tests).  Give the amplitude A (m) or the peak acceleration
+    a_p = A (2 pi f)^2 (m/s2).  After the last cycle a = 0 and the table keeps its final velocity (see dem.table_motion).  The
+    motion itself is dem.table_motion.SineMotion; the two-body model's case format uses this
+    class too (dem.rocking.schema.ShakeLoading adds that its direction must be horizontal).
+    """
+
+    type: Literal["shake"]
+    direction: Vec3 = Field(description="displacement direction, multiplied by the amplitude")
+    frequency: float = Field(gt=0.0, description="Hz")
+    amplitude: float | None = Field(default=None, gt=0.0, description="displacement amplitude, m")
+    peak_acceleration: float | None = Field(default=None, gt=0.0, description="m/s2")
+    cycles: float = Field(default=50.0, gt=0.0, description="number of cycles")
+
+    @field_validator("direction")
+    @classmethod
+    def _nonzero(cls, v):
+        if math.sqrt(sum(x * x for x in v)) == 0.0 or any(not math.isfinite(x) for x in v):
+            raise ValueError(f"direction must be a finite non-zero vector, got {v}")
+        return v
+
+    @model_validator(mode="after")
+    def _one_of(self) -> "ShakeLoading":
+        if (self.amplitude is None) == (self.peak_acceleration is None):
+            raise ValueError("give exactly one of amplitude (m) or peak_acceleration (m/s2)")
+        return self
+
+    @property
+    def displacement_amplitude(self) -> float:
+        """A, m: the amplitude given, or the one of the peak acceleration given."""
+        if self.amplitude is not None:
+            return self.amplitude
+        return self.peak_acceleration / (2.0 * math.pi * self.frequency) ** 2
+
+    @property
+    def axis_amplitude(self) -> float:
+        """Displacement amplitude along the direction, m (= A * |direction|)."""
+        return self.displacement_amplitude * math.sqrt(sum(x * x for x in self.direction))
+
+
+class RecordLoading(_Strict):
+    """Table acceleration from a record (an earthquake, a pulse), in the table's frame.
+
+    Give either ``file`` (CSV with columns t, ax, ay and optionally az: s and m/s2; a header line
+    is allowed; a relative path is relative to the case file) or the arrays ``time``, ``ax``,
+    ``ay`` (and ``az``) inline.  Between samples the acceleration is interpolated linearly, outside
+    the record it is zero; the table starts at rest and its velocity and displacement are the
+    integrals of the acceleration (no baseline correction: a record that does not integrate to
+    zero velocity leaves the table drifting, as it would).  ``scale`` multiplies the record.
+    """
+
+    type: Literal["record"]
+    file: str | None = Field(default=None, description="CSV: t, ax, ay[, az] (s, m/s2)")
+    time: list[float] | None = Field(default=None, description="s, strictly increasing")
+    ax: list[float] | None = Field(default=None, description="m/s2")
+    ay: list[float] | None = Field(default=None, description="m/s2")
+    az: list[float] | None = Field(default=None, description="m/s2")
+    scale: float = Field(default=1.0, description="factor on the record")
+
+    @model_validator(mode="after")
+    def _source(self) -> "RecordLoading":
+        if (self.file is None) == (self.time is None):
+            raise ValueError("give either file (CSV) or time with ax, ay (inline arrays)")
+        if self.time is not None:
+            n = len(self.time)
+            if n < 2:
+                raise ValueError("time needs at least 2 samples")
+            for name in ("ax", "ay", "az"):
+                arr = getattr(self, name)
+                if arr is not None and len(arr) != n:
+                    raise ValueError(f"{name} has {len(arr)} samples, time has {n}")
+            if self.ax is None and self.ay is None and self.az is None:
+                raise ValueError("give at least one of ax, ay, az")
+            check_record_time(self.time)
+        return self
+
+    def samples(self):
+        """(t [K] s, acceleration [K,3] m/s2) with the scale applied; reads the file if given."""
+        import numpy as np
+
+        if self.file is not None:
+            t, acc = read_record_csv(self.file)
+        else:
+            t = np.asarray(self.time, dtype=float)
+            acc = np.zeros((len(t), 3))
+            for k, name in enumerate(("ax", "ay", "az")):
+                if getattr(self, name) is not None:
+                    acc[:, k] = getattr(self, name)
+        return t, self.scale * acc
+
+
+def check_record_time(t) -> None:
+    import numpy as np
+
+    t = np.asarray(t, dtype=float)
+    if not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
+        raise ValueError("time must be finite and strictly increasing")
+
+
+def read_record_csv(path):
+    """t [K], acceleration [K,3] from a CSV of t, ax, ay[, az]; raises ValueError naming the
+    problem and the row (1-based line of the file): ``pulse.csv:7: 'abc' is not a number``.
+    Lines starting with '#' and blank lines are skipped; the first data-like line may be a header
+    (non-numeric)."""
+    import csv
+
+    import numpy as np
+
+    try:
+        with open(path, newline="") as fh:
+            lines = list(enumerate(csv.reader(fh), start=1))
+    except (OSError, UnicodeDecodeError) as err:
+        raise ValueError(f"cannot read {path}: {getattr(err, 'strerror', None) or err}") from None
+    except csv.Error as err:
+        raise ValueError(f"{path}: not a CSV file: {err}") from None
+    rows, ncol, header_seen = [], None, False
+    for line, cells in lines:
+        cells = [c.strip() for c in cells]
+        if not any(cells) or cells[0].startswith("#"):
+            continue
+        try:
+            values = [float(c) for c in cells]
+        except ValueError:
+            bad = next(c for c in cells if not _is_number(c))
+            if not rows and not header_seen:
+                header_seen = True  # a header line
+                continue
+            raise ValueError(f"{path}:{line}: {bad!r} is not a number (columns t, ax, ay[, az]: "
+                             "s, m/s2)") from None
+        if len(values) not in (3, 4):
+            raise ValueError(f"{path}:{line}: {len(values)} columns, need 3 or 4 columns "
+                             "(t, ax, ay[, az])")
+        if ncol is not None and len(values) != ncol:
+            raise ValueError(f"{path}:{line}: {len(values)} columns, the rows above have {ncol}")
+        if not all(np.isfinite(values)):
+            raise ValueError(f"{path}:{line}: values must be finite, got {', '.join(cells)}")
+        if rows and not values[0] > rows[-1][1][0]:
+            raise ValueError(f"{path}:{line}: time {values[0]:g} s is not after the previous "
+                             f"row's {rows[-1][1][0]:g} s (time must increase strictly)")
+        ncol = len(values)
+        rows.append((line, values))
+    if len(rows) < 2:
+        raise ValueError(f"{path}: need at least 2 rows of 3 or 4 columns (t, ax, ay[, az])")
+    data = np.array([v for _, v in rows], dtype=float)
+    acc = np.zeros((len(data), 3))
+    acc[:, : data.shape[1] - 1] = data[:, 1:]
+    return data[:, 0], acc
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+        return True
+    except ValueError:
+        return False
+
+
+class NoLoading(_Strict):
+    """Free motion from the initial state under gravity (e.g. a block released tilted)."""
+
+    type: Literal["none"]
+
+
+Loading = Annotated[Union[TiltLoading, ShakeLoading, RecordLoading, NoLoading],
+                    Field(discriminator="type")]
