@@ -6,7 +6,13 @@
 
 Runs go through dask.distributed (``dem.batch``: one single-threaded worker per core).  Each run
 writes ``<out>/runs/<name>/`` (summary.json, frames.npz; not committed); the collected numbers go
-to ``<out>/results.json`` and the report to ``<out>/README.md`` with PNG plots.
+to ``<out>/results.json`` (rewritten as each run lands) and the report to ``<out>/README.md``
+with PNG plots.  Resumable: a run already in results.json with status ok is not run again
+(``--force`` reruns it).
+
+Every specimen runs twice: with the case file's constant-rate tilt (2 deg/s; the rate study
+varies it) and as a quasi-static tilt (``qs-<name>``: dem.run.quasi_static, its defaults), the
+converged lambda the findings are read at (issue 11).
 """
 
 from __future__ import annotations
@@ -46,12 +52,27 @@ def _variant(case: Case, name: str, **changes) -> Case:
     return Case.model_validate(data)
 
 
+QS_DURATION = 60.0  # s: a bound on the simulated time of a quasi-static run (they take 2-10 s)
+
+
 def _study_settings(case: Case, name: str) -> Case:
     """Output suited to a study: frames every 0.02 s, no VTK/PNG, long enough for slow rates."""
     angle_max = case.loading.max_angle
-    duration = angle_max / case.loading.rate + 2.0
+    duration = angle_max / case.loading.rate + 2.0 if case.loading.rate else QS_DURATION
     return _variant(case, name, run={"output_interval": 0.02, "vtk": False, "snapshot": False,
                                      "duration": duration})
+
+
+def _quasi_static(case: Case, name: str) -> Case:
+    """The same specimen on a quasi-static tilt (the quasi_static defaults)."""
+    data = case.model_dump()
+    data["name"] = name
+    ld = data["loading"]
+    for key in ("rate", "step", "hold"):
+        ld.pop(key, None)
+    ld["method"] = "quasi_static"
+    ld.pop("quasi_static", None)
+    return Case.model_validate(data)
 
 
 def build_runs() -> list[tuple[str, Case]]:
@@ -75,6 +96,9 @@ def build_runs() -> list[tuple[str, Case]]:
         for src in ("ip-small-5x7", "oop-large-5x9-no-wings"):
             runs[f"rate-{rate:g}-{src}"] = _variant(runs[src], f"rate-{rate:g}-{src}",
                                                     loading={"rate": rate})
+    specimens = {n: c for n, c in runs.items() if not n.startswith("rate-")}
+    for n, c in specimens.items():
+        runs[f"qs-{n}"] = _quasi_static(c, f"qs-{n}")
     return [(name, _study_settings(c, name)) for name, c in runs.items()]
 
 
@@ -95,15 +119,19 @@ def _record(rec: dict) -> dict:
     return out
 
 
-def run_all(out: Path, only: str | None, workers: int | None) -> list[dict]:
+def run_all(out: Path, only: str | None, workers: int | None, force: bool = False
+            ) -> list[dict]:
     from dem.batch import run_batch
     from dem.commands.run import RUN_ANALYSES
+    from dem.output.atomic import write_json
 
     runs = build_runs()
     if only:
         runs = [(n, c) for n, c in runs if only in n]
     path = out / "results.json"
     old = {r["name"]: r for r in json.loads(path.read_text())} if path.exists() else {}
+    if not force:
+        runs = [(n, c) for n, c in runs if (old.get(n) or {}).get("status") != "ok"]
     t0 = time.perf_counter()
 
     def done(rec):
@@ -112,15 +140,13 @@ def run_all(out: Path, only: str | None, workers: int | None) -> list[dict]:
         print(f"[{time.perf_counter() - t0:7.0f} s] {rec['name']}: {rec['status']}"
               + (f", lambda = {lam:.3f}" if lam is not None else "")
               + (f" ({rec.get('error')})" if rec["status"] != "ok" else ""), flush=True)
-
-    print(f"{len(runs)} runs", flush=True)
-    records = run_batch(runs, out / "runs", n_workers=workers, on_done=done,
-                        analyses=RUN_ANALYSES)
-    for rec in records:
         old[rec["name"]] = _record(rec)
-    results = list(old.values())
-    path.write_text(json.dumps(results, indent=1))
-    return results
+        write_json(path, list(old.values()), indent=1)  # resumable: each run as it lands
+
+    print(f"{len(runs)} runs to do", flush=True)
+    if runs:
+        run_batch(runs, out / "runs", n_workers=workers, on_done=done, analyses=RUN_ANALYSES)
+    return list(old.values())
 
 
 # ------------------------------------------------------------------------------------------
@@ -169,6 +195,36 @@ def _rate_comment(extrapolated: dict) -> str:
     return txt
 
 
+def _converged_section(rate: dict, qs: dict) -> list[str]:
+    """The specimens at their converged (quasi-static) lambda next to the 2 deg/s one."""
+    if not qs:
+        return []
+    lines = ["## Converged lambda (quasi-static tilt)", "",
+             "Every specimen again on a quasi-static tilt (dem/run/quasi_static.py, its defaults: "
+             "1 deg increments relaxed to an unbalanced-force ratio below 1e-3, the first failing "
+             "one bisected to 0.05 deg; lambda = tan of the last angle in equilibrium).  The "
+             "findings are read at these values; the 2 deg/s tables below are the earlier record "
+             "(the onset criterion reads them low, more so out of plane).", "",
+             "| run | bricks | lambda 2 deg/s | lambda quasi-static | change | mechanism "
+             "(quasi-static) | collapsed blocks | relaxations | wall time (s) |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for n in sorted(qs):
+        r, q = rate.get(n, {}), qs[n]
+        lam_r, lam_q = _lam(r) if r else None, _lam(q)
+        m = q.get("mechanism") or {}
+        label = m.get("mechanism") or m.get("kind") or "-"
+        if m.get("kind") == "in-plane" and m.get("overturning_mass_fraction") is not None:
+            label += f" ({m['overturning_mass_fraction']:.0%} overturning)"
+        coll = (m.get("collapsed") or {}).get("n_blocks", "-")
+        change = (f"{100 * (lam_q / lam_r - 1):+.1f} %" if lam_q and lam_r else "-")
+        fmt = lambda x: f"{x:.4f}" if x is not None else "no collapse"  # noqa: E731
+        lines.append(f"| {n} | {q.get('n_blocks', '-')} | {fmt(lam_r)} | {fmt(lam_q)} | "
+                     f"{change} | {label} | {coll} | "
+                     f"{(q.get('collapse') or {}).get('relaxations', '-')} | "
+                     f"{q.get('wall_seconds') or 0:.0f} |")
+    return lines + [""]
+
+
 def report(out: Path) -> None:
     import matplotlib
 
@@ -180,7 +236,9 @@ def report(out: Path) -> None:
     from dem.case import Material, SolverSpec
 
     mat = Material(friction=0.81)
-    res = {r["name"]: r for r in json.loads((out / "results.json").read_text())}
+    every = {r["name"]: r for r in json.loads((out / "results.json").read_text())}
+    res = {n: r for n, r in every.items() if not n.startswith("qs-")}  # the 2 deg/s record
+    qs = {n.removeprefix("qs-"): r for n, r in every.items() if n.startswith("qs-")}
     lines = ["# Tilting-table study (thesis Chapter 3)", "",
              "Generated by `python -m postprocess.tilt_study --out results/tilt` "
              "(runs, then this report; `--report` rebuilds the report from results.json).",
@@ -191,8 +249,9 @@ def report(out: Path) -> None:
              f"{mat.damping} of critical, time-step safety {SolverSpec().safety} (the defaults), "
              "tilt rate 2 deg/s unless stated.", ""]
 
+    lines += _converged_section(res, qs)
     # ---- in-plane table
-    lines += ["## In plane", "",
+    lines += ["## In plane (2 deg/s)", "",
               "| run | bricks | L/H | s/h | mu | lambda | LA sliding | LA overturning | LA mechanism "
               "| simulated mechanism | crack angle (deg from vertical) / bond angle | thesis |",
               "|---|---|---|---|---|---|---|---|---|---|---|---|"]
@@ -217,7 +276,7 @@ def report(out: Path) -> None:
             f"{(f'lambda {thesis}' if thesis else '') + (th_mech or '')} |"
             if lam is not None else f"| {n} | {r.get('n_blocks')} | no collapse | | | | | | | | | |")
     # ---- out-of-plane table
-    lines += ["", "## Out of plane", "",
+    lines += ["", "## Out of plane (2 deg/s)", "",
               "| run | bricks | lambda | mechanism | crack line (depth per column, courses) | "
               "wing bricks joined (left/right) | thesis |", "|---|---|---|---|---|---|---|"]
     for n, r in sorted(res.items()):
@@ -326,10 +385,11 @@ def main():
     ap.add_argument("--only", default=None, help="run only runs whose name contains this")
     ap.add_argument("--workers", type=int, default=None)
     ap.add_argument("--report", action="store_true", help="only rebuild the report")
+    ap.add_argument("--force", action="store_true", help="rerun runs already in results.json")
     args = ap.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
     if not args.report:
-        run_all(args.out, args.only, args.workers)
+        run_all(args.out, args.only, args.workers, args.force)
     report(args.out)
 
 
