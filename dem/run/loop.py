@@ -92,7 +92,8 @@ def run_case(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
     try:
         recording.start()
         if isinstance(loading, HeldTilt):                             # load: quasi-static
-            search = QuasiStaticTilt(case, scene, loading, sim, recording, progressed)
+            search = QuasiStaticTilt(case, scene, loading, sim, recording, progressed,
+                                     max_steps)
             summary["collapse"] = search.run()
         else:                                                         # load: in time
             while not stop.at_end(sim):

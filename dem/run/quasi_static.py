@@ -50,11 +50,13 @@ REST_MOTION = 0.1  # at max_relax_time, blocks at rest that moved less than this
 
 
 class QuasiStaticTilt:
-    def __init__(self, case, scene, loading, sim, recording, on_progress=None):
+    def __init__(self, case, scene, loading, sim, recording, on_progress=None,
+                 max_steps: int | None = None):
         self.spec = case.loading.quasi_static
         self.collapse = case.loading.collapse
         self.max_angle = case.loading.max_angle
         self.t_limit = case.run.duration
+        self.step_limit = max_steps  # smoke runs: stop the search there
         self.loading, self.sim, self.recording = loading, sim, recording
         self.radius = 0.5 * np.linalg.norm(scene.size, axis=1)
         self.n = scene.n_blocks
@@ -75,7 +77,7 @@ class QuasiStaticTilt:
         ok, ratio, moved, why = False, math.inf, 0.0, "max_relax_time"
         calm = 0
         while True:
-            sim.advance(CHECK_STEPS, self.loading)
+            sim.advance(self._chunk(CHECK_STEPS), self.loading)
             ratio = sim.unbalanced_force_ratio(self.loading.gravity(np.array([sim.t]))[0])
             moved = float(motion_measure(pos0, quat0, st.pos[: self.n], st.quat[: self.n],
                                          self.radius).max())
@@ -88,7 +90,7 @@ class QuasiStaticTilt:
             if calm >= CALM_CHECKS:
                 ok, why = True, "equilibrium"
                 break
-            if sim.t - t0 >= sp.max_relax_time or sim.t >= self.t_limit:
+            if sim.t - t0 >= sp.max_relax_time or self._out_of_time():
                 if at_rest and moved < REST_MOTION * self.collapse.confirm:
                     ok, why = True, "at rest"
                 break
@@ -101,6 +103,17 @@ class QuasiStaticTilt:
         if self.on_progress is not None:
             self.on_progress(angle)
         return ok, ratio, moved
+
+    def _chunk(self, k: int) -> int:
+        """k steps, or fewer to stop exactly at the step limit."""
+        if self.step_limit is None:
+            return k
+        return max(1, min(k, self.step_limit - self.sim.step_count))
+
+    def _out_of_time(self) -> bool:
+        """run.duration of simulated time, or the step limit of a smoke run, is spent."""
+        return self.sim.t >= self.t_limit or (self.step_limit is not None
+                                              and self.sim.step_count >= self.step_limit)
 
     def _speed(self) -> float:
         """Largest block speed bound |v| + r |omega|, m/s."""
@@ -119,7 +132,7 @@ class QuasiStaticTilt:
         rec.frame()
         eq, eq_ratio, saved = start, ratio, sim.save_point()
         fail = None
-        while fail is None and eq < self.max_angle and sim.t < self.t_limit:
+        while fail is None and eq < self.max_angle and not self._out_of_time():
             trial = min(eq + sp.increment, self.max_angle)
             ok, ratio, _ = self.relax(trial)
             if ok:
@@ -129,9 +142,9 @@ class QuasiStaticTilt:
                 fail = first_fail = trial
         if fail is None:
             note = "max_angle reached in equilibrium" if eq >= self.max_angle else \
-                "run.duration reached before equilibrium was lost"
+                "run.duration (or the step limit) reached before equilibrium was lost"
             return self._result(False, None, eq, eq_ratio, note)
-        while fail - eq > sp.resolution and sim.t < self.t_limit:
+        while fail - eq > sp.resolution and not self._out_of_time():
             sim.restore_point(saved)
             mid = 0.5 * (eq + fail)
             ok, ratio, _ = self.relax(mid)
@@ -155,8 +168,8 @@ class QuasiStaticTilt:
         t0 = sim.t
         first_moving = None
         rec.next_frame = t0 + rec.run.output_interval
-        while sim.t < min(t0 + col.after, self.t_limit):
-            sim.advance(rec.steps_to_next(t0 + col.after), self.loading)
+        while sim.t < t0 + col.after and not self._out_of_time():
+            sim.advance(self._chunk(rec.steps_to_next(t0 + col.after)), self.loading)
             rec.after_advance(last=sim.t >= t0 + col.after)
             m = motion_measure(pos0, quat0, st.pos[: self.n], st.quat[: self.n], self.radius)
             if first_moving is None and m.max() >= col.confirm:
