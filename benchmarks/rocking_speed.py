@@ -24,7 +24,7 @@ import numpy as np
 
 from dem.commands.rocking import run_rocking_case_file
 from dem.rocking.integrate import Settings, integrate_rocking
-from dem.rocking.model import RockingParams
+from dem.rocking.params import RockingParams
 from dem.rocking.sweep import sweep
 from dem.table_motion import SineMotion
 

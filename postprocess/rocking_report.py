@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from dem.rocking import analysis as an
-from dem.rocking.model import RockingParams
+from dem.rocking.params import RockingParams
 from dem.rocking.runner import run_case
 from dem.rocking.schema import load_rocking_case
 from dem.rocking.sweep import sweep

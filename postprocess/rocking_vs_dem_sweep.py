@@ -49,7 +49,7 @@ import numpy as np
 
 from dem.rocking import analysis as an
 from dem.rocking.integrate import RockingError, Settings, integrate_rocking
-from dem.rocking.model import RockingParams
+from dem.rocking.params import RockingParams
 from dem.table_motion import SineMotion
 from postprocess.signal_analysis import amplification, cycle_extrema, phase_lag, steady_window
 

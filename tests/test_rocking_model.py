@@ -16,16 +16,12 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from dem.rocking import analysis as an
+from dem.rocking.energy import energy, energy_arrays
+from dem.rocking.equations import evaluate, make_rhs
 from dem.rocking.integrate import Settings, integrate_rocking
-from dem.rocking.model import (
-    RockingParams,
-    constrained_acc_maximal,
-    energy,
-    energy_arrays,
-    evaluate,
-    make_rhs,
-    pattern_name,
-)
+from dem.rocking.maximal import constrained_acc_maximal
+from dem.rocking.params import RockingParams
+from dem.rocking.patterns import pattern_name
 from dem.table_motion import SineMotion, TableMotion
 
 T = 0.05

@@ -18,14 +18,11 @@ import numpy as np
 import pytest
 
 from dem.rocking import analysis as an
+from dem.rocking.energy import energy_arrays
+from dem.rocking.equations import evaluate, make_rhs
 from dem.rocking.integrate import Settings, integrate_rocking
-from dem.rocking.model import (
-    RockingParams,
-    constrained_acc_maximal,
-    energy_arrays,
-    evaluate,
-    make_rhs,
-)
+from dem.rocking.maximal import constrained_acc_maximal
+from dem.rocking.params import RockingParams
 from dem.table_motion import SineMotion, TableMotion
 
 T, G = 0.05, 9.81

@@ -26,7 +26,7 @@ dem_run = pytest.importorskip("dem.run", reason="the DEM engine (dem.run) is not
 
 from dem.case import parse_case  # noqa: E402
 from dem.rocking.integrate import Settings, integrate_rocking  # noqa: E402
-from dem.rocking.model import RockingParams  # noqa: E402
+from dem.rocking.params import RockingParams  # noqa: E402
 from dem.table_motion import TableMotion  # noqa: E402
 
 T, H1, H2, M1, M2 = 0.05, 0.14, 0.14, 6.05, 9.41

@@ -3,7 +3,11 @@
 Two stacked rigid blocks rock on a rigid base, with a top load N and a friction mu N from the roof
 beams, under a horizontal base acceleration.  Modules:
 
-* :mod:`dem.rocking.model`      equations of motion (Lagrangian, all patterns), kinematics, energy
+* :mod:`dem.rocking.params`     RockingParams (dimensions, masses, top load); the conventions
+* :mod:`dem.rocking.patterns`   contact modes: pattern labels, equation sets, pivot geometry
+* :mod:`dem.rocking.equations`  equations of motion (Lagrangian, all patterns), top-load force
+* :mod:`dem.rocking.energy`     kinetic and potential energy
+* :mod:`dem.rocking.maximal`    the parts as free planar bodies: contact rows, Newton-Euler check
 * :mod:`dem.rocking.integrate`  event-driven integration (solve_ivp + events): ``integrate_rocking``
 * :mod:`dem.rocking.modes`      contact modes by complementarity, exits from stationary modes
 * :mod:`dem.rocking.impacts`    plastic (Moreau / Housner) impacts, joint locks, restitution
@@ -18,7 +22,8 @@ Derivation and choices: docs/rocking_model.md; results against the thesis: docs/
 """
 
 from dem.rocking.integrate import RockingError, RockingResult, Settings, integrate_rocking
-from dem.rocking.model import RockingParams, pattern_name
+from dem.rocking.params import RockingParams
+from dem.rocking.patterns import pattern_name
 
 __all__ = ["RockingParams", "pattern_name", "RockingError", "RockingResult", "Settings",
            "integrate_rocking"]

@@ -36,7 +36,7 @@ from collections import defaultdict
 import numpy as np
 from scipy.integrate import quad
 
-from dem.rocking.model import RockingParams
+from dem.rocking.params import RockingParams
 
 
 def centre_of_mass_height(P: RockingParams) -> float:
@@ -202,11 +202,11 @@ def pattern_statistics(episodes: list, t_total: float) -> dict:
 
 def top_friction_demand(P: RockingParams, res, exc, stride: int = 1) -> dict:
     """Friction a co-moving beam needs to follow the top: max of abs(H) / V over the recorded
-    moving samples (``model.top_contact_force``), and the largest impulse ratio at impacts
+    moving samples (``equations.top_contact_force``), and the largest impulse ratio at impacts
     (``res.stats['top_impulse_ratio_max']``).  A stick-slip top contact with coefficient mu would
     slip only where these exceed mu.  Samples where the beam's bearing force V is <= 0 (it would
     lift off: flight, outside the model) are left out of the ratio and reported by min_V_over_N."""
-    from dem.rocking.model import top_contact_force
+    from dem.rocking.equations import top_contact_force
 
     ratio, t_at, vmin, t_vmin = 0.0, None, math.inf, None
     rocking = 0.0   # the same over the samples within the static stability angle atan(T / H)

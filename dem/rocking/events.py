@@ -20,9 +20,11 @@ from __future__ import annotations
 
 import math
 
+from dem.rocking.equations import evaluate, terms
 from dem.rocking.impacts import ImpactResolver
-from dem.rocking.model import STATIONARY, RockingParams, evaluate, flow_kind, geometry, pattern_name, terms
 from dem.rocking.modes import ModeSelector, Tolerances
+from dem.rocking.params import RockingParams
+from dem.rocking.patterns import STATIONARY, flow_kind, geometry, pattern_name
 from dem.rocking.recording import Recorder, RockingError
 
 NUDGE = 1e-6    # s: a released or stationary mode is left this long after its exact exit time

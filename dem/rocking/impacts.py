@@ -18,8 +18,10 @@ import math
 
 import numpy as np
 
-from dem.rocking.model import RockingParams, contact_rows, geometry, mass6, maximal_velocity, mode_row_keys
+from dem.rocking.maximal import contact_rows, mass6, maximal_velocity, mode_row_keys
 from dem.rocking.modes import TOL_REL
+from dem.rocking.params import RockingParams
+from dem.rocking.patterns import geometry
 
 
 def bb_default(b, bs):

@@ -31,8 +31,10 @@ from scipy.integrate import solve_ivp
 
 from dem.rocking.events import NUDGE, EventHandler, event_functions
 from dem.rocking.impacts import ImpactResolver
-from dem.rocking.model import STATIONARY, RockingParams, flow_kind, make_rhs, pattern_name
+from dem.rocking.equations import make_rhs
 from dem.rocking.modes import ModeSelector, tolerances
+from dem.rocking.params import RockingParams
+from dem.rocking.patterns import STATIONARY, flow_kind, pattern_name
 from dem.rocking.recording import Recorder, RockingError, RockingResult
 from dem.table_motion import TableMotion
 

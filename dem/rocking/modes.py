@@ -2,7 +2,7 @@
 
 A mode is (b, c, tau, sigma): the rocking corner of Part 1 on the base (b = +1, -1, or 0 flat),
 of Part 2 on Part 1 (c), the sliding direction of the top load (tau = +1, -1, or 0 stuck) and the
-top corner the load bears on (sigma); see dem.rocking.model.  At a state (t, y) the candidate modes
+top corner the load bears on (sigma); see dem.rocking.patterns.  At a state (t, y) the candidate modes
 are enumerated (the rigid-contact LCP is small) and the one whose conditions all hold is taken:
 a contact that opens must accelerate open, a flat contact must press at both corners, a sliding
 load must keep sliding, a stuck one must stay within mu N.  Conditions are scaled by tolerances
@@ -20,7 +20,9 @@ from dataclasses import dataclass
 
 from scipy.optimize import brentq
 
-from dem.rocking.model import RockingParams, evaluate, flow_kind
+from dem.rocking.equations import evaluate
+from dem.rocking.params import RockingParams
+from dem.rocking.patterns import flow_kind
 from dem.rocking.recording import RockingError
 
 TOL_REL = 1e-9  # relative tolerance of the complementarity checks (scaled by RockingParams.scales)

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from dem.rocking.model import pattern_name
+from dem.rocking.patterns import pattern_name
 
 
 class RockingError(RuntimeError):

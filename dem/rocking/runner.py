@@ -6,7 +6,7 @@ Outputs (contract of ../shared/DESIGN.md, extended):
 * ``rocking.npz``: ``t`` [T] s; ``theta1``, ``theta2`` [T] rad (absolute); ``omega1``,
   ``omega2`` [T] rad/s; ``pattern`` [T] str ("1A" .. "4B", "rest"); ``top_disp`` [T] m
   (d = H1 sin theta1 + H2 sin theta2); extensions: ``top_stick`` [T] bool, ``mode`` [T, 4] int8
-  (b, c, tau, sigma, see dem.rocking.model), ``base_disp``, ``base_acc`` [T] (m, m/s2, along the
+  (b, c, tau, sigma, see dem.rocking.patterns), ``base_disp``, ``base_acc`` [T] (m, m/s2, along the
   loading direction), ``kinetic_energy``, ``potential_energy`` [T] J, ``cycle_index``,
   ``cycle_max``, ``cycle_min`` (top displacement per excitation cycle, m), ``peak_t``,
   ``peak_disp`` (extreme of every rocking oscillation), ``event_t``, ``event_kind``,
@@ -25,8 +25,9 @@ import numpy as np
 from dem.output import atomic
 from dem.output.atomic import savefig as _atomic_savefig
 from dem.rocking import analysis as an
+from dem.rocking.energy import energy_arrays
 from dem.rocking.integrate import RockingError, RockingResult, integrate_rocking
-from dem.rocking.model import PATTERNS, energy_arrays
+from dem.rocking.patterns import PATTERNS
 from dem.rocking.schema import (
     RockingCase,
     excitation_from_case,

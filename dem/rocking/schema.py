@@ -261,7 +261,7 @@ def load_rocking_case(path: str | Path, overrides: dict | None = None) -> Rockin
 # from the case to the model's objects
 # ------------------------------------------------------------------------------------------
 def params_from_case(case: RockingCase):
-    from dem.rocking.model import RockingParams
+    from dem.rocking.params import RockingParams
 
     r = case.rocking
     return RockingParams(

@@ -13,7 +13,7 @@ import numpy as np
 
 from dem.rocking import analysis as an
 from dem.rocking.integrate import RockingError, Settings, integrate_rocking
-from dem.rocking.model import RockingParams
+from dem.rocking.params import RockingParams
 from dem.table_motion import SineMotion
 
 
