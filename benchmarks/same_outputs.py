@@ -29,7 +29,7 @@ ROOT = Path(__file__).resolve().parents[1]
 DEM = [sys.executable, "-m", "dem.cli"]
 TIMING_KEYS = {"wall_seconds", "compile_seconds", "brick_steps_per_second", "cpu_seconds",
                "wall_s", "elapsed_s", "started", "finished", "host", "seconds", "run_seconds",
-               "date", "created", "python", "version"}
+               "date", "created", "python", "version", "integration_seconds"}
 
 
 def _cut_case(src: Path, dst: Path, duration: float) -> Path:

@@ -64,10 +64,13 @@ class QuasiStaticTilt:
         self.relaxations = 0
         self.relax_steps = 0
         self.angles: list[dict] = []  # every angle tried: angle, equilibrium, R, time, steps
+        self.undecided = False  # run.duration or the step limit ran out during a relaxation
 
     # -- one angle -----------------------------------------------------------------------
     def relax(self, angle: float) -> tuple[bool, float, float]:
-        """Turn to ``angle`` and relax; (in equilibrium, R, largest motion in m)."""
+        """Turn to ``angle`` and relax; (in equilibrium, R, largest motion in m).  When
+        run.duration or the step limit runs out first, the angle is undecided:
+        ``self.undecided`` is set and the search ends there."""
         sim, sp = self.sim, self.spec
         st = sim.state
         pos0, quat0 = st.pos[: self.n].copy(), st.quat[: self.n].copy()
@@ -90,7 +93,10 @@ class QuasiStaticTilt:
             if calm >= CALM_CHECKS:
                 ok, why = True, "equilibrium"
                 break
-            if sim.t - t0 >= sp.max_relax_time or self._out_of_time():
+            if self._out_of_time():
+                why, self.undecided = "out of time", True
+                break
+            if sim.t - t0 >= sp.max_relax_time:
                 if at_rest and moved < REST_MOTION * self.collapse.confirm:
                     ok, why = True, "at rest"
                 break
@@ -103,6 +109,10 @@ class QuasiStaticTilt:
         if self.on_progress is not None:
             self.on_progress(angle)
         return ok, ratio, moved
+
+    def _stopped_note(self) -> str:
+        return ("run.duration or the step limit ran out before equilibrium was lost (raise "
+                "run.duration: a quasi-static tilt simulates a few seconds per wall)")
 
     def _chunk(self, k: int) -> int:
         """k steps, or fewer to stop exactly at the step limit."""
@@ -128,7 +138,8 @@ class QuasiStaticTilt:
         start = float(self.loading.start_angle)
         ok, ratio, _ = self.relax(start)
         if not ok:
-            return self._result(False, None, start, ratio, "no equilibrium at the start angle")
+            return self._result(False, None, start, ratio, self._stopped_note() if
+                                self.undecided else "no equilibrium at the start angle")
         rec.frame()
         eq, eq_ratio, saved = start, ratio, sim.save_point()
         fail = None
@@ -138,16 +149,18 @@ class QuasiStaticTilt:
             if ok:
                 eq, eq_ratio, saved = trial, ratio, sim.save_point()
                 rec.frame()
-            else:
+            elif not self.undecided:
                 fail = first_fail = trial
         if fail is None:
             note = "max_angle reached in equilibrium" if eq >= self.max_angle else \
-                "run.duration (or the step limit) reached before equilibrium was lost"
+                self._stopped_note()
             return self._result(False, None, eq, eq_ratio, note)
         while fail - eq > sp.resolution and not self._out_of_time():
             sim.restore_point(saved)
             mid = 0.5 * (eq + fail)
             ok, ratio, _ = self.relax(mid)
+            if self.undecided:
+                break
             if ok:
                 eq, eq_ratio, saved = mid, ratio, sim.save_point()
                 rec.frame()
