@@ -23,7 +23,7 @@ import numpy as np
 
 from dem.rocking import analysis as an
 from dem.rocking.params import RockingParams
-from dem.rocking.runner import run_case
+from dem.rocking.runner import run_rocking_case
 from dem.rocking.schema import load_rocking_case
 from dem.rocking.sweep import sweep
 
@@ -76,7 +76,7 @@ def friction_moments() -> str:
 
 def case_row(stem: str):
     case = load_rocking_case(CASES / f"{stem}.yaml")
-    P, exc, res, err = run_case(case)
+    P, exc, res, err = run_rocking_case(case)
     d = an.top_displacement(P, res.theta1, res.theta2)
     stats, _ = an.pattern_statistics(res.episodes, float(res.t[-1]))
     ci, cmax, cmin = an.cycle_amplitudes(res.t, d, exc.period, exc.t_end) if exc.period else ([], [], [])
@@ -224,7 +224,7 @@ def top_contact_cases_table() -> str:
     for stem in THESIS_STEMS:
         for tc in ("sliding", "co-moving"):
             case = load_rocking_case(CASES / f"{stem}.yaml", {"rocking": {"top_contact": tc}})
-            P, exc, res, err = run_case(case)
+            P, exc, res, err = run_rocking_case(case)
             d = an.top_displacement(P, res.theta1, res.theta2)
             stats, _ = an.pattern_statistics(res.episodes, float(res.t[-1]))
             first = next((e["t"] for e in res.events if e["before"] == "rest"), None)

@@ -11,7 +11,7 @@ import time
 from pathlib import Path
 
 from dem.commands.exit_codes import ExitCode, exit_code_for
-from dem.rocking.runner import run_case, write_outputs
+from dem.rocking.runner import run_rocking_case, write_outputs
 from dem.rocking.schema import RockingCaseError, load_rocking_case
 
 
@@ -25,7 +25,7 @@ def run_rocking_case_file(path, out, plots: bool = True, echo=print, err=print,
         err(f"error: {path}:\n{e}")
         return exit_code_for(e)
     try:
-        P, exc, res, failure = run_case(case)
+        P, exc, res, failure = run_rocking_case(case)
     except ValueError as e:  # parameters the model refuses (should have been caught by the schema)
         err(f"error: {path}:\n{e}")
         return exit_code_for(e)

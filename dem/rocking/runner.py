@@ -37,7 +37,7 @@ from dem.rocking.schema import (
 )
 
 
-def run_case(case: RockingCase):
+def run_rocking_case(case: RockingCase):
     """Simulate a validated case; returns (params, excitation, result, error or None)."""
     P = params_from_case(case)
     exc = excitation_from_case(case)

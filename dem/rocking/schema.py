@@ -162,7 +162,10 @@ class NoneSpec(_Strict):
 LoadingSpec = Annotated[Union[ShakeLoading, NoneSpec], Field(discriminator="type")]
 
 
-class RunSpec(_Strict):
+class RockingRunSpec(_Strict):
+    """``run:`` of a two-body case: its own schedule (samples of two bodies, every ms by default),
+    not the DEM's dem.case.RunSpec (frames of every block, every 10 ms)."""
+
     duration: float = Field(description="simulated time, s")
     output_interval: float = Field(default=0.001, description="s between output samples")
     collapse_angle: float = Field(default=1.0, description="rad: the run stops when a part "
@@ -178,7 +181,7 @@ class RunSpec(_Strict):
         return v
 
     @model_validator(mode="after")
-    def _interval(self) -> "RunSpec":
+    def _interval(self) -> "RockingRunSpec":
         if self.output_interval > self.duration:
             raise ValueError("output_interval must not exceed duration")
         if self.duration / self.output_interval > 5e7:
@@ -207,7 +210,7 @@ class RockingCase(_Strict):
     description: str = ""
     rocking: RockingSpec
     loading: LoadingSpec = Field(default_factory=lambda: NoneSpec(type="none"))
-    run: RunSpec
+    run: RockingRunSpec
     solver: SolverSpec = Field(default_factory=SolverSpec)
     gravity: float = Field(default=9.81, description="m/s2")
 
