@@ -37,13 +37,13 @@ class QuasiStaticSpec(_Strict):
     The angle advances by ``increment``; after each advance the scene relaxes with Cundall local
     damping (``local_damping``: it does not change a static equilibrium, it only removes the
     motion) until the unbalanced-force ratio (sum over blocks of |net force| + |net torque| /
-    radius, over the sum of their weights) is below ``tolerance``; equilibrium is lost when a
-    block moves ``collapse.confirm`` while relaxing or ``max_relax_time`` passes without
-    reaching the tolerance while still moving.  The first failing increment is bisected down to
-    ``resolution``;
-    lambda = tan(last angle in equilibrium).  Then the run goes on dynamically (no local damping)
-    at the failing angle for ``collapse.after`` s or until a block moved ``collapse.stop``, to
-    show the mechanism.
+    radius, over the sum of their weights) is below ``tolerance`` with every block at rest;
+    equilibrium is lost when a block moves ``collapse.confirm`` while relaxing, or when
+    ``max_relax_time`` passes without that and a block moved more than a tenth of
+    ``collapse.confirm`` (less: in equilibrium).  The first failing increment is bisected down to
+    ``resolution``; lambda = tan(last angle in equilibrium).  Then the run goes on dynamically
+    (no local damping) at the first failing increment's angle for ``collapse.after`` s or until
+    a block moved ``collapse.stop``, to show the mechanism.
     """
 
     increment: float = Field(default=1.0, gt=0.0, le=10.0, description="degrees per advance")
