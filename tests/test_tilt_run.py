@@ -42,3 +42,23 @@ def test_small_wall_tilt_run_stops_after_collapse(tmp_path):
     assert abs(frames["t"][-1] - s["sim_time"]) < 1e-9
     assert abs(frames["tilt_angle"][-1] - (33.0 + 4.0 * (s["sim_time"] - 0.5))) < 1e-6
     assert res.summary["collapse"]["detected"]
+
+
+def test_an_analysis_that_raises_does_not_lose_the_run(tmp_path):
+    """The run loop hands the finished frames to the analyses of the command; one that raises is
+    recorded in summary.json, and every file is still written."""
+    case = parse_case({
+        "name": "block-at-rest",
+        "scene": {"blocks": [{"size": [0.2, 0.2, 0.1], "position": [0, 0, 0.05], "mass": 4.0}]},
+        "material": {"friction": 0.5},
+        "run": {"duration": 0.02, "output_interval": 0.01, "vtk": False, "snapshot": False},
+    })
+
+    def boom(case, scene, frames, summary):
+        raise RuntimeError("analysis bug")
+
+    res = run_case(case, tmp_path, analyses=(boom,))
+    s = json.loads((tmp_path / "summary.json").read_text())
+    assert s["status"] == "ok" and res.summary["status"] == "ok"
+    assert s["analysis_errors"] == {"boom": "RuntimeError: analysis bug"}
+    assert (tmp_path / "frames.npz").is_file()

@@ -8,7 +8,8 @@ quasi-static tilt, angle by angle to the loss of equilibrium (dem.run.quasi_stat
 ``analyses``: functions ``f(case, scene, frames, summary) -> dict`` that read the finished run
 (frames: the arrays of frames.npz) and return keys merged into summary.json before it is written
 (e.g. ``postprocess.tilt.tilt_mechanism``, handed in by the ``dem run`` command): the run loop
-itself never imports the analysis.
+itself never imports the analysis.  One that raises is recorded in summary.json
+``analysis_errors``; the run's files are written all the same.
 """
 
 from __future__ import annotations
@@ -21,8 +22,8 @@ from typing import Callable, Sequence
 import numpy as np
 
 from dem.case import Case
-from dem.run.build import build, joint_summary
 from dem.loading import HeldTilt
+from dem.run.build import build, joint_summary
 from dem.run.progress import Progress
 from dem.run.quasi_static import QuasiStaticTilt
 from dem.run.record import FRAME_KEYS, Recording
@@ -79,7 +80,11 @@ def run_case(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
         if analyses and recording.frames.n_frames:
             arrays = recording.frames.arrays()
             for analyse in analyses:
-                summary.update(analyse(case, scene, arrays, summary))
+                try:
+                    summary.update(analyse(case, scene, arrays, summary))
+                except Exception as err:  # noqa: BLE001 - an analysis never loses the run
+                    summary.setdefault("analysis_errors", {})[analyse.__name__] = \
+                        f"{type(err).__name__}: {err}"
         writer.finish(summary, status, error)
 
     bar = Progress(progress, stop.t_end, case.name)

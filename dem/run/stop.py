@@ -1,8 +1,9 @@
 """Stop phase: when the loop ends.
 
 A run stops at ``run.duration``, at the step limit (``max_steps``, smoke runs), or, on a
-constant-rate tilt with ``loading.collapse.enabled``, once the collapse detector (dem.collapse) has seen the
-collapse confirmed and the run gone on for ``collapse.after`` s or a block moved ``collapse.stop``.
+constant-rate tilt with ``loading.collapse.enabled``, once the collapse detector (dem.collapse)
+has seen the collapse confirmed and the run gone on for ``collapse.after`` s or a block moved
+``collapse.stop``.  (A quasi-static tilt ends itself: dem.run.quasi_static.)
 The detector sees every recorded frame (it listens to the recording), so its result, written to
 summary.json as ``collapse``, is the one ``dem post`` gets by replaying frames.npz.
 """
