@@ -106,3 +106,23 @@ def test_a_small_wall_agrees_with_a_tilt_ten_times_slower():
     lam_qs = run_case(qs).summary["collapse"]["load_factor"]
     lam_slow = run_case(slow).summary["collapse"]["load_factor"]
     assert lam_qs == pytest.approx(lam_slow, rel=0.01)
+
+
+def test_dem_post_of_a_quasi_static_run_keeps_its_collapse(tmp_path):
+    """The search is not in the frames, so dem post keeps the run's collapse (lambda, bracket)
+    and re-reads the mechanism from frames.npz."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from dem.cli import app
+    from dem.commands.run import RUN_ANALYSES
+
+    run_case(_block_case([0.2, 0.2, 0.1], 0.5, 25.0), tmp_path, analyses=RUN_ANALYSES)
+    ran = json.loads((tmp_path / "summary.json").read_text())
+    r = CliRunner().invoke(app, ["post", str(tmp_path)])
+    assert r.exit_code == 0, r.output
+    post = json.loads((tmp_path / "analysis.json").read_text())
+    assert post["collapse"]["load_factor"] == ran["collapse"]["load_factor"]
+    assert post["collapse"]["method"] == "quasi_static"
+    assert post["mechanism"] == ran["mechanism"]
