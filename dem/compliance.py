@@ -30,6 +30,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from dem.builders.checks import vertices
+
 RIGID_OFFSET = 0.005   # material.normal_stiffness: rigid keeps the relative offset at most this
 
 
@@ -58,9 +60,8 @@ def _candidates(scene, direction=None) -> dict[str, list[tuple[float, float, flo
 
 
 def _aabb(scene) -> tuple[np.ndarray, np.ndarray]:
-    r = scene.rotation_matrices()
-    ext = 0.5 * np.einsum("nij,nj->ni", np.abs(r), scene.size)
-    return scene.position - ext, scene.position + ext
+    c = vertices(scene)
+    return c.min(axis=1), c.max(axis=1)
 
 
 def _worst(cands):

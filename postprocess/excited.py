@@ -148,9 +148,9 @@ class ExcitedPortion:
 
 def aabb(scene):
     """Axis-aligned bounds (lo, hi) [N,3] of the blocks in their initial pose."""
-    from dem.output.vtk import block_corners
+    from dem.builders.checks import vertices
 
-    c = block_corners(scene.size, scene.position, scene.quat)
+    c = vertices(scene)
     return c.min(axis=1), c.max(axis=1)
 
 

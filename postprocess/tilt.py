@@ -187,10 +187,10 @@ def analyze_tilt_run(run_dir) -> dict:
 def top_blocks(scene) -> np.ndarray:
     """bool [N]: the highest blocks (not fixed) at the start, whose tops lie within half the
     smallest block height of the highest top (the top course of a wall, the top of a stack)."""
-    from postprocess.wall_geometry import block_corners
+    from dem.builders.checks import vertices
 
     free = ~scene.fixed
-    z = block_corners(scene)[:, :, 2]
+    z = vertices(scene)[:, :, 2]
     top, height = z.max(axis=1), z.max(axis=1) - z.min(axis=1)
     if not free.any():
         return free

@@ -114,7 +114,7 @@ def _record(rec: dict) -> dict:
     out["loading"] = s["loading"]
     out["friction"] = s["material"]["friction"]
     out["collapse"] = {k: v for k, v in s.get("collapse", {}).items()
-                       if k not in ("first_moving_blocks", "moved_blocks")}
+                       if k not in ("first_moving_blocks", "moved_blocks", "angles")}
     out["mechanism"] = s.get("mechanism")
     return out
 

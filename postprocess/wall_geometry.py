@@ -29,14 +29,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dem import quaternion
+from dem.builders.checks import vertices
 
 COURSE_TOL = 0.25   # bottoms closer than this fraction of the smallest block height: one course
 JOINT_TOL = 0.1     # blocks closer than this fraction of the course height along the axis meet
 ISOTROPIC = 1.25    # ratio of principal horizontal extents below which there is no wall axis
 IN_PLANE_COS = 0.7  # the load is in plane within ~45 deg of the wall's axis (|cos| > 0.7)
 
-_CORNERS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], float)
 
 
 @dataclass
@@ -81,15 +80,6 @@ class WallGeometry:
             c = abs(float(np.asarray(load_dir, float) @ self.along))
             out["load_angle_to_axis_deg"] = float(np.degrees(np.arccos(min(c, 1.0))))
         return out
-
-
-def block_corners(scene, pos=None, quat=None) -> np.ndarray:
-    """Corners [N,8,3] of the blocks at ``pos`` / ``quat`` (default: the scene's initial poses)."""
-    pos = scene.position if pos is None else np.asarray(pos, float)
-    quat = scene.quat if quat is None else np.asarray(quat, float)
-    r = quaternion.matrices(quat)
-    local = _CORNERS[None, :, :] * (0.5 * scene.size)[:, None, :]
-    return pos[:, None, :] + np.einsum("nij,nkj->nki", r, local)
 
 
 def cluster_levels(z, tol: float) -> tuple[np.ndarray, np.ndarray]:
@@ -148,7 +138,7 @@ def derive_geometry(scene, members=None, load_dir=None) -> WallGeometry:
     fixed), from the blocks' initial poses."""
     members = ~scene.fixed if members is None else np.asarray(members, bool)
     idx = np.flatnonzero(members)
-    corners = block_corners(scene)[idx]
+    corners = vertices(scene)[idx]
     bottoms = corners[:, :, 2].min(axis=1)
     heights = corners[:, :, 2].max(axis=1) - bottoms
     course_m, levels = cluster_levels(bottoms, COURSE_TOL * heights.min())

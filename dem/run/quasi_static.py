@@ -181,7 +181,7 @@ class QuasiStaticTilt:
         pos0, quat0 = st.pos[: self.n].copy(), st.quat[: self.n].copy()
         t0 = sim.t
         first_moving = None
-        rec.next_frame = t0 + rec.run.output_interval
+        rec.frames_from(t0)
         while sim.t < t0 + col.after and not self._out_of_time():
             sim.advance(self._chunk(rec.steps_to_next(t0 + col.after)), self.loading)
             rec.after_advance(last=sim.t >= t0 + col.after)

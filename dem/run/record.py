@@ -111,6 +111,11 @@ class Recording:
         self.next_frame = case.run.output_interval
         self.next_sample = case.run.instrument_interval
 
+    def frames_from(self, t: float) -> None:
+        """Take the next frame ``run.output_interval`` after ``t`` (a load phase that does not
+        advance in time, the quasi-static tilt, hands the schedule back to the clock)."""
+        self.next_frame = t + self.run.output_interval
+
     def start(self) -> None:
         """The frame (and instrument sample) at the start."""
         self.frame()
