@@ -7,9 +7,10 @@ from pathlib import Path
 from typing import Union
 
 import yaml
-from pydantic import Field, ValidationError, field_validator
+from pydantic import Field, ValidationError, field_validator, model_validator
 
 from dem.case.base import Vec3, _Strict
+from dem.case.imperfections import MAX_FRACTION, Imperfections
 from dem.case.loadings import Loading, NoLoading, RecordLoading
 from dem.case.material import Material
 from dem.case.scene import SceneSpec
@@ -24,6 +25,9 @@ class Case(_Strict):
     loading: Loading = Field(default_factory=lambda: NoLoading(type="none"))
     run: RunSpec
     solver: SolverSpec = Field(default_factory=SolverSpec)
+    imperfections: Imperfections = Field(
+        default_factory=Imperfections,
+        description="imperfect dry joints (all zero: the perfect model); docs/imperfections.md")
     gravity: Union[float, Vec3] = Field(
         default=9.81,
         description="m/s2: a magnitude (pointing -z) or a vector in the table frame",
@@ -47,6 +51,31 @@ class Case(_Strict):
             if v < 0 or not math.isfinite(v):
                 raise ValueError(f"gravity magnitude must be >= 0, got {v}")
         return v
+
+    @model_validator(mode="after")
+    def _imperfections_small(self) -> "Case":
+        """Every imperfection length at most 10 % of the smallest brick dimension: beyond it the
+        block is no longer the box whose inertia, contact patches and layout the model uses."""
+        if not self.imperfections.any():
+            return self
+        smallest = self.smallest_brick_dimension()
+        for name, value in self.imperfections.lengths().items():
+            if value > MAX_FRACTION * smallest:
+                raise ValueError(
+                    f"imperfections.{name}: {value:g} m is more than {MAX_FRACTION:.0%} of the "
+                    f"smallest brick dimension ({smallest:g} m)")
+        return self
+
+    def smallest_brick_dimension(self) -> float:
+        """The smallest edge (m) of the scene's movable explicit blocks and builder bricks."""
+        from dem.builders import brick
+
+        edges = [min(b.size) for b in self.scene.blocks if not b.fixed]
+        for spec in (self.scene.wall, self.scene.facade, self.scene.box_model):
+            if spec is not None:
+                b = brick(spec.brick)
+                edges.append(min(b.length, b.width, b.height))
+        return min(edges) if edges else min(min(b.size) for b in self.scene.blocks)
 
     def gravity_vector(self) -> list[float]:
         if isinstance(self.gravity, (int, float)):
