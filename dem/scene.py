@@ -17,6 +17,13 @@ length N (blocks, in case order: explicit blocks first, then builder blocks).
 | angular_velocity | [N,3]  | rad/s  | initial, table frame                                  |
 | group            | [N]    | int    | index into ``group_names``                             |
 | course           | [N]    | int    | course (row) index, -1 where it does not apply         |
+| face_offset      | [N,6,4]| m      | imperfect faces: offset of each face's corners along   |
+|                  |        |        | its outward normal (> 0 stands out); zero: flat faces  |
+| arris            | [N]    | m      | radius of the rounded edges (contact patches inset)    |
+
+Faces and corners (``face_offset[b, f, c]``, dem.imperfections, docs/imperfections.md): face
+f = 2 k + (0 for the +e_k face, 1 for the -e_k face) of the block's own axis k; corner
+c = (s1 > 0) + 2 (s2 > 0), with s1 the sign along axis (k + 1) % 3 and s2 along (k + 2) % 3.
 
 ``layout``: what a builder knows about the geometry it laid, by group name (a wall: its bond's
 stagger, course height, length and height, m), so that the analysis reads it instead of
@@ -45,9 +52,15 @@ class Scene:
     course: np.ndarray
     group_names: list[str] = field(default_factory=lambda: ["blocks"])
     layout: dict[str, dict] = field(default_factory=dict)
+    face_offset: np.ndarray | None = None
+    arris: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         n = len(self.size)
+        self.face_offset = np.zeros((n, 6, 4)) if self.face_offset is None else \
+            np.asarray(self.face_offset, dtype=np.float64).reshape(n, 6, 4)
+        self.arris = np.zeros(n) if self.arris is None else \
+            np.asarray(self.arris, dtype=np.float64).reshape(n)
         for name in ("position", "velocity", "angular_velocity"):
             arr = np.asarray(getattr(self, name), dtype=np.float64).reshape(n, 3)
             setattr(self, name, arr)
@@ -106,7 +119,13 @@ class Scene:
             fixed=cat("fixed"), velocity=cat("velocity"), angular_velocity=cat("angular_velocity"),
             group=np.concatenate(groups), course=cat("course"), group_names=names,
             layout={k: v for s in scenes for k, v in s.layout.items()},
+            face_offset=cat("face_offset"), arris=cat("arris"),
         )
+
+    @property
+    def imperfect(self) -> np.ndarray:
+        """[N] bool: blocks with a face offset or an arris."""
+        return (self.face_offset != 0).any(axis=(1, 2)) | (self.arris != 0)
 
 
 def blocks_to_scene(blocks) -> Scene:

@@ -76,9 +76,15 @@ def _polygon_quadrature(xs: nd(dtype=ti.f64, ndim=2), ys: nd(dtype=ti.f64, ndim=
         res[i, 3] = cy
 
 
+# the bodies' imperfections as the narrow phase reads them (the fields of the engine's Model):
+# row i of _box_contact is the pair of bodies (2 i, 2 i + 1)
+FacesArgs = ti.types.argpack(face_offset=nd(dtype=ti.math.vec4, ndim=2), arris=nd(ndim=1),
+                             imperfect=nd(dtype=ti.i32, ndim=1))
+
+
 @ti.kernel
 def _box_contact(inp: nd(dtype=ti.f64, ndim=2), res: nd(dtype=ti.f64, ndim=2),
-                 pts: nd(dtype=ti.f64, ndim=3)):
+                 pts: nd(dtype=ti.f64, ndim=3), faces: FacesArgs):
     # inp row: pA(3), RA(9, row-major), hA(3), pB(3), RB(9), hB(3), prev_code, margin, edge_area
     # res row: code, n(3), npts, shrink, centroid(3); pts[i, q]: x, y, z, depth, weight
     for i in range(inp.shape[0]):
@@ -98,7 +104,7 @@ def _box_contact(inp: nd(dtype=ti.f64, ndim=2), res: nd(dtype=ti.f64, ndim=2),
         w = geometry.point_buffer()
         code, n, npts, shrink, centroid = geometry.box_contact(
             pA, RA, hA, pB, RB, hB, ti.cast(inp[i, 30], ti.i32), inp[i, 31], inp[i, 32],
-            px, py, pz, dep, w)
+            faces, 2 * i, 2 * i + 1, px, py, pz, dep, w)
         res[i, 0] = ti.cast(code, ti.f64)
         res[i, 4] = ti.cast(npts, ti.f64)
         res[i, 5] = shrink
@@ -161,14 +167,20 @@ def pair_row(pA, RA, hA, pB, RB, hB, prev_code=-1):
                            [prev_code, 1e-3 * hmin, hmin * hmin]])
 
 
-def run_box_contact(rows):
+def run_box_contact(rows, face_offset=None, arris=None):
     """Returns dicts code, n, npts, shrink, centroid, p [npts, 3], dep [npts], w [npts],
-    buf (the whole point buffers, [NB, 5])."""
+    buf (the whole point buffers, [NB, 5]).  face_offset [2 rows, 6, 4] and arris [2 rows]
+    (m, dem.scene's convention): the imperfections of the bodies A, B of each row (perfect
+    boxes by default)."""
     ti_runtime.init()
     inp = np.array(rows, dtype=np.float64)
     res = np.zeros((len(inp), 9))
     pts = np.full((len(inp), NB, 5), np.nan)
-    _box_contact(inp, res, pts)
+    off = np.zeros((2 * len(inp), 6, 4)) if face_offset is None else \
+        np.asarray(face_offset, dtype=np.float64).reshape(2 * len(inp), 6, 4)
+    arr = np.zeros(2 * len(inp)) if arris is None else np.asarray(arris, dtype=np.float64)
+    imp = ((off != 0).any(axis=(1, 2)) | (arr != 0)).astype(np.int32)
+    _box_contact(inp, res, pts, FacesArgs(face_offset=off, arris=arr, imperfect=imp))
     out = []
     for r, p in zip(res, pts):
         k = int(r[4])

@@ -16,7 +16,7 @@ LAYERS = [
     ("base", ("dem.quaternion", "dem.output.atomic", "dem.signals", "dem.ti_runtime",
               "dem.case_errors", "dem.rundir", "dem.collapse")),
     ("scene", ("dem.scene",)),
-    ("builders", ("dem.builders",)),
+    ("builders", ("dem.builders", "dem.imperfections")),
     ("case schema", ("dem.case",)),
     ("loads, instruments, outputs", ("dem.loading", "dem.table_motion", "dem.instruments",
                                      "dem.compliance",

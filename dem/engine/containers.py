@@ -67,6 +67,11 @@ MODEL_FIELDS = (
     _f("material", "i32", "B", "-", "Model.from_scene", "0 blocks, 1 table"),
     _f("mat_pair", "vec4", ("M", "M"), "-, Pa/m, Pa/m, -", "Model.from_scene",
        "(mu, kn, ks, damping ratio) per material pair, read by pair_properties"),
+    _f("face_offset", "vec4", ("B", 6), "m", "Model.from_scene",
+       "imperfect faces: corner offsets along the outward normal (dem.scene, face_contact)"),
+    _f("arris", "real", "B", "m", "Model.from_scene", "rounded-edge radius: patches inset by it"),
+    _f("imperfect", "i32", "B", "-", "Model.from_scene",
+       "1 if the body has a face offset or an arris (the narrow phase's imperfect path)"),
 )
 
 STATE_FIELDS = (
@@ -232,6 +237,9 @@ class Model(_Container):
             joints.base_friction, kn, ks, zeta)
         mat_pair[MAT_TABLE, MAT_TABLE] = (0.0, kn, ks, zeta)
         model = cls(half, mass, inertia, fixed, mat, mat_pair, scene.n_blocks)
+        model.face_offset[: scene.n_blocks] = scene.face_offset
+        model.arris[: scene.n_blocks] = scene.arris
+        model.imperfect[: scene.n_blocks] = scene.imperfect
         model.table_centre = np.array([centre[0], centre[1], -table_half[2]])
         return model
 

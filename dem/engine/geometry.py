@@ -29,6 +29,28 @@ Why this design (see ../shared/DESIGN.md, "Contact geometry: what goes wrong wit
    point midway between the closest points of the two edges, with weight ``edge_area``
    (see ``dem.engine.model``), depth = overlap along the axis.
 
+5. **Imperfect faces** (docs/imperfections.md; bodies with ``faces.imperfect`` set).  An arris
+   of radius r insets the patch: the reference face rectangle is clipped at e - r and the
+   incident face is the rectangle of half extents h - r, so a block rocks about a pivot r inside
+   its edge.  A warped face adds the bilinear interpolation of its four corner offsets (m, > 0
+   stands out) to the gap: the penetration at a point of the patch is
+       d(x, y) = d0 + gx x + gy y + o_R(x / e1, y / e2) + o_I(xi_I, eta_I)
+   (o_R over the reference face, o_I over the incident face at the point's coordinates in that
+   face).  d is no longer affine, so the last clip keeps the part of the polygon where d >= 0
+   by its values at the vertices, cut by linear interpolation along the edges
+   (:func:`clip_values`): on edges parallel to the face axes, those of flush bricks, the bilinear
+   term is linear and the cuts are exact; the polygon stays convex (each cut replaces a run of
+   vertices by a chord) and continuous in the poses; the quadrature points carry kn A max(d, 0)
+   with d evaluated at the point, so a point where the warp opens the joint carries nothing.
+   A twist (the bilinear term, tw = |o_0 - o_1 - o_2 + o_3| / 4 summed over the two faces) can
+   leave the joint bearing on three corners only while the points, pulled in by the shrink s
+   of 3., sit where the twist opens it: the points are then moved out towards the vertices,
+   s_eff = s + (1 - s) tw^2 / (tw^2 + dc^2) with dc the penetration at the centroid, so a
+   joint whose twist outgrows its elastic depth bears on its corners (rigid-block statics) and
+   one whose twist vanishes keeps the exact rocking stiffness of 3.; s_eff is continuous in the
+   poses, so are the points.
+   Edge-edge contacts ignore both (skewed blocks only).
+
 Conventions: the normal ``n`` points from block A to block B; ``depth`` > 0 is penetration (m);
 weights are areas (m^2).  Codes: 0-2 face k of A, 3-5 face k of B, 6-14 edge pair
 (k, m) = divmod(code - 6, 3) of A's axis k and B's axis m, -1 no contact.
@@ -36,7 +58,7 @@ weights are areas (m^2).  Codes: 0-2 face k of A, 3-5 face k of B, 6-14 edge pai
 
 import taichi as ti
 
-from dem.engine.mathutil import vec3
+from dem.engine.mathutil import vec3, vec4
 
 MAXP = 9  # face polygon: 4 corners, clipped by 4 sides (<= 8) then by d >= 0 (<= 9)
 
@@ -161,6 +183,59 @@ def clip_halfplane(xs: ti.template(), ys: ti.template(), n, ax, ay, off, ox: ti.
 
 
 @ti.func
+def clip_values(xs: ti.template(), ys: ti.template(), fs: ti.template(), n, ox: ti.template(),
+                oy: ti.template()):
+    """Sutherland-Hodgman pass against a function given by its values fs at the vertices: keep
+    where f <= 0, cutting each edge where f changes sign at the linear interpolation of f.  Used
+    for the gap of warped faces (module docstring, 5); :func:`clip_halfplane` is the affine
+    case, with f computed from the line."""
+    m = 0
+    if n > 0:
+        px = xs[n - 1]
+        py = ys[n - 1]
+        fp = fs[n - 1]
+        for k in range(n):
+            cx = xs[k]
+            cy = ys[k]
+            fc = fs[k]
+            if fc <= 0.0:
+                if fp > 0.0 and m < MAXP + 1:
+                    t = fp / (fp - fc)
+                    ox[m] = px + t * (cx - px)
+                    oy[m] = py + t * (cy - py)
+                    m += 1
+                if m < MAXP + 1:
+                    ox[m] = cx
+                    oy[m] = cy
+                    m += 1
+            elif fp <= 0.0 and m < MAXP + 1:
+                t = fp / (fp - fc)
+                ox[m] = px + t * (cx - px)
+                oy[m] = py + t * (cy - py)
+                m += 1
+            px = cx
+            py = cy
+            fp = fc
+    return m
+
+
+@ti.func
+def bilinear(o, xi, eta):
+    """Bilinear interpolation of the corner values o (vec4, corner c = (s1 > 0) + 2 (s2 > 0)) at
+    the face coordinates (xi, eta), clamped to [-1, 1]."""
+    x = ti.min(ti.max(xi, -1.0), 1.0)
+    y = ti.min(ti.max(eta, -1.0), 1.0)
+    return 0.25 * ((1.0 - x) * (1.0 - y) * o[0] + (1.0 + x) * (1.0 - y) * o[1]
+                   + (1.0 - x) * (1.0 + y) * o[2] + (1.0 + x) * (1.0 + y) * o[3])
+
+
+@ti.func
+def face_index(axis, sgn):
+    """Face f = 2 axis + (0 for the + face, 1 for the - face) (dem.scene)."""
+    return 2 * axis + ti.select(sgn < 0.0, 1, 0)
+
+
+@ti.func
 def polygon_quadrature(xs: ti.template(), ys: ti.template(), n, w: ti.template()):
     """Quadrature points and weights of a convex polygon (xs, ys, n vertices), see the module
     docstring.  Exact for linear pressure on rectangles and triangles.
@@ -232,21 +307,25 @@ def polygon_quadrature(xs: ti.template(), ys: ti.template(), n, w: ti.template()
 
 
 @ti.func
-def face_contact(pR, RR, hR, k, sgn, pI, RI, hI, px: ti.template(), py: ti.template(),
-                 pz: ti.template(), dep: ti.template(), w: ti.template()):
+def face_contact(pR, RR, hR, k, sgn, pI, RI, hI, faces: ti.template(), rb, ib,
+                 px: ti.template(), py: ti.template(), pz: ti.template(), dep: ti.template(),
+                 w: ti.template()):
     """Contact patch of reference face k of box R (outward normal sgn * R e_k) with box I.
 
-    Writes the points (world coordinates, midway through the overlap) to (px, py, pz), their
-    depth (m) to dep and weight (m^2) to w, and returns (n, npts, s, centroid): n points from
-    R to I; the polygon vertex behind point q is centroid + (p_q - centroid) / s.
+    ``faces`` holds the bodies' imperfections (face_offset, arris, imperfect: dem.engine's
+    Model); rb, ib are the indices of R and I in it.  Writes the points (world coordinates,
+    midway through the overlap) to (px, py, pz), their depth (m) to dep and weight (m^2) to w,
+    and returns (n, npts, s, centroid): n points from R to I; the polygon vertex behind point q
+    is centroid + (p_q - centroid) / s.
     """
     k1 = (k + 1) % 3
     k2 = (k + 2) % 3
     n = sgn * vec3(RR[0, k], RR[1, k], RR[2, k])
     u1 = vec3(RR[0, k1], RR[1, k1], RR[2, k1])
     u2 = vec3(RR[0, k2], RR[1, k2], RR[2, k2])
-    e1 = hR[k1]
-    e2 = hR[k2]
+    imperfect = faces.imperfect[rb] + faces.imperfect[ib]
+    e1 = hR[k1] - faces.arris[rb]  # the patch inset by the arris (module docstring, 5)
+    e2 = hR[k2] - faces.arris[rb]
     c = pR + n * hR[k]
     # incident face of I: most anti-parallel to n
     dots = RI.transpose() @ n
@@ -262,8 +341,10 @@ def face_contact(pR, RR, hR, k, sgn, pI, RI, hI, px: ti.template(), py: ti.templ
     nI = sm * bm  # incident face outward normal (towards R)
     m1 = (m + 1) % 3
     m2 = (m + 2) % 3
-    b1 = vec3(RI[0, m1], RI[1, m1], RI[2, m1]) * hI[m1]
-    b2 = vec3(RI[0, m2], RI[1, m2], RI[2, m2]) * hI[m2]
+    d1 = vec3(RI[0, m1], RI[1, m1], RI[2, m1])
+    d2 = vec3(RI[0, m2], RI[1, m2], RI[2, m2])
+    b1 = d1 * (hI[m1] - faces.arris[ib])
+    b2 = d2 * (hI[m2] - faces.arris[ib])
     ci = pI + nI * hI[m]
     xs = point_buffer()
     ys = point_buffer()
@@ -284,15 +365,60 @@ def face_contact(pR, RR, hR, k, sgn, pI, RI, hI, px: ti.template(), py: ti.templ
     d0 = (c - ci).dot(nI) / den
     gx = u1.dot(nI) / den
     gy = u2.dot(nI) / den
-    npoly = clip_halfplane(xs, ys, npoly, -gx, -gy, d0, xt, yt)
+    # warped faces: corner offsets of R's face k and I's face m, over their full extents
+    oR = vec4(0.0)
+    oI = vec4(0.0)
+    inv1 = 0.0
+    inv2 = 0.0
+    invI1 = 0.0
+    invI2 = 0.0
+    cc = c - ci
+    if imperfect > 0:
+        oR = faces.face_offset[rb, face_index(k, sgn)]
+        oI = faces.face_offset[ib, face_index(m, sm)]
+        inv1 = 1.0 / hR[k1]
+        inv2 = 1.0 / hR[k2]
+        invI1 = 1.0 / hI[m1]
+        invI2 = 1.0 / hI[m2]
+        fs = point_buffer()
+        for q in range(npoly):
+            r = cc + xs[q] * u1 + ys[q] * u2
+            fs[q] = -(d0 + gx * xs[q] + gy * ys[q] + bilinear(oR, xs[q] * inv1, ys[q] * inv2)
+                      + bilinear(oI, r.dot(d1) * invI1, r.dot(d2) * invI2))
+        npoly = clip_values(xs, ys, fs, npoly, xt, yt)
+    else:
+        npoly = clip_halfplane(xs, ys, npoly, -gx, -gy, d0, xt, yt)
     area, shrink, gcx, gcy = polygon_quadrature(xt, yt, npoly, w)
-    dc = ti.max(d0 + gx * gcx + gy * gcy, 0.0)
+    dc_lin = d0 + gx * gcx + gy * gcy
+    if imperfect > 0:
+        r = cc + gcx * u1 + gcy * u2
+        dc_lin += bilinear(oR, gcx * inv1, gcy * inv2) + bilinear(
+            oI, r.dot(d1) * invI1, r.dot(d2) * invI2)
+    dc = ti.max(dc_lin, 0.0)
     centroid = c + gcx * u1 + gcy * u2 - 0.5 * dc * n
     npts = 0
     if area > 0.0:
         npts = ti.min(npoly, MAXP)
+        if imperfect > 0:
+            # twisted faces: the points move out to the vertices as the twist outgrows the
+            # elastic depth (module docstring, 5)
+            tw = ti.abs(0.25 * (oR[0] - oR[1] - oR[2] + oR[3])) + ti.abs(
+                0.25 * (oI[0] - oI[1] - oI[2] + oI[3]))
+            if tw > 0.0:
+                phi = tw * tw / (tw * tw + dc * dc)
+                s_eff = shrink + (1.0 - shrink) * phi
+                ratio = s_eff / shrink
+                for q in range(npts):
+                    xt[q] = gcx + ratio * (xt[q] - gcx)
+                    yt[q] = gcy + ratio * (yt[q] - gcy)
+                shrink = s_eff
         for q in range(npts):
-            dq = ti.max(d0 + gx * xt[q] + gy * yt[q], 0.0)
+            dq_lin = d0 + gx * xt[q] + gy * yt[q]
+            if imperfect > 0:
+                r = cc + xt[q] * u1 + yt[q] * u2
+                dq_lin += bilinear(oR, xt[q] * inv1, yt[q] * inv2) + bilinear(
+                    oI, r.dot(d1) * invI1, r.dot(d2) * invI2)
+            dq = ti.max(dq_lin, 0.0)
             p = c + xt[q] * u1 + yt[q] * u2 - 0.5 * dq * n
             px[q] = p[0]
             py[q] = p[1]
@@ -346,9 +472,11 @@ def edge_contact(pA, RA, hA, pB, RB, hB, k, m, overlap, edge_area, px: ti.templa
 
 
 @ti.func
-def box_contact(pA, RA, hA, pB, RB, hB, prev_code, margin, edge_area, px: ti.template(),
-                py: ti.template(), pz: ti.template(), dep: ti.template(), w: ti.template()):
-    """Full narrow phase for one pair.
+def box_contact(pA, RA, hA, pB, RB, hB, prev_code, margin, edge_area, faces: ti.template(), i,
+                j, px: ti.template(), py: ti.template(), pz: ti.template(), dep: ti.template(),
+                w: ti.template()):
+    """Full narrow phase for one pair: A is body i, B body j of ``faces`` (their imperfections,
+    see :func:`face_contact`).
 
     Writes the points, depths and weights to the buffers (px, py, pz, dep, w: point buffers, zero beyond
     the points) and returns (code, n, npts, shrink, centroid); n points from A to B whatever
@@ -368,7 +496,11 @@ def box_contact(pA, RA, hA, pB, RB, hB, prev_code, margin, edge_area, px: ti.tem
         pI = pB
         RI = RB
         hI = hB
+        rb = i
+        ib = j
         if code >= 3:
+            rb = j
+            ib = i
             pR = pB
             RR = RB
             hR = hB
@@ -379,8 +511,8 @@ def box_contact(pA, RA, hA, pB, RB, hB, prev_code, margin, edge_area, px: ti.tem
         sg = 1.0
         if (pI - pR).dot(vec3(RR[0, k], RR[1, k], RR[2, k])) < 0.0:
             sg = -1.0
-        n, npts, shrink, centroid = face_contact(pR, RR, hR, k, sg, pI, RI, hI, px, py, pz,
-                                                 dep, w)
+        n, npts, shrink, centroid = face_contact(pR, RR, hR, k, sg, pI, RI, hI, faces, rb, ib,
+                                                 px, py, pz, dep, w)
         if code >= 3:
             n = -n
     elif code >= 6:

@@ -279,6 +279,13 @@ class Simulation:
         den = (m.mass_np[mov] * np.linalg.norm(gravity)).sum()
         return float(num / den) if den > 0 else 0.0
 
+    def restart_clock(self) -> float:
+        """Start the clock again at t = 0 from the present state (the loading clock after a
+        settling phase); returns the time that had passed (s).  Steps and energy sums go on."""
+        elapsed = self.t
+        self._t_anchor, self._step_anchor = 0.0, self.step_count
+        return elapsed
+
     def set_local_damping(self, alpha: float) -> None:
         """Cundall local damping coefficient from the next step on (0: none)."""
         self.control.local_damping[0] = alpha

@@ -62,7 +62,7 @@ def narrow_phase(p, i, j, model: ti.template(), state: ti.template(), contacts: 
     hmin = ti.min(hA.min(), hB.min())
     code, n, npts, shrink, centroid = geometry.box_contact(
         state.pos[i], state.rot[i], hA, state.pos[j], state.rot[j], hB, contacts.code[p],
-        1e-3 * hmin, hmin * hmin, px, py, pz, dep, w)
+        1e-3 * hmin, hmin * hmin, model, i, j, px, py, pz, dep, w)
     if code >= 0:
         contacts.code[p] = code
     return n, npts, shrink, centroid
@@ -70,9 +70,11 @@ def narrow_phase(p, i, j, model: ti.template(), state: ti.template(), contacts: 
 
 @ti.func
 def previous_points(p, contacts: ti.template(), lx: ti.template(), ly: ti.template(),
-                    lz: ti.template(), ux: ti.template(), uy: ti.template(), uz: ti.template()):
-    """Copies the pair's points of the last step (in body i's frame) and their shear
-    displacements into the buffers, before the law overwrites them.  Returns their number."""
+                    lz: ti.template(), ux: ti.template(), uy: ti.template(), uz: ti.template(),
+                    wo: ti.template()):
+    """Copies the pair's points of the last step (in body i's frame), their shear
+    displacements and weights into the buffers, before the law overwrites them.  Returns their
+    number."""
     n_old = contacts.npts[p]
     for k in range(n_old):
         l = contacts.loc[p, k]
@@ -83,15 +85,17 @@ def previous_points(p, contacts: ti.template(), lx: ti.template(), ly: ti.templa
         ux[k] = u[0]
         uy[k] = u[1]
         uz[k] = u[2]
+        wo[k] = contacts.area[p, k]
     return n_old
 
 
 @ti.func
-def matched_shear(q, lq, n_old, match_tol2, lx: ti.template(), ly: ti.template(),
-                  lz: ti.template(), ux: ti.template(), uy: ti.template(), uz: ti.template()):
-    """Shear history of new point q at lq (body i's frame): the old point at the same slot if
-    it is within sqrt(match_tol2), else the nearest old point; zero for a new pair."""
-    u_old = vec3(0.0)
+def matched_point(q, lq, n_old, match_tol2, lx: ti.template(), ly: ti.template(),
+                  lz: ti.template()):
+    """The old point whose shear history new point q at lq (body i's frame) takes: the old
+    point at the same slot if it is within sqrt(match_tol2), else the nearest old point; -1
+    for a new pair."""
+    best = -1
     if n_old > 0:
         best = q
         if best >= n_old:
@@ -103,8 +107,7 @@ def matched_shear(q, lq, n_old, match_tol2, lx: ti.template(), ly: ti.template()
                 if dk < dbest:
                     dbest = dk
                     best = k
-        u_old = vec3(ux[best], uy[best], uz[best])
-    return u_old
+    return best
 
 
 @ti.func
@@ -128,7 +131,10 @@ def contact_stage(p, dt, model: ti.template(), state: ti.template(), contacts: t
     ux = point_buffer()
     uy = point_buffer()
     uz = point_buffer()
-    n_old = previous_points(p, contacts, lx, ly, lz, ux, uy, uz)
+    wo = point_buffer()
+    claimed = point_buffer()
+    n_old = previous_points(p, contacts, lx, ly, lz, ux, uy, uz, wo)
+    imperfect_pair = model.imperfect[i] + model.imperfect[j]
     area_tot = 0.0
     for q in range(npts):
         area_tot += w[q]
@@ -150,7 +156,20 @@ def contact_stage(p, dt, model: ti.template(), state: ti.template(), contacts: t
         pw = vec3(px[q], py[q], pz[q])
         rA = pw - pA
         lq = RA.transpose() @ rA
-        u_old = matched_shear(q, lq, n_old, match_tol2, lx, ly, lz, ux, uy, uz)
+        best = matched_point(q, lq, n_old, match_tol2, lx, ly, lz)
+        u_old = vec3(0.0)
+        if best >= 0:
+            u_old = vec3(ux[best], uy[best], uz[best])
+            if imperfect_pair > 0:
+                # warped patches gain and lose vertices often: an old point's history goes to
+                # one new point only, its spring energy ks w |u|^2 / 2 never grows in the
+                # transfer (docs/imperfections.md)
+                if claimed[best] > 0.0:
+                    u_old = vec3(0.0)
+                else:
+                    claimed[best] = 1.0
+                    if w[q] > wo[best]:
+                        u_old *= ti.sqrt(wo[best] / w[q])
         vrel = v0 + dw.cross(rA)
         vn = vrel.dot(n)
         # elastic normal force at the quadrature point, viscous (impact) force at the polygon
@@ -384,7 +403,7 @@ def probe_contacts(n_pairs: ti.i32, out_depth: ti.types.ndarray(ndim=1),
         # member, e.g. ``npts``, is taken for that kernel argument)
         _axis, _normal, n_points, _shrink, _centroid = geometry.box_contact(
             state.pos[i], state.rot[i], hA, state.pos[j], state.rot[j], hB, -1, 1e-3 * hmin,
-            hmin * hmin, px, py, pz, dep, w)
+            hmin * hmin, model, i, j, px, py, pz, dep, w)
         dmax = 0.0
         patch_area = 0.0
         for q in range(n_points):

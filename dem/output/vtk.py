@@ -21,6 +21,13 @@ Cell data per block (cell i = block i, in the order of the scene: explicit block
     velocity        float32  [3] m/s (table frame)
     rotation_angle  float32  angle of the rotation from the initial orientation, degrees
 
+and, for an imperfect scene only (dem.imperfections; a perfect scene's files are unchanged):
+
+    size            float32  [3] edge lengths as realised, m
+    face_offset     float32  [24] corner offsets of the six faces (face f, corner c at 4 f + c,
+                             dem.scene's numbering), m, <= 0 (recessed from the nominal face)
+    arris           float32  radius of the rounded edges, m
+
 Field data per file: ``TimeValue`` and ``time`` (s), ``base_displacement`` [3] (m),
 ``group_names`` (uint8: the UTF-8 names joined by newlines, see :func:`decode_names`; VTK string
 arrays would break meshio's reader); ``vtk/groups.json`` lists the same names; contacts carry point data ``normal`` [3], ``fn`` (N, normal force),
@@ -98,6 +105,10 @@ def blocks_grid(
     v = np.zeros((n, 3)) if vel is None else np.asarray(vel, dtype=np.float64).reshape(n, 3)
     grid.cell_data["velocity"] = v.astype(dtype)
     grid.cell_data["rotation_angle"] = rotation_angle_deg(quat, scene.quat).astype(dtype)
+    if scene.imperfect.any():
+        grid.cell_data["size"] = scene.size.astype(dtype)
+        grid.cell_data["face_offset"] = scene.face_offset.reshape(n, 24).astype(dtype)
+        grid.cell_data["arris"] = scene.arris.astype(dtype)
     if t is not None:
         grid.field_data["TimeValue"] = np.array([t], dtype=np.float64)
         grid.field_data["time"] = np.array([t], dtype=np.float64)

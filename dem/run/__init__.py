@@ -1,7 +1,7 @@
 """The run loop: one case from its scene to its output directory, as named phases.
 
     build   (build.py)    case -> scene, loading, engine (JointLaw / StepOptions from the case)
-    settle                (none yet: the imperfect-joint scenes of issue 12 slot in here)
+    settle  (settle.py)   an imperfect scene comes to rest under gravity; the clock restarts
     load    (loop.py)     advance the engine under the loading, chunk by chunk
     record  (record.py)   frames, virtual instruments, VTK, on their time schedules
     stop    (stop.py)     end time, step limit, collapse of a tilt run

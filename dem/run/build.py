@@ -15,26 +15,47 @@ from dem.builders import build_from_spec, check_scene, require_valid
 from dem.case import Case, Material, SolverSpec, TiltLoading
 from dem.compliance import elastic_offset, rigid_stiffness
 from dem.engine.options import JointLaw, StepOptions
+from dem.imperfections import ImperfectionParams, apply_faces, streams
 from dem.loading import Loading, loading_from_case
 from dem.scene import Scene, blocks_to_scene
 
 
-def scene_from_case(case: Case, check: bool = True) -> Scene:
+def imperfection_params(case: Case) -> ImperfectionParams:
+    """The case's ``imperfections:`` as plain numbers (dem.imperfections)."""
+    imp = case.imperfections
+    return ImperfectionParams(bed_unevenness=imp.bed_unevenness,
+                              size_scatter=tuple(imp.size_scatter), arris=imp.arris,
+                              seed=imp.seed)
+
+
+def scene_from_case(case: Case, check: bool = True, imperfect: bool = True) -> Scene:
     """Build the scene of a case: explicit blocks first, then the builder entries in the order
-    wall, facade, box_model (see :mod:`dem.builders`).
+    wall, facade, box_model (see :mod:`dem.builders`), then the case's imperfections realised
+    with its seed (dem.imperfections: the builder bricks' sizes scattered and laid again, face
+    warps and arrises); ``imperfect=False`` gives the perfect scene of the same case.
 
     With ``check`` (default) the scene goes through :func:`dem.builders.check_scene`: initial
     overlaps deeper than ``solver.overlap_tolerance`` and floating blocks (unless
     ``scene.allow_floating``) raise :class:`dem.builders.SceneError` (a ValueError) naming the
     blocks.
     """
+    params = imperfection_params(case) if imperfect else ImperfectionParams()
+    rng_sizes, _ = streams(params.seed)
+    scatter = any(s > 0 for s in params.size_scatter)
     parts = []
     if case.scene.blocks:
         parts.append(blocks_to_scene(case.scene.blocks))
     for spec in (case.scene.wall, case.scene.facade, case.scene.box_model):
         if spec is not None:
-            parts.append(build_from_spec(spec))
+            built = build_from_spec(spec)
+            if scatter:
+                from dem.builders.scatter import scatter_sizes
+
+                built = scatter_sizes(built, params.size_scatter, rng_sizes)
+            parts.append(built)
     scene = parts[0] if len(parts) == 1 else Scene.concatenate(parts)
+    if params.any():
+        apply_faces(scene, params)
     if check:
         require_valid(
             check_scene(

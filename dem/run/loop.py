@@ -27,8 +27,10 @@ from dem.run.build import build, joint_summary
 from dem.run.progress import Progress
 from dem.run.quasi_static import QuasiStaticTilt
 from dem.run.record import FRAME_KEYS, Recording
+from dem.run.settle import settle
 from dem.run.stop import StopRule
-from dem.run.write import OutputError, RunWriter, engine_results, initial_summary, write_case
+from dem.run.write import (OutputError, RunWriter, engine_results, imperfection_record,
+                           initial_summary, write_case)
 from dem.scene import Scene
 
 Analysis = Callable[[Case, Scene, dict, dict], dict]
@@ -68,6 +70,8 @@ def run_case(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
         write_case(out, case)
     summary = initial_summary(case, scene, loading, sim)
     summary["joints"] = joint_summary(case, scene, sim.joints)
+    if case.imperfections.any():
+        summary["imperfections"] = imperfection_record(out, case, scene)
     recording = Recording(case, scene, loading, sim, out)             # record
     stop = StopRule(case, scene, loading, max_steps)                  # stop
     recording.listeners.append(stop.listen)
@@ -95,6 +99,8 @@ def run_case(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
         writer.checkpoint(summary, sim)
 
     try:
+        if case.imperfections.any():                                  # settle
+            summary["settling"] = settle(sim, loading, case.solver.local_damping, max_steps)
         recording.start()
         if isinstance(loading, HeldTilt):                             # load: quasi-static
             search = QuasiStaticTilt(case, scene, loading, sim, recording, progressed,

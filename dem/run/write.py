@@ -74,6 +74,23 @@ def initial_summary(case: Case, scene: Scene, loading, sim) -> dict:
     }
 
 
+def imperfection_record(out: Path | None, case: Case, scene: Scene) -> dict:
+    """summary.json's ``imperfections`` (seed, parameters, what was drawn), and the realisation in
+    full to imperfections.npz (per block: size, position as built, face_offset [6, 4], arris; the
+    scene can be rebuilt from the case and the seed, this file shows it without rebuilding)."""
+    from dem.imperfections import realised_summary
+    from dem.run.build import imperfection_params, scene_from_case
+
+    nominal = scene_from_case(case, check=False, imperfect=False).size
+    record = realised_summary(scene, imperfection_params(case), nominal)
+    if out is not None:
+        atomic.save_npz(out / "imperfections.npz", {
+            "seed": np.array(case.imperfections.seed), "size": scene.size,
+            "nominal_size": nominal, "position": scene.position,
+            "face_offset": scene.face_offset, "arris": scene.arris})
+    return record
+
+
 def engine_results(sim, n_blocks: int, wall0: float, compile_seconds: float) -> dict:
     """The engine's figures at the end of a run (steps, time, speed, contacts, energy)."""
     out = {"steps": sim.step_count, "sim_time": sim.t,
