@@ -58,7 +58,7 @@ weights are areas (m^2).  Codes: 0-2 face k of A, 3-5 face k of B, 6-14 edge pai
 
 import taichi as ti
 
-from dem.engine.mathutil import vec3, vec4
+from dem.engine.mathutil import vec3
 
 MAXP = 9  # face polygon: 4 corners, clipped by 4 sides (<= 8) then by d >= 0 (<= 9)
 
@@ -316,7 +316,8 @@ def face_contact(pR, RR, hR, k, sgn, pI, RI, hI, faces: ti.template(), rb, ib,
     Model); rb, ib are the indices of R and I in it.  Writes the points (world coordinates,
     midway through the overlap) to (px, py, pz), their depth (m) to dep and weight (m^2) to w,
     and returns (n, npts, s, centroid): n points from R to I; the polygon vertex behind point q
-    is centroid + (p_q - centroid) / s.
+    is centroid + (p_q - centroid) / s.  Perfect faces take the code of the perfect model
+    unchanged (the same arithmetic, bit for bit); imperfect ones :func:`warped_patch`.
     """
     k1 = (k + 1) % 3
     k2 = (k + 2) % 3
@@ -324,8 +325,8 @@ def face_contact(pR, RR, hR, k, sgn, pI, RI, hI, faces: ti.template(), rb, ib,
     u1 = vec3(RR[0, k1], RR[1, k1], RR[2, k1])
     u2 = vec3(RR[0, k2], RR[1, k2], RR[2, k2])
     imperfect = faces.imperfect[rb] + faces.imperfect[ib]
-    e1 = hR[k1] - faces.arris[rb]  # the patch inset by the arris (module docstring, 5)
-    e2 = hR[k2] - faces.arris[rb]
+    e1 = hR[k1]
+    e2 = hR[k2]
     c = pR + n * hR[k]
     # incident face of I: most anti-parallel to n
     dots = RI.transpose() @ n
@@ -341,10 +342,13 @@ def face_contact(pR, RR, hR, k, sgn, pI, RI, hI, faces: ti.template(), rb, ib,
     nI = sm * bm  # incident face outward normal (towards R)
     m1 = (m + 1) % 3
     m2 = (m + 2) % 3
-    d1 = vec3(RI[0, m1], RI[1, m1], RI[2, m1])
-    d2 = vec3(RI[0, m2], RI[1, m2], RI[2, m2])
-    b1 = d1 * (hI[m1] - faces.arris[ib])
-    b2 = d2 * (hI[m2] - faces.arris[ib])
+    b1 = vec3(RI[0, m1], RI[1, m1], RI[2, m1]) * hI[m1]
+    b2 = vec3(RI[0, m2], RI[1, m2], RI[2, m2]) * hI[m2]
+    if imperfect > 0:  # the patch inset by the arrises (module docstring, 5)
+        e1 -= faces.arris[rb]
+        e2 -= faces.arris[rb]
+        b1 = vec3(RI[0, m1], RI[1, m1], RI[2, m1]) * (hI[m1] - faces.arris[ib])
+        b2 = vec3(RI[0, m2], RI[1, m2], RI[2, m2]) * (hI[m2] - faces.arris[ib])
     ci = pI + nI * hI[m]
     xs = point_buffer()
     ys = point_buffer()
@@ -365,66 +369,87 @@ def face_contact(pR, RR, hR, k, sgn, pI, RI, hI, faces: ti.template(), rb, ib,
     d0 = (c - ci).dot(nI) / den
     gx = u1.dot(nI) / den
     gy = u2.dot(nI) / den
-    # warped faces: corner offsets of R's face k and I's face m, over their full extents
-    oR = vec4(0.0)
-    oI = vec4(0.0)
-    inv1 = 0.0
-    inv2 = 0.0
-    invI1 = 0.0
-    invI2 = 0.0
-    cc = c - ci
+    npts = 0
+    shrink = 1.0
+    centroid = vec3(0.0)
     if imperfect > 0:
-        oR = faces.face_offset[rb, face_index(k, sgn)]
-        oI = faces.face_offset[ib, face_index(m, sm)]
-        inv1 = 1.0 / hR[k1]
-        inv2 = 1.0 / hR[k2]
-        invI1 = 1.0 / hI[m1]
-        invI2 = 1.0 / hI[m2]
-        fs = point_buffer()
-        for q in range(npoly):
-            r = cc + xs[q] * u1 + ys[q] * u2
-            fs[q] = -(d0 + gx * xs[q] + gy * ys[q] + bilinear(oR, xs[q] * inv1, ys[q] * inv2)
-                      + bilinear(oI, r.dot(d1) * invI1, r.dot(d2) * invI2))
-        npoly = clip_values(xs, ys, fs, npoly, xt, yt)
+        npts, shrink, centroid = warped_patch(
+            c, n, u1, u2, hR[k1], hR[k2], faces.face_offset[rb, face_index(k, sgn)], ci, RI,
+            hI, m, faces.face_offset[ib, face_index(m, sm)], d0, gx, gy, npoly, xs, ys, xt, yt,
+            px, py, pz, dep, w)
     else:
         npoly = clip_halfplane(xs, ys, npoly, -gx, -gy, d0, xt, yt)
+        area, shrink_, gcx, gcy = polygon_quadrature(xt, yt, npoly, w)
+        shrink = shrink_
+        dc = ti.max(d0 + gx * gcx + gy * gcy, 0.0)
+        centroid = c + gcx * u1 + gcy * u2 - 0.5 * dc * n
+        if area > 0.0:
+            npts = ti.min(npoly, MAXP)
+            for q in range(npts):
+                dq = ti.max(d0 + gx * xt[q] + gy * yt[q], 0.0)
+                p = c + xt[q] * u1 + yt[q] * u2 - 0.5 * dq * n
+                px[q] = p[0]
+                py[q] = p[1]
+                pz[q] = p[2]
+                dep[q] = dq
+    return n, npts, shrink, centroid
+
+
+@ti.func
+def warped_patch(c, n, u1, u2, hR1, hR2, oR, ci, RI, hI, m, oI, d0, gx, gy, npoly,
+                 xs: ti.template(), ys: ti.template(), xt: ti.template(), yt: ti.template(),
+                 px: ti.template(), py: ti.template(), pz: ti.template(), dep: ti.template(),
+                 w: ti.template()):
+    """The last clip, quadrature and points of :func:`face_contact` for warped faces (module
+    docstring, 5): the gap adds the bilinear corner offsets oR of the reference face (half
+    extents hR1, hR2 along u1, u2, centre c) and oI of the incident face (box I's face m,
+    centre ci).  The polygon clipped to both faces is (xs, ys, npoly) in the reference face's
+    coordinates.  Returns (npts, shrink, centroid) as face_contact."""
+    m1 = (m + 1) % 3
+    m2 = (m + 2) % 3
+    d1 = vec3(RI[0, m1], RI[1, m1], RI[2, m1])
+    d2 = vec3(RI[0, m2], RI[1, m2], RI[2, m2])
+    inv1 = 1.0 / hR1
+    inv2 = 1.0 / hR2
+    invI1 = 1.0 / hI[m1]
+    invI2 = 1.0 / hI[m2]
+    cc = c - ci
+    fs = point_buffer()
+    for q in range(npoly):
+        r = cc + xs[q] * u1 + ys[q] * u2
+        fs[q] = -(d0 + gx * xs[q] + gy * ys[q] + bilinear(oR, xs[q] * inv1, ys[q] * inv2)
+                  + bilinear(oI, r.dot(d1) * invI1, r.dot(d2) * invI2))
+    npoly = clip_values(xs, ys, fs, npoly, xt, yt)
     area, shrink, gcx, gcy = polygon_quadrature(xt, yt, npoly, w)
-    dc_lin = d0 + gx * gcx + gy * gcy
-    if imperfect > 0:
-        r = cc + gcx * u1 + gcy * u2
-        dc_lin += bilinear(oR, gcx * inv1, gcy * inv2) + bilinear(
-            oI, r.dot(d1) * invI1, r.dot(d2) * invI2)
-    dc = ti.max(dc_lin, 0.0)
+    rc = cc + gcx * u1 + gcy * u2
+    dc = ti.max(d0 + gx * gcx + gy * gcy + bilinear(oR, gcx * inv1, gcy * inv2)
+                + bilinear(oI, rc.dot(d1) * invI1, rc.dot(d2) * invI2), 0.0)
     centroid = c + gcx * u1 + gcy * u2 - 0.5 * dc * n
     npts = 0
     if area > 0.0:
         npts = ti.min(npoly, MAXP)
-        if imperfect > 0:
-            # twisted faces: the points move out to the vertices as the twist outgrows the
-            # elastic depth (module docstring, 5)
-            tw = ti.abs(0.25 * (oR[0] - oR[1] - oR[2] + oR[3])) + ti.abs(
-                0.25 * (oI[0] - oI[1] - oI[2] + oI[3]))
-            if tw > 0.0:
-                phi = tw * tw / (tw * tw + dc * dc)
-                s_eff = shrink + (1.0 - shrink) * phi
-                ratio = s_eff / shrink
-                for q in range(npts):
-                    xt[q] = gcx + ratio * (xt[q] - gcx)
-                    yt[q] = gcy + ratio * (yt[q] - gcy)
-                shrink = s_eff
+        # twisted faces: the points move out to the vertices as the twist outgrows the
+        # elastic depth (module docstring, 5)
+        tw = ti.abs(0.25 * (oR[0] - oR[1] - oR[2] + oR[3])) + ti.abs(
+            0.25 * (oI[0] - oI[1] - oI[2] + oI[3]))
+        if tw > 0.0:
+            phi = tw * tw / (tw * tw + dc * dc)
+            s_eff = shrink + (1.0 - shrink) * phi
+            ratio = s_eff / shrink
+            for q in range(npts):
+                xt[q] = gcx + ratio * (xt[q] - gcx)
+                yt[q] = gcy + ratio * (yt[q] - gcy)
+            shrink = s_eff
         for q in range(npts):
-            dq_lin = d0 + gx * xt[q] + gy * yt[q]
-            if imperfect > 0:
-                r = cc + xt[q] * u1 + yt[q] * u2
-                dq_lin += bilinear(oR, xt[q] * inv1, yt[q] * inv2) + bilinear(
-                    oI, r.dot(d1) * invI1, r.dot(d2) * invI2)
-            dq = ti.max(dq_lin, 0.0)
+            r = cc + xt[q] * u1 + yt[q] * u2
+            dq = ti.max(d0 + gx * xt[q] + gy * yt[q] + bilinear(oR, xt[q] * inv1, yt[q] * inv2)
+                        + bilinear(oI, r.dot(d1) * invI1, r.dot(d2) * invI2), 0.0)
             p = c + xt[q] * u1 + yt[q] * u2 - 0.5 * dq * n
             px[q] = p[0]
             py[q] = p[1]
             pz[q] = p[2]
             dep[q] = dq
-    return n, npts, shrink, centroid
+    return npts, shrink, centroid
 
 
 @ti.func
