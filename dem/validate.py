@@ -80,6 +80,7 @@ class Checked:
     memory_bytes: float | None = None
     disk_bytes: float | None = None
     joints: dict | None = None
+    imperfections: dict | None = None
 
     @property
     def ok(self) -> bool:
@@ -94,7 +95,24 @@ class Checked:
         if self.dt is not None:
             parts.append(f"time step {self.dt:.3g} s")
         return "size: " + ", ".join(parts) + (f"\n{joint_line(self.joints)}" if self.joints
-                                                else "")
+                                                else "") + (
+            f"\n{imperfection_line(self.imperfections)}" if self.imperfections else "")
+
+
+def imperfection_line(imp: dict) -> str:
+    """One line on the realised imperfections (dem.imperfections.realised_summary)."""
+    mm = 1e3
+    parts = [f"bed unevenness {imp['bed_unevenness_m'] * mm:.3g} mm"]
+    if "faces" in imp:
+        parts[-1] += (f" (largest recess {imp['faces']['largest_recess_m'] * mm:.3g} mm, mean "
+                      f"|twist| {imp['faces']['twist_mean_abs_m'] * mm:.3g} mm)")
+    parts.append("size scatter [" + ", ".join(f"{v * mm:.3g}" for v in imp["size_scatter_m"])
+                 + "] mm")
+    if "sizes" in imp:
+        parts[-1] += f" (largest deviation {imp['sizes']['largest_deviation_m'] * mm:.3g} mm)"
+    parts.append(f"arris {imp['arris_m'] * mm:.3g} mm")
+    return (f"imperfections (seed {imp['seed']}): " + ", ".join(parts)
+            + "; the scene settles under gravity before it is loaded (docs/imperfections.md)")
 
 
 def joint_line(joints: dict) -> str:
@@ -279,6 +297,12 @@ def check_case(case: Case, source: str | Path | None = None,
     from dem.run.build import case_joint_law, joint_summary
 
     out.joints = joint_summary(case, scene, case_joint_law(case, scene))
+    if case.imperfections.any():
+        from dem.imperfections import realised_summary
+        from dem.run.build import imperfection_params
+
+        nominal = scene_from_case(case, check=False, imperfect=False).size
+        out.imperfections = realised_summary(scene, imperfection_params(case), nominal)
     dt_crit = critical_step(case, scene)
     out.dt_critical = dt_crit if math.isfinite(dt_crit) else None
     sv = case.solver
