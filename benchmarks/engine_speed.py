@@ -103,7 +103,7 @@ def _stages(repeats):
                 hmin = ti.min(model.half[i].min(), model.half[j].min())
                 ov = geometry.sat_overlaps(state.pos[i], state.rot[i], model.half[i],
                                            state.pos[j], state.rot[j], model.half[j])
-                axis, smallest = geometry.choose_axis(ov, contacts.code[p], 1e-3 * hmin)
+                axis, smallest = geometry.choose_axis(ov, contacts.code[p], 1e-3 * hmin, 1e-3 * hmin)
                 acc += axis + smallest
         return acc
 

@@ -79,7 +79,7 @@ def _polygon_quadrature(xs: nd(dtype=ti.f64, ndim=2), ys: nd(dtype=ti.f64, ndim=
 # the bodies' imperfections as the narrow phase reads them (the fields of the engine's Model):
 # row i of _box_contact is the pair of bodies (2 i, 2 i + 1)
 FacesArgs = ti.types.argpack(face_offset=nd(dtype=ti.math.vec4, ndim=2), arris=nd(ndim=1),
-                             imperfect=nd(dtype=ti.i32, ndim=1))
+                             recess=nd(ndim=1), imperfect=nd(dtype=ti.i32, ndim=1))
 
 
 @ti.kernel
@@ -180,7 +180,9 @@ def run_box_contact(rows, face_offset=None, arris=None):
         np.asarray(face_offset, dtype=np.float64).reshape(2 * len(inp), 6, 4)
     arr = np.zeros(2 * len(inp)) if arris is None else np.asarray(arris, dtype=np.float64)
     imp = ((off != 0).any(axis=(1, 2)) | (arr != 0)).astype(np.int32)
-    _box_contact(inp, res, pts, FacesArgs(face_offset=off, arris=arr, imperfect=imp))
+    recess = np.maximum(-off.min(axis=(1, 2)), 0.0) + arr
+    _box_contact(inp, res, pts, FacesArgs(face_offset=off, arris=arr, recess=recess,
+                                          imperfect=imp))
     out = []
     for r, p in zip(res, pts):
         k = int(r[4])

@@ -70,6 +70,9 @@ MODEL_FIELDS = (
     _f("face_offset", "vec4", ("B", 6), "m", "Model.from_scene",
        "imperfect faces: corner offsets along the outward normal (dem.scene, face_contact)"),
     _f("arris", "real", "B", "m", "Model.from_scene", "rounded-edge radius: patches inset by it"),
+    _f("recess", "real", "B", "m", "Model.from_scene",
+       "deepest corner recess of the faces plus the arris: how far a neighbour may sink into "
+       "the nominal box (the edge-axis margin of box_contact)"),
     _f("imperfect", "i32", "B", "-", "Model.from_scene",
        "1 if the body has a face offset or an arris (the narrow phase's imperfect path)"),
 )
@@ -240,6 +243,8 @@ class Model(_Container):
         model.face_offset[: scene.n_blocks] = scene.face_offset
         model.arris[: scene.n_blocks] = scene.arris
         model.imperfect[: scene.n_blocks] = scene.imperfect
+        model.recess[: scene.n_blocks] = np.maximum(
+            -scene.face_offset.min(axis=(1, 2), initial=0.0), 0.0) + scene.arris
         model.table_centre = np.array([centre[0], centre[1], -table_half[2]])
         return model
 
