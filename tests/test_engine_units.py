@@ -787,3 +787,52 @@ def test_box_contact_edge_edge(phi_deg):
     np.testing.assert_allclose(r["p"][0], top - [0.0, 0.0, 0.5 * delta], rtol=0.0, atol=ATOL_LEN)
     np.testing.assert_allclose(r["centroid"], r["p"][0], rtol=0.0, atol=0.0)
     assert np.all(r["buf"][1:, 3:5] == 0.0)
+
+
+# ----------------------------------------------------------------------------------------------
+# imperfect faces (docs/imperfections.md): arris inset and warped faces
+
+
+def test_box_contact_arris_insets_the_patch():
+    """B on A flush, both with arris r = 2 mm: the patch is the rectangle inset by r on every
+    side, (0.105 - 2 r) x (0.05 - 2 r), depth d everywhere, with the exact second moments."""
+    r = 0.002
+    (res,) = run_box_contact([flush_row(0.0, 0.0)], arris=[r, r])
+    check_rect_patch(res, -HX + r, HX - r, -HY + r, HY - r, HZ - 0.5 * D_PRESS, D_PRESS, 1.0)
+
+
+def test_box_contact_uniform_recess_is_a_shift():
+    """All four corners of A's top face recessed by delta: the gap is that of two flat faces
+    delta apart, so pressed by d > delta the patch is the full rectangle at depth d - delta;
+    pressed by less than delta there is no force (every point at depth 0 or no point)."""
+    delta = 4e-7
+    off = np.zeros((2, 6, 4))
+    off[0, 4] = -delta  # body A (row 0: bodies 0 and 1), face 4 = +z
+    (res,) = run_box_contact([flush_row(0.0, 0.0)], face_offset=off)
+    np.testing.assert_array_equal(res["n"], [0.0, 0.0, 1.0])
+    assert res["w"].sum() == pytest.approx(4 * HX * HY, rel=1e-12)
+    np.testing.assert_allclose(res["dep"], D_PRESS - delta, rtol=0.0, atol=1e-15)
+    (shallow,) = run_box_contact([flush_row(0.0, 0.0, d=0.5 * delta)], face_offset=off)
+    assert np.all(shallow["dep"] == 0.0)
+
+
+def test_box_contact_twisted_face_bears_on_its_high_diagonal():
+    """B's bottom face twisted: corners 0 (-x, -y) and 3 (+x, +y) on the nominal face, 1 and 2
+    recessed by 2 t = 20 um, B pressed by d = 1 um.  The gap d + o(x, y) is positive only in
+    two small regions at the high diagonal's corners (within d / t = 10 % of the half extents
+    of them): every point carries the bilinear gap at the point as its depth, and the loaded
+    points sit in those corners, where x y > 0 (the twist outgrows the elastic depth, so the
+    points are at the vertices: s_eff -> 1)."""
+    t = 1e-5
+    off = np.zeros((2, 6, 4))
+    off[1, 5] = [0.0, -2 * t, -2 * t, 0.0]  # body B, face 5 = -z; corners c = (x>0) + 2 (y>0)
+    (res,) = run_box_contact([flush_row(0.0, 0.0)], face_offset=off)
+    assert res["npts"] >= 2
+    x, y = res["p"][:, 0] / HX, res["p"][:, 1] / HY
+    expected = np.maximum(D_PRESS + 0.25 * (-2 * t) * ((1 + x) * (1 - y) + (1 - x) * (1 + y)),
+                          0.0)
+    np.testing.assert_allclose(res["dep"], expected, rtol=0.0, atol=1e-12)
+    loaded = res["dep"] > 0
+    assert loaded.sum() >= 2
+    assert np.all(x[loaded] * y[loaded] > 0)  # on the high diagonal's side
+    assert np.all(np.abs(x[loaded]) > 0.9) and np.all(np.abs(y[loaded]) > 0.9)
