@@ -123,8 +123,8 @@ def _stages(repeats):
                 w = geometry.point_buffer()
                 axis, n, n_points, shrink, centroid = geometry.box_contact(
                     state.pos[i], state.rot[i], model.half[i], state.pos[j], state.rot[j],
-                    model.half[j], contacts.code[p], 1e-3 * hmin, hmin * hmin, model, i, j,
-                    px, py, pz, dep, w)
+                    model.half[j], contacts.code[p], 1e-3 * hmin, hmin * hmin, model, False,
+                    i, j, px, py, pz, dep, w)
                 for q in range(n_points):
                     acc += px[q] + py[q] + pz[q] + dep[q] * w[q]
                 acc += axis + n[0] + shrink + centroid[2]
@@ -136,7 +136,7 @@ def _stages(repeats):
         ti.loop_config(serialize=True)
         for _ in range(reps):
             for p in range(n_pairs):
-                step.contact_stage(p, dt, model, state, contacts, control)
+                step.contact_stage(p, dt, model, state, contacts, control, False)
 
     @ti.kernel
     def integrate(reps: ti.i32, n_bodies: ti.i32, dt: ti.f64, model: ModelArgs,

@@ -311,24 +311,24 @@ def polygon_quadrature(xs: ti.template(), ys: ti.template(), n, w: ti.template()
 
 
 @ti.func
-def face_contact(pR, RR, hR, k, sgn, pI, RI, hI, faces: ti.template(), rb, ib,
-                 px: ti.template(), py: ti.template(), pz: ti.template(), dep: ti.template(),
-                 w: ti.template()):
+def face_contact(pR, RR, hR, k, sgn, pI, RI, hI, faces: ti.template(), warped: ti.template(),
+                 rb, ib, px: ti.template(), py: ti.template(), pz: ti.template(),
+                 dep: ti.template(), w: ti.template()):
     """Contact patch of reference face k of box R (outward normal sgn * R e_k) with box I.
 
     ``faces`` holds the bodies' imperfections (face_offset, arris, imperfect: dem.engine's
     Model); rb, ib are the indices of R and I in it.  Writes the points (world coordinates,
     midway through the overlap) to (px, py, pz), their depth (m) to dep and weight (m^2) to w,
     and returns (n, npts, s, centroid): n points from R to I; the polygon vertex behind point q
-    is centroid + (p_q - centroid) / s.  Perfect faces take the code of the perfect model
-    unchanged (the same arithmetic, bit for bit); imperfect ones :func:`warped_patch`.
+    is centroid + (p_q - centroid) / s.  ``warped`` (compile time): whether the kernel handles
+    imperfect faces at all; without it this is the perfect model's code alone.  With it, pairs
+    of perfect faces still take the perfect code and imperfect ones :func:`warped_patch`.
     """
     k1 = (k + 1) % 3
     k2 = (k + 2) % 3
     n = sgn * vec3(RR[0, k], RR[1, k], RR[2, k])
     u1 = vec3(RR[0, k1], RR[1, k1], RR[2, k1])
     u2 = vec3(RR[0, k2], RR[1, k2], RR[2, k2])
-    imperfect = faces.imperfect[rb] + faces.imperfect[ib]
     e1 = hR[k1]
     e2 = hR[k2]
     c = pR + n * hR[k]
@@ -348,11 +348,14 @@ def face_contact(pR, RR, hR, k, sgn, pI, RI, hI, faces: ti.template(), rb, ib,
     m2 = (m + 2) % 3
     b1 = vec3(RI[0, m1], RI[1, m1], RI[2, m1]) * hI[m1]
     b2 = vec3(RI[0, m2], RI[1, m2], RI[2, m2]) * hI[m2]
-    if imperfect > 0:  # the patch inset by the arrises (module docstring, 5)
-        e1 -= faces.arris[rb]
-        e2 -= faces.arris[rb]
-        b1 = vec3(RI[0, m1], RI[1, m1], RI[2, m1]) * (hI[m1] - faces.arris[ib])
-        b2 = vec3(RI[0, m2], RI[1, m2], RI[2, m2]) * (hI[m2] - faces.arris[ib])
+    imperfect = 0
+    if ti.static(warped):
+        imperfect = faces.imperfect[rb] + faces.imperfect[ib]
+        if imperfect > 0:  # the patch inset by the arrises (module docstring, 5)
+            e1 -= faces.arris[rb]
+            e2 -= faces.arris[rb]
+            b1 = vec3(RI[0, m1], RI[1, m1], RI[2, m1]) * (hI[m1] - faces.arris[ib])
+            b2 = vec3(RI[0, m2], RI[1, m2], RI[2, m2]) * (hI[m2] - faces.arris[ib])
     ci = pI + nI * hI[m]
     xs = point_buffer()
     ys = point_buffer()
@@ -376,27 +379,42 @@ def face_contact(pR, RR, hR, k, sgn, pI, RI, hI, faces: ti.template(), rb, ib,
     npts = 0
     shrink = 1.0
     centroid = vec3(0.0)
-    if imperfect > 0:
-        npts, shrink, centroid = warped_patch(
-            c, n, u1, u2, hR[k1], hR[k2], faces.face_offset[rb, face_index(k, sgn)], ci, RI,
-            hI, m, faces.face_offset[ib, face_index(m, sm)], d0, gx, gy, npoly, xs, ys, xt, yt,
-            px, py, pz, dep, w)
+    if ti.static(warped):
+        if imperfect > 0:
+            npts, shrink, centroid = warped_patch(
+                c, n, u1, u2, hR[k1], hR[k2], faces.face_offset[rb, face_index(k, sgn)], ci,
+                RI, hI, m, faces.face_offset[ib, face_index(m, sm)], d0, gx, gy, npoly, xs, ys,
+                xt, yt, px, py, pz, dep, w)
+        else:
+            npts, shrink, centroid = flat_patch(c, n, u1, u2, d0, gx, gy, npoly, xs, ys, xt, yt,
+                                                px, py, pz, dep, w)
     else:
-        npoly = clip_halfplane(xs, ys, npoly, -gx, -gy, d0, xt, yt)
-        area, shrink_, gcx, gcy = polygon_quadrature(xt, yt, npoly, w)
-        shrink = shrink_
-        dc = ti.max(d0 + gx * gcx + gy * gcy, 0.0)
-        centroid = c + gcx * u1 + gcy * u2 - 0.5 * dc * n
-        if area > 0.0:
-            npts = ti.min(npoly, MAXP)
-            for q in range(npts):
-                dq = ti.max(d0 + gx * xt[q] + gy * yt[q], 0.0)
-                p = c + xt[q] * u1 + yt[q] * u2 - 0.5 * dq * n
-                px[q] = p[0]
-                py[q] = p[1]
-                pz[q] = p[2]
-                dep[q] = dq
+        npts, shrink, centroid = flat_patch(c, n, u1, u2, d0, gx, gy, npoly, xs, ys, xt, yt, px,
+                                            py, pz, dep, w)
     return n, npts, shrink, centroid
+
+
+@ti.func
+def flat_patch(c, n, u1, u2, d0, gx, gy, npoly, xs: ti.template(), ys: ti.template(),
+               xt: ti.template(), yt: ti.template(), px: ti.template(), py: ti.template(),
+               pz: ti.template(), dep: ti.template(), w: ti.template()):
+    """The last clip (d >= 0, d affine), quadrature and points of :func:`face_contact` for flat
+    faces.  Returns (npts, shrink, centroid) as face_contact."""
+    npoly = clip_halfplane(xs, ys, npoly, -gx, -gy, d0, xt, yt)
+    area, shrink, gcx, gcy = polygon_quadrature(xt, yt, npoly, w)
+    dc = ti.max(d0 + gx * gcx + gy * gcy, 0.0)
+    centroid = c + gcx * u1 + gcy * u2 - 0.5 * dc * n
+    npts = 0
+    if area > 0.0:
+        npts = ti.min(npoly, MAXP)
+        for q in range(npts):
+            dq = ti.max(d0 + gx * xt[q] + gy * yt[q], 0.0)
+            p = c + xt[q] * u1 + yt[q] * u2 - 0.5 * dq * n
+            px[q] = p[0]
+            py[q] = p[1]
+            pz[q] = p[2]
+            dep[q] = dq
+    return npts, shrink, centroid
 
 
 @ti.func
@@ -501,11 +519,11 @@ def edge_contact(pA, RA, hA, pB, RB, hB, k, m, overlap, edge_area, px: ti.templa
 
 
 @ti.func
-def box_contact(pA, RA, hA, pB, RB, hB, prev_code, margin, edge_area, faces: ti.template(), i,
-                j, px: ti.template(), py: ti.template(), pz: ti.template(), dep: ti.template(),
-                w: ti.template()):
+def box_contact(pA, RA, hA, pB, RB, hB, prev_code, margin, edge_area, faces: ti.template(),
+                warped: ti.template(), i, j, px: ti.template(), py: ti.template(),
+                pz: ti.template(), dep: ti.template(), w: ti.template()):
     """Full narrow phase for one pair: A is body i, B body j of ``faces`` (their imperfections,
-    see :func:`face_contact`).
+    read only if ``warped``, a compile-time flag: see :func:`face_contact`).
 
     Writes the points, depths and weights to the buffers (px, py, pz, dep, w: point buffers, zero beyond
     the points) and returns (code, n, npts, shrink, centroid); n points from A to B whatever
@@ -517,10 +535,15 @@ def box_contact(pA, RA, hA, pB, RB, hB, prev_code, margin, edge_area, faces: ti.
     # edge axis could then look better than the face axis of a flush bed joint and take the
     # nominal overlap as its depth (a 0.5 mm edge contact that throws the block off).  The
     # face axis keeps the contact unless an edge axis is better by more than the recesses.
-    edge_margin = margin
-    if faces.imperfect[i] + faces.imperfect[j] > 0:
-        edge_margin = margin + faces.recess[i] + faces.recess[j]
-    code, smallest = choose_axis(ov, prev_code, margin, edge_margin)
+    code = NO_CONTACT
+    smallest = 0.0
+    if ti.static(warped):
+        edge_margin = margin
+        if faces.imperfect[i] + faces.imperfect[j] > 0:
+            edge_margin = margin + faces.recess[i] + faces.recess[j]
+        code, smallest = choose_axis(ov, prev_code, margin, edge_margin)
+    else:
+        code, smallest = choose_axis(ov, prev_code, margin, margin)
     n = vec3(0.0, 0.0, 1.0)
     npts = 0
     shrink = 1.0
@@ -548,8 +571,8 @@ def box_contact(pA, RA, hA, pB, RB, hB, prev_code, margin, edge_area, faces: ti.
         sg = 1.0
         if (pI - pR).dot(vec3(RR[0, k], RR[1, k], RR[2, k])) < 0.0:
             sg = -1.0
-        n, npts, shrink, centroid = face_contact(pR, RR, hR, k, sg, pI, RI, hI, faces, rb, ib,
-                                                 px, py, pz, dep, w)
+        n, npts, shrink, centroid = face_contact(pR, RR, hR, k, sg, pI, RI, hI, faces, warped,
+                                                 rb, ib, px, py, pz, dep, w)
         if code >= 3:
             n = -n
     elif code >= 6:

@@ -197,7 +197,7 @@ class Simulation:
             return patch
         depth = ti_nd_real(c.capacity)
         area = ti_nd_real(c.capacity)
-        stepk.probe_contacts(c.n_pairs, depth, area, self.model.args, self.state.args, c.args)
+        self._probe(c.n_pairs, depth, area, self.model.args, self.state.args, c.args)
         d = depth[: c.n_pairs]
         worst = int(np.argmax(d))
         if d[worst] > tolerance:
@@ -322,17 +322,23 @@ class Simulation:
         record the stepping kernel's launch (dem.engine.launch: later launches skip Taichi's
         per-call argument handling unless ``fast_launch`` is False)."""
         m, st, c = self.model.args, self.state.args, self.contacts.args
+        # kernels that read the imperfections only for scenes that have some: a perfect scene
+        # runs the perfect model's code (bit for bit, at its speed)
+        warped = bool(self.model.imperfect.any())
+        self._probe = stepk.probe_contacts_warped if warped else stepk.probe_contacts
         if self.mode == "serial":
-            scalars, kernel = (0, 0, float(self.dt)), stepk.advance_serial
+            scalars = (0, 0, float(self.dt))
+            kernel = stepk.advance_serial_warped if warped else stepk.advance_serial
         else:
-            scalars, kernel = (0, float(self.dt)), stepk.advance_parallel
+            scalars = (0, float(self.dt))
+            kernel = stepk.advance_parallel_warped if warped else stepk.advance_parallel
         if self.fast_launch:
             self._advance = CachedLaunch(kernel, scalars, *self.containers())
         else:
             kernel(*scalars, *self.containers())
             self._advance = lambda *sc: kernel(*sc, *self.containers())
         depth = ti_nd_real(1)
-        stepk.probe_contacts(0, depth, depth, m, st, c)
+        self._probe(0, depth, depth, m, st, c)
         stepk.elastic_energy(0, m, c)
 
     def _raise_instability(self) -> None:

@@ -53,8 +53,8 @@ from dem.engine.pair import pair_properties
 
 @ti.func
 def narrow_phase(p, i, j, model: ti.template(), state: ti.template(), contacts: ti.template(),
-                 px: ti.template(), py: ti.template(), pz: ti.template(), dep: ti.template(),
-                 w: ti.template()):
+                 warped: ti.template(), px: ti.template(), py: ti.template(),
+                 pz: ti.template(), dep: ti.template(), w: ti.template()):
     """Contact patch of pair p = (i, j) into the point buffers (see geometry.box_contact);
     keeps the sticky axis in contacts.code.  Returns (n, npts, shrink, centroid)."""
     hA = model.half[i]
@@ -62,7 +62,7 @@ def narrow_phase(p, i, j, model: ti.template(), state: ti.template(), contacts: 
     hmin = ti.min(hA.min(), hB.min())
     code, n, npts, shrink, centroid = geometry.box_contact(
         state.pos[i], state.rot[i], hA, state.pos[j], state.rot[j], hB, contacts.code[p],
-        1e-3 * hmin, hmin * hmin, model, i, j, px, py, pz, dep, w)
+        1e-3 * hmin, hmin * hmin, model, warped, i, j, px, py, pz, dep, w)
     if code >= 0:
         contacts.code[p] = code
     return n, npts, shrink, centroid
@@ -112,8 +112,9 @@ def matched_point(q, lq, n_old, match_tol2, lx: ti.template(), ly: ti.template()
 
 @ti.func
 def contact_stage(p, dt, model: ti.template(), state: ti.template(), contacts: ti.template(),
-                  control: ti.template()):
-    """Narrow phase, pair properties, history and joint law of pair p."""
+                  control: ti.template(), warped: ti.template()):
+    """Narrow phase, pair properties, history and joint law of pair p.  ``warped``
+    (compile time): the kernel handles imperfect faces (docs/imperfections.md)."""
     i = contacts.pairs[p][0]
     j = contacts.pairs[p][1]
     pA = state.pos[i]
@@ -124,7 +125,8 @@ def contact_stage(p, dt, model: ti.template(), state: ti.template(), contacts: t
     pz = point_buffer()
     dep = point_buffer()
     w = point_buffer()
-    n, npts, shrink, centroid = narrow_phase(p, i, j, model, state, contacts, px, py, pz, dep, w)
+    n, npts, shrink, centroid = narrow_phase(p, i, j, model, state, contacts, warped, px, py,
+                                             pz, dep, w)
     lx = point_buffer()
     ly = point_buffer()
     lz = point_buffer()
@@ -134,7 +136,9 @@ def contact_stage(p, dt, model: ti.template(), state: ti.template(), contacts: t
     wo = point_buffer()
     claimed = point_buffer()
     n_old = previous_points(p, contacts, lx, ly, lz, ux, uy, uz, wo)
-    imperfect_pair = model.imperfect[i] + model.imperfect[j]
+    imperfect_pair = 0
+    if ti.static(warped):
+        imperfect_pair = model.imperfect[i] + model.imperfect[j]
     area_tot = 0.0
     for q in range(npts):
         area_tot += w[q]
@@ -354,12 +358,30 @@ def advance_serial(n_steps: ti.i32, n_pairs: ti.i32, dt: float, model: ModelArgs
                    state: StateArgs, contacts: ContactArgs, control: ControlArgs):
     """Run up to n_steps steps on one thread; stop after a step that raised a status bit.
     control.steps_done returns the number of steps done; control.loads[s] holds step s's loads.
+    Perfect faces only (:func:`advance_serial_warped` for scenes with imperfections).
     """
     n_bodies = state.pos.shape[0]
     s = 0
     while s < n_steps and control.status[0] == 0:
         for p in range(n_pairs):
-            contact_stage(p, dt, model, state, contacts, control)
+            contact_stage(p, dt, model, state, contacts, control, False)
+        for b in range(n_bodies):
+            integrate_stage(b, s, dt, model, state, contacts, control)
+        energy_stage(n_pairs, state, contacts, control)
+        deepest_stage(s, n_pairs, contacts, control)
+        s += 1
+    control.steps_done[0] = s
+
+
+@ti.kernel
+def advance_serial_warped(n_steps: ti.i32, n_pairs: ti.i32, dt: float, model: ModelArgs,
+                          state: StateArgs, contacts: ContactArgs, control: ControlArgs):
+    """:func:`advance_serial` for scenes with imperfect faces (warps, arrises)."""
+    n_bodies = state.pos.shape[0]
+    s = 0
+    while s < n_steps and control.status[0] == 0:
+        for p in range(n_pairs):
+            contact_stage(p, dt, model, state, contacts, control, True)
         for b in range(n_bodies):
             integrate_stage(b, s, dt, model, state, contacts, control)
         energy_stage(n_pairs, state, contacts, control)
@@ -371,9 +393,10 @@ def advance_serial(n_steps: ti.i32, n_pairs: ti.i32, dt: float, model: ModelArgs
 @ti.kernel
 def advance_parallel(n_pairs: ti.i32, dt: float, model: ModelArgs, state: StateArgs,
                      contacts: ContactArgs, control: ControlArgs):
-    """One step (control.loads[0]) as two parallel loops, over pairs then over bodies."""
+    """One step (control.loads[0]) as two parallel loops, over pairs then over bodies.
+    Perfect faces only (:func:`advance_parallel_warped`)."""
     for p in range(n_pairs):
-        contact_stage(p, dt, model, state, contacts, control)
+        contact_stage(p, dt, model, state, contacts, control, False)
     for b in range(state.pos.shape[0]):
         integrate_stage(b, 0, dt, model, state, contacts, control)
     ti.loop_config(serialize=True)
@@ -383,34 +406,62 @@ def advance_parallel(n_pairs: ti.i32, dt: float, model: ModelArgs, state: StateA
 
 
 @ti.kernel
+def advance_parallel_warped(n_pairs: ti.i32, dt: float, model: ModelArgs, state: StateArgs,
+                            contacts: ContactArgs, control: ControlArgs):
+    """:func:`advance_parallel` for scenes with imperfect faces."""
+    for p in range(n_pairs):
+        contact_stage(p, dt, model, state, contacts, control, True)
+    for b in range(state.pos.shape[0]):
+        integrate_stage(b, 0, dt, model, state, contacts, control)
+    ti.loop_config(serialize=True)
+    for _ in range(1):
+        energy_stage(n_pairs, state, contacts, control)
+        deepest_stage(0, n_pairs, contacts, control)
+
+
+@ti.func
+def probe_pair(p, out_depth: ti.template(), out_area: ti.template(), model: ti.template(),
+               state: ti.template(), contacts: ti.template(), warped: ti.template()):
+    """Largest penetration (m) and patch area (m^2) of pair p into out_depth[p], out_area[p]."""
+    i = contacts.pairs[p][0]
+    j = contacts.pairs[p][1]
+    hA = model.half[i]
+    hB = model.half[j]
+    hmin = ti.min(hA.min(), hB.min())
+    px = point_buffer()
+    py = point_buffer()
+    pz = point_buffer()
+    dep = point_buffer()
+    w = point_buffer()
+    _axis, _normal, n_points, _shrink, _centroid = geometry.box_contact(
+        state.pos[i], state.rot[i], hA, state.pos[j], state.rot[j], hB, -1, 1e-3 * hmin,
+        hmin * hmin, model, warped, i, j, px, py, pz, dep, w)
+    dmax = 0.0
+    patch_area = 0.0
+    for q in range(n_points):
+        dmax = ti.max(dmax, dep[q])
+        patch_area += w[q]
+    out_depth[p] = dmax
+    out_area[p] = patch_area
+
+
+@ti.kernel
 def probe_contacts(n_pairs: ti.i32, out_depth: ti.types.ndarray(ndim=1),
                    out_area: ti.types.ndarray(ndim=1), model: ModelArgs, state: StateArgs,
                    contacts: ContactArgs):
     """Largest penetration (m) and patch area (m^2) of every pair, without touching the
-    history (overlap checks, area caps of the critical step)."""
+    history (overlap checks, area caps of the critical step).  Perfect faces only."""
     for p in range(n_pairs):
-        i = contacts.pairs[p][0]
-        j = contacts.pairs[p][1]
-        hA = model.half[i]
-        hB = model.half[j]
-        hmin = ti.min(hA.min(), hB.min())
-        px = point_buffer()
-        py = point_buffer()
-        pz = point_buffer()
-        dep = point_buffer()
-        w = point_buffer()
-        # (local names differ from the argpack members: a kernel-level local named like a
-        # member, e.g. ``npts``, is taken for that kernel argument)
-        _axis, _normal, n_points, _shrink, _centroid = geometry.box_contact(
-            state.pos[i], state.rot[i], hA, state.pos[j], state.rot[j], hB, -1, 1e-3 * hmin,
-            hmin * hmin, model, i, j, px, py, pz, dep, w)
-        dmax = 0.0
-        patch_area = 0.0
-        for q in range(n_points):
-            dmax = ti.max(dmax, dep[q])
-            patch_area += w[q]
-        out_depth[p] = dmax
-        out_area[p] = patch_area
+        probe_pair(p, out_depth, out_area, model, state, contacts, False)
+
+
+@ti.kernel
+def probe_contacts_warped(n_pairs: ti.i32, out_depth: ti.types.ndarray(ndim=1),
+                          out_area: ti.types.ndarray(ndim=1), model: ModelArgs,
+                          state: StateArgs, contacts: ContactArgs):
+    """:func:`probe_contacts` for scenes with imperfect faces."""
+    for p in range(n_pairs):
+        probe_pair(p, out_depth, out_area, model, state, contacts, True)
 
 
 @ti.kernel
