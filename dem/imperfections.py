@@ -12,7 +12,9 @@ bit-identical scene.  Draws are standard normals truncated at 3 sigma (scipy.sta
   face, the others are recessed (o_c <= 0).  So no two blocks of a layout that was flush overlap
   at the start, the separating-axis test of the nominal boxes stays a valid test of contact,
   and the face's shape (the corners relative to each other, what frees rotation) has the
-  distribution asked for.  The block keeps its box inertia and mass.
+  distribution asked for.  The block keeps its box inertia and mass.  ``face_shape: planar``
+  removes each face's twist first, (o_0 - o_1 - o_2 + o_3) / 4 times (1, -1, -1, 1): the face is
+  then the corners' best-fit plane, a tilted flat face (its corner variance 3/4 of sigma^2).
 * ``arris`` r (m): every movable block's edges are rounded with radius r: its contact patches
   are inset by r (dem.engine.geometry, 5).
 * ``size_scatter``: builder bricks only, laid again on their actual sizes
@@ -39,6 +41,7 @@ class ImperfectionParams:
     """The numbers of a case's ``imperfections:`` (m), decoupled from the schema."""
 
     bed_unevenness: float = 0.0
+    face_shape: str = "bilinear"
     size_scatter: tuple = (0.0, 0.0, 0.0)
     arris: float = 0.0
     seed: int = 0
@@ -58,11 +61,20 @@ def truncated_normal(rng: np.random.Generator, shape) -> np.ndarray:
     return truncnorm.rvs(-TRUNCATION, TRUNCATION, size=shape, random_state=rng)
 
 
-def face_offsets(n_blocks: int, sigma: float, rng: np.random.Generator) -> np.ndarray:
-    """[n, 6, 4] corner offsets (m) of warped faces: sigma z - sigma max(z) per face."""
+TWIST_MODE = np.array([1.0, -1.0, -1.0, 1.0])  # the corner pattern of a face's twist
+
+
+def face_offsets(n_blocks: int, sigma: float, rng: np.random.Generator,
+                 shape: str = "bilinear") -> np.ndarray:
+    """[n, 6, 4] corner offsets (m) of warped faces: sigma z - sigma max(z) per face; for
+    ``shape == "planar"`` the twist of z is removed before the shift (module docstring)."""
     if sigma <= 0:
         return np.zeros((n_blocks, 6, 4))
     z = truncated_normal(rng, (n_blocks, 6, 4))
+    if shape == "planar":
+        z = z - twist(z)[..., None] * TWIST_MODE
+    elif shape != "bilinear":
+        raise ValueError(f"face shape must be 'bilinear' or 'planar', got {shape!r}")
     return sigma * (z - z.max(axis=2, keepdims=True))
 
 
@@ -72,7 +84,8 @@ def apply_faces(scene: Scene, params: ImperfectionParams) -> Scene:
     _, rng_faces = streams(params.seed)
     movable = ~scene.fixed
     off = np.zeros((scene.n_blocks, 6, 4))
-    off[movable] = face_offsets(int(movable.sum()), params.bed_unevenness, rng_faces)
+    off[movable] = face_offsets(int(movable.sum()), params.bed_unevenness, rng_faces,
+                                params.face_shape)
     scene.face_offset = off
     scene.arris = np.where(movable, float(params.arris), 0.0)
     return scene
@@ -91,8 +104,13 @@ def realised_summary(scene: Scene, params: ImperfectionParams,
     to imperfections.npz)."""
     movable = ~scene.fixed
     out = {"seed": int(params.seed), "bed_unevenness_m": params.bed_unevenness,
+           "face_shape": params.face_shape,
            "size_scatter_m": list(params.size_scatter), "arris_m": params.arris,
            "file": "imperfections.npz"}
+    if params.bed_unevenness > 0 and params.face_shape == "bilinear":
+        out["warning"] = ("twisted (bilinear) faces: the warped contact creates energy while "
+                          "blocks move (docs/imperfections.md, Limits); face_shape: planar "
+                          "conserves it")
     if params.bed_unevenness > 0 and movable.any():
         off = scene.face_offset[movable]
         tw = twist(off)

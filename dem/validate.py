@@ -102,7 +102,7 @@ class Checked:
 def imperfection_line(imp: dict) -> str:
     """One line on the realised imperfections (dem.imperfections.realised_summary)."""
     mm = 1e3
-    parts = [f"bed unevenness {imp['bed_unevenness_m'] * mm:.3g} mm"]
+    parts = [f"bed unevenness {imp['bed_unevenness_m'] * mm:.3g} mm ({imp['face_shape']} faces)"]
     if "faces" in imp:
         parts[-1] += (f" (largest recess {imp['faces']['largest_recess_m'] * mm:.3g} mm, mean "
                       f"|twist| {imp['faces']['twist_mean_abs_m'] * mm:.3g} mm)")
@@ -111,8 +111,9 @@ def imperfection_line(imp: dict) -> str:
     if "sizes" in imp:
         parts[-1] += f" (largest deviation {imp['sizes']['largest_deviation_m'] * mm:.3g} mm)"
     parts.append(f"arris {imp['arris_m'] * mm:.3g} mm")
-    return (f"imperfections (seed {imp['seed']}): " + ", ".join(parts)
+    line = (f"imperfections (seed {imp['seed']}): " + ", ".join(parts)
             + "; the scene settles under gravity before it is loaded (docs/imperfections.md)")
+    return line + (f"\nwarning: {imp['warning']}" if "warning" in imp else "")
 
 
 def joint_line(joints: dict) -> str:

@@ -239,3 +239,17 @@ def test_bad_imperfections_exit_2_naming_the_field(tmp_path, field, value, messa
     res = CliRunner().invoke(app, ["check", str(path)])
     assert res.exit_code == 2
     assert message in res.output
+
+
+def test_planar_faces_have_no_twist_and_keep_the_draws():
+    from dem.imperfections import face_offsets, streams, twist
+
+    bil = face_offsets(50, 1e-4, streams(4)[1], "bilinear")
+    pla = face_offsets(50, 1e-4, streams(4)[1], "planar")
+    assert np.abs(twist(pla)).max() < 1e-18
+    assert np.abs(twist(bil)).mean() > 1e-5
+    assert (pla.max(axis=2) == 0).all() and (pla <= 0).all()
+    # the plane part is the same draw: bilinear minus its twist, shifted
+    planes = bil - twist(bil)[..., None] * np.array([1.0, -1.0, -1.0, 1.0])
+    planes -= planes.max(axis=2, keepdims=True)
+    assert np.allclose(planes, pla, atol=1e-18)

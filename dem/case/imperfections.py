@@ -9,6 +9,7 @@ measure it on real bricks: docs/imperfections.md.  The realisation (the random d
 from __future__ import annotations
 
 import math
+from typing import Literal
 
 from pydantic import Field, field_validator
 
@@ -23,6 +24,11 @@ class Imperfections(_Strict):
         default=0.0, ge=0.0,
         description="m: standard deviation of independent random offsets of each face's four "
                     "corners along its normal (a warped face; truncated at 3 sigma)")
+    face_shape: Literal["bilinear", "planar"] = Field(
+        default="bilinear",
+        description="warped faces: 'bilinear' (the four corners as drawn: a twisted face, which "
+                    "frees rotation per joint but creates energy while blocks move) or "
+                    "'planar' (the corners' best-fit plane: tilted flat faces, energy-conserving)")
     size_scatter: Vec3 = Field(
         default=[0.0, 0.0, 0.0],
         description="m: standard deviations [sigma_L, sigma_W, sigma_H] of each builder brick's "

@@ -23,7 +23,7 @@ from dem.scene import Scene, blocks_to_scene
 def imperfection_params(case: Case) -> ImperfectionParams:
     """The case's ``imperfections:`` as plain numbers (dem.imperfections)."""
     imp = case.imperfections
-    return ImperfectionParams(bed_unevenness=imp.bed_unevenness,
+    return ImperfectionParams(bed_unevenness=imp.bed_unevenness, face_shape=imp.face_shape,
                               size_scatter=tuple(imp.size_scatter), arris=imp.arris,
                               seed=imp.seed)
 
