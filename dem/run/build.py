@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from dem.builders import build_from_spec, check_scene, require_valid
+from dem.builders.scatter import scatter_sizes
 from dem.case import Case, Material, SolverSpec, TiltLoading
 from dem.compliance import elastic_offset, rigid_stiffness
 from dem.engine.options import JointLaw, StepOptions
@@ -49,8 +50,6 @@ def scene_from_case(case: Case, check: bool = True, imperfect: bool = True) -> S
         if spec is not None:
             built = build_from_spec(spec)
             if scatter:
-                from dem.builders.scatter import scatter_sizes
-
                 built = scatter_sizes(built, params.size_scatter, rng_sizes)
             parts.append(built)
     scene = parts[0] if len(parts) == 1 else Scene.concatenate(parts)
