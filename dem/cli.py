@@ -167,6 +167,10 @@ def sweep(
     workers: int = typer.Option(None, "--workers", help="local workers (default: one per core)"),
     scheduler: str = typer.Option(None, "--scheduler", help="address of a running dask scheduler"),
     max_steps: int = typer.Option(None, "--max-steps", help="cap the steps of each run (smoke)"),
+    realisations: int = typer.Option(None, "--realisations", "-n",
+                                     help="run the sweep for N realisations of the case's "
+                                          "imperfections (seeds S, S+1, ...)"),
+    seed: int = typer.Option(None, "--seed", help="first seed of --realisations"),
 ) -> None:
     """Frequency sweep of a shake case at its constant peak acceleration (or amplitude): one run
     per frequency on dask, each analysed (postprocess.shake), then the amplification curves,
@@ -175,7 +179,26 @@ def sweep(
     from dem.commands.sweep import run_sweep
 
     raise typer.Exit(run_sweep(case, out, frequencies, range_, cycles, margin, scheduler, workers,
-                               max_steps))
+                               max_steps, realisations, seed))
+
+
+@app.command()
+def ensemble(
+    case: Path = typer.Argument(..., help="case YAML file with an imperfections: section"),
+    out: Path = typer.Option(..., "--out", "-o", help="output directory"),
+    realisations: int = typer.Option(..., "--realisations", "-n", help="number of realisations"),
+    seed: int = typer.Option(None, "--seed", help="first seed (default: the case's)"),
+    workers: int = typer.Option(None, "--workers", help="local workers (default: one per core)"),
+    scheduler: str = typer.Option(None, "--scheduler", help="address of a running dask scheduler"),
+    max_steps: int = typer.Option(None, "--max-steps", help="cap the steps of each run (smoke)"),
+) -> None:
+    """Run N realisations of an imperfect case (seeds S, S+1, ...) on dask; OUT/ensemble.json
+    holds each realisation's results and their statistics (median, 10-90 %, mean, std,
+    mechanism counts).  A rerun skips finished realisations.  Exit 0 all ok, 1 one failed,
+    2 bad input."""
+    from dem.commands.ensemble import run_ensemble
+
+    raise typer.Exit(run_ensemble(case, out, realisations, seed, scheduler, workers, max_steps))
 
 
 @app.command()

@@ -62,6 +62,7 @@ def compact(analysis: dict) -> dict:
         "excited": {k: portion.get(k) for k in ("n_excited", "n_upper", "n_lower", "mass_kg",
                                                   "excited_courses_from_top")} if portion else None,
         "loop_energy_J": (ax.get("hysteresis") or {}).get("loop_energy_J_mean"),
+        "collapse_suspected": ax.get("collapse_suspected"),
         "kinetic_energy": ax.get("kinetic_energy"),
         "other_axes": {k: v.get("amplification") for k, v in analysis.get("axes", {}).items()
                        if k != analysis.get("primary_axis")},

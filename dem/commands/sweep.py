@@ -61,15 +61,25 @@ def finished_point(case, out_dir: Path) -> dict | None:
 def run_sweep(case_path, out, frequencies: str | None = None, rng: str | None = None,
               cycles: float | None = None, margin: float = DEFAULT_MARGIN,
               scheduler: str | None = None, workers: int | None = None,
-              max_steps: int | None = None) -> int:
-    """Body of ``dem sweep``; returns the exit code (0 all ok, 1 a point failed, 2 bad input)."""
+              max_steps: int | None = None, realisations: int | None = None,
+              seed: int | None = None, case=None) -> int:
+    """Body of ``dem sweep``; returns the exit code (0 all ok, 1 a point failed, 2 bad input).
+
+    ``realisations``: the sweep runs once per realisation of the case's imperfections (seeds
+    ``seed``, ``seed`` + 1, ...: dem.run.sweep.realisation_cases), each a whole sweep in
+    OUT/seed-<seed>/ (resumable like any sweep), then OUT/ensemble.json and
+    amplification_band.png gather the amplification curves (median, 10-90 %:
+    postprocess.ensemble).  ``case``: the loaded case (else read from case_path)."""
     from dem.batch import run_batch
     from dem.case import CaseError, load_case
     from dem.run.build import scene_from_case
 
     out = Path(out)
+    if realisations is not None or seed is not None:
+        return _run_sweep_realisations(case_path, out, frequencies, rng, cycles, margin,
+                                       scheduler, workers, max_steps, realisations, seed)
     try:
-        case = load_case(case_path)
+        case = load_case(case_path) if case is None else case
         freqs = parse_frequencies(frequencies, rng)
         cases = sweep_cases(case, freqs, cycles, margin)
         scene_from_case(cases[0][1])  # overlaps, floating blocks: before any worker starts
@@ -161,3 +171,65 @@ def run_sweep(case_path, out, frequencies: str | None = None, rng: str | None = 
              + ", ".join(f"{x['frequency_hz']:g} Hz" for x in data["failed"]))
         return ExitCode.RUN_FAILED
     return ExitCode.OK
+
+
+def _run_sweep_realisations(case_path, out: Path, frequencies, rng, cycles, margin, scheduler,
+                            workers, max_steps, realisations, seed) -> int:
+    """``dem sweep --realisations N``: one sweep per realisation, then their statistics."""
+    from dem.case import CaseError, load_case
+    from dem.output.atomic import write_json
+    from dem.run.sweep import realisation_cases
+    from postprocess.ensemble import plot_amplification_band, statistics
+
+    try:
+        case = load_case(case_path)
+        parse_frequencies(frequencies, rng)
+        cases = realisation_cases(case, 1 if realisations is None else realisations, seed)
+    except CaseError as err:
+        say(f"error: {err}")
+        return exit_code_for(err)
+    except ValueError as err:
+        say(f"error: {case_path}: {err}")
+        return exit_code_for(err)
+    codes = []
+    for name, c in cases:
+        say(f"realisation {name} ({len(codes) + 1} of {len(cases)})")
+        code = run_sweep(case_path, out / name, frequencies, rng, cycles, margin, scheduler,
+                         workers, max_steps, case=c)
+        if code == ExitCode.BAD_INPUT:
+            return code
+        codes.append(code)
+    curves: dict[float, list] = {}
+    lags: dict[float, list] = {}
+    per_seed = []
+    for name, c in cases:
+        try:
+            data = json.loads((out / name / "sweep.json").read_text())
+        except (OSError, ValueError):
+            per_seed.append({"name": name, "seed": c.imperfections.seed, "status": "missing"})
+            continue
+        agg = data.get("aggregate") or {}
+        per_seed.append({"name": name, "seed": c.imperfections.seed,
+                         "characteristic_frequency_hz": agg.get("characteristic_frequency_hz"),
+                         "failed_points": len(data.get("failed") or [])})
+        for p in data.get("points", []):
+            if p.get("status") != "ok":
+                continue
+            f = p["frequency_hz"]
+            curves.setdefault(f, []).append((p.get("amplification") or {}).get(MAIN_QUANTITY))
+            lag = (p.get("lag") or {}).get(MAIN_QUANTITY)
+            lags.setdefault(f, []).append(lag.get("s") if isinstance(lag, dict) else lag)
+    fcs = [r.get("characteristic_frequency_hz") for r in per_seed]
+    result = {"kind": "sweep-ensemble", "case": case.name, "source": str(case_path),
+              "quantity": MAIN_QUANTITY, "imperfections": case.imperfections.model_dump(),
+              "realisations": per_seed,
+              "amplification": {f"{f:g}": statistics(v) for f, v in sorted(curves.items())},
+              "lag_s": {f"{f:g}": statistics(v) for f, v in sorted(lags.items())},
+              "characteristic_frequency_hz": statistics(fcs),
+              "realisations_without_characteristic_frequency":
+                  sum(1 for x in fcs if x is None)}
+    write_json(out / "ensemble.json", result, indent=1, strict=True)
+    plot_amplification_band(curves, out / "amplification_band.png", MAIN_QUANTITY,
+                            f"{case.name}: {len(cases)} realisations")
+    say(f"{len(cases)} realisations; {out}/ensemble.json, {out}/amplification_band.png")
+    return ExitCode.RUN_FAILED if any(c != ExitCode.OK for c in codes) else ExitCode.OK

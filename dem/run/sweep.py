@@ -84,3 +84,29 @@ def sweep_cases(case, frequencies, cycles: float | None = None, margin: float = 
         except ValidationError as err:
             raise SweepInputError(f"{point_name(f)}: {err}") from None
     return out
+
+
+class EnsembleInputError(ValueError):
+    """Bad ensemble option (exit code 2); the message names it."""
+
+
+def realisation_name(seed: int) -> str:
+    return f"seed-{seed}"
+
+
+def realisation_cases(case, realisations: int, seed: int | None):
+    """(name, Case) for each realisation of an ensemble (dem ensemble, dem sweep
+    --realisations): the case with imperfections.seed = seed + i (seed: the case's by default),
+    named <case>-seed<seed>, run into seed-<seed>/."""
+    if realisations is None or realisations < 1:
+        raise EnsembleInputError(f"--realisations must be >= 1, got {realisations}")
+    first = case.imperfections.seed if seed is None else seed
+    if first < 0:
+        raise EnsembleInputError(f"--seed must be >= 0, got {first}")
+    out = []
+    for s in range(first, first + realisations):
+        data = case.model_dump()
+        data["imperfections"]["seed"] = s
+        data["name"] = f"{case.name}-seed{s}"
+        out.append((realisation_name(s), type(case).model_validate(data)))
+    return out

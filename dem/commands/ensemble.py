@@ -1,0 +1,173 @@
+"""``dem ensemble CASE.yaml --out DIR --realisations N [--seed S] [--workers K | --scheduler ADDR]``
+runs N realisations of a case with imperfections (docs/imperfections.md), seeds S, S + 1, ...
+(S defaults to the case's ``imperfections.seed``), through the batch machinery of ``dem sweep``
+(dem.batch: a local dask cluster, or an existing one with ``--scheduler``).
+
+* each realisation runs into DIR/seed-<seed>/ (the case with that seed, named
+  <case>-seed<seed>); a tilt run gets its mechanism (dem.commands.run.RUN_ANALYSES), a shaking
+  run the sweep's analysis (analysis.json);
+* DIR/ensemble.json holds every realisation's scalar results (lambda, mechanism,
+  amplifications, lags, excited bricks, survived) and their statistics (median, 10 % and 90 %
+  quantiles, mean, standard deviation, counts of mechanisms and failures: postprocess.ensemble);
+  it is written when the ensemble starts and again as each realisation lands, so an interrupted
+  ensemble keeps what finished; DIR/lambda.png shows the distribution of lambda;
+* a rerun into the same DIR skips the realisations whose directory holds a finished run of the
+  same case (summary.json status "ok", case.json equal), so a long study runs in pieces;
+* a failed realisation is reported and loses none of the others; a realisation whose worker
+  dies is computed again by dask on another worker (a task lost with its worker is
+  rescheduled), and failing that it is reported failed and a rerun computes it.
+
+Exit code: 0 all realisations ok, 1 one failed, 2 bad input (dem.commands.exit_codes).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+from dem.commands.exit_codes import ExitCode, exit_code_for
+from dem.commands.sweep import say
+from dem.run.sweep import EnsembleInputError, realisation_cases
+from postprocess.ensemble import aggregate, plot_lambda, realisation_scalars
+
+
+def finished_realisation(case, out_dir: Path, shake: bool) -> dict | None:
+    """The record of a realisation whose directory holds a finished run of ``case``."""
+    try:
+        summ = json.loads((out_dir / "summary.json").read_text())
+        same = json.loads((out_dir / "case.json").read_text()) == \
+            json.loads(case.model_dump_json())
+    except (OSError, ValueError):
+        return None
+    if not same or summ.get("status") != "ok":
+        return None
+    rec = {"name": out_dir.name, "status": "ok", "out_dir": str(out_dir), "summary": summ,
+           "reused": True}
+    if shake:
+        from postprocess.sweep import analyze_point, compact
+
+        try:
+            rec["post"] = compact(json.loads((out_dir / "analysis.json").read_text()))
+        except (OSError, ValueError):
+            rec["post"] = analyze_point(case, None, out_dir)
+    return rec
+
+
+def write_ensemble(out: Path, meta: dict, names: list[str], records: dict, plots: bool) -> dict:
+    from dem.output.atomic import write_json
+
+    rows = []
+    for n in names:
+        rec = records.get(n) or {"status": "pending"}
+        row = {"name": n, "seed": meta["seeds"][names.index(n)], **realisation_scalars(rec)}
+        if rec.get("status") == "failed":
+            row["error"] = rec.get("error")
+        if rec.get("reused"):
+            row["reused"] = True
+        rows.append(row)
+    data = {**meta, "realisations": rows, "aggregate": aggregate(rows)}
+    write_json(out / "ensemble.json", data, indent=1, strict=True)
+    if plots:
+        plot_lambda(rows, out / "lambda.png", meta["case"])
+    return data
+
+
+def run_ensemble(case_path, out, realisations: int, seed: int | None = None,
+                 scheduler: str | None = None, workers: int | None = None,
+                 max_steps: int | None = None) -> int:
+    """Body of ``dem ensemble``; returns the exit code."""
+    from dem.batch import run_batch
+    from dem.case import CaseError, ShakeLoading, load_case
+    from dem.commands.run import RUN_ANALYSES
+    from dem.run.build import scene_from_case
+    from postprocess.sweep import analyze_point
+
+    out = Path(out)
+    try:
+        case = load_case(case_path)
+        cases = realisation_cases(case, realisations, seed)
+        if workers is not None and workers < 1:
+            raise EnsembleInputError(f"--workers must be >= 1, got {workers}")
+        if max_steps is not None and max_steps < 1:
+            raise EnsembleInputError(f"--max-steps must be >= 1, got {max_steps}")
+        scene_from_case(cases[0][1])  # a bad scene fails here, before any worker starts
+    except CaseError as err:
+        say(f"error: {err}")
+        return exit_code_for(err)
+    except ValueError as err:
+        say(f"error: {case_path}: {err}")
+        return exit_code_for(err)
+    if out.exists() and not out.is_dir():
+        say(f"error: --out {out}: exists and is not a directory")
+        return ExitCode.BAD_INPUT
+    if (out / "case.json").is_file():
+        say(f"error: --out {out}: holds a single run (case.json), not an ensemble")
+        return ExitCode.BAD_INPUT
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        say(f"error: --out {out}: cannot create it ({err.strerror or err})")
+        return ExitCode.BAD_INPUT
+    if not case.imperfections.any():
+        say("warning: the case has no imperfections: every realisation is the same perfect "
+            "model")
+    shake = isinstance(case.loading, ShakeLoading)
+    names = [n for n, _ in cases]
+    meta = {"kind": "ensemble", "case": case.name, "source": str(case_path),
+            "imperfections": case.imperfections.model_dump(),
+            "seeds": [c.imperfections.seed for _, c in cases]}
+    records: dict = {}
+    for n, c in cases:
+        rec = finished_realisation(c, out / n, shake)
+        if rec is not None:
+            records[n] = rec
+    if records:
+        say(f"{len(records)} realisation(s) already finished in {out}, kept")
+    todo = [(n, c) for n, c in cases if n not in records]
+    write_ensemble(out, meta, names, records, plots=False)
+    n_done = [0]
+
+    def on_done(rec: dict) -> None:
+        n_done[0] += 1
+        records[rec["name"]] = rec
+        sc = realisation_scalars(rec)
+        head = f"[{n_done[0]}/{len(todo)}] {rec['name']}"
+        if rec.get("status") == "failed":
+            say(f"{head}: FAILED: {rec.get('error')}")
+        else:
+            shown = {k: sc[k] for k in ("lambda", "mechanism", "amplification_ds", "survived")
+                     if k in sc}
+            say(f"{head}: ok {shown}")
+        write_ensemble(out, meta, names, records, plots=False)
+
+    where = f"scheduler {scheduler}" if scheduler else \
+        f"local cluster, {workers or os.cpu_count()} workers"
+    say(f"ensemble {case.name}: {len(cases)} realisations, seeds {meta['seeds'][0]}.."
+        f"{meta['seeds'][-1]} ({len(todo)} to run), {where}")
+    threads_env = os.environ.get("DEM_THREADS")
+    from dem.signals import signal_name, stop_on_signals
+
+    try:
+        with stop_on_signals():
+            if todo:
+                run_batch(todo, out, scheduler=scheduler, n_workers=workers, max_steps=max_steps,
+                          post=analyze_point if shake else None, on_done=on_done,
+                          analyses=() if shake else RUN_ANALYSES)
+    except KeyboardInterrupt as err:
+        say(f"interrupted by {signal_name(err)}; finished realisations are in "
+            f"{out}/ensemble.json (a rerun of the same command keeps them)")
+        return exit_code_for(err)
+    finally:
+        if threads_env is None:
+            os.environ.pop("DEM_THREADS", None)
+        else:
+            os.environ["DEM_THREADS"] = threads_env
+    data = write_ensemble(out, meta, names, records, plots=True)
+    agg = data["aggregate"]
+    lam = agg["statistics"].get("lambda")
+    if lam and lam["n"]:
+        say(f"lambda: median {lam['median']:.4f}, 10-90 % {lam['q10']:.4f} - {lam['q90']:.4f} "
+            f"({lam['n']} realisations); mechanisms {agg['mechanisms']}")
+    say(f"{agg['n_ok']} of {agg['n_realisations']} realisations ok; {out}/ensemble.json")
+    return ExitCode.RUN_FAILED if agg["n_failed"] else ExitCode.OK

@@ -1,0 +1,115 @@
+"""Ensembles of imperfect realisations (issue 12 item 3): exact statistics on planted results,
+``dem ensemble`` end to end (resume, a failed realisation, bad options), ``dem sweep
+--realisations``."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+import yaml
+from typer.testing import CliRunner
+
+from dem.cli import app
+from postprocess.ensemble import aggregate, realisation_scalars, statistics
+
+
+def test_statistics_of_a_planted_set_are_exact():
+    """1..10: median 5.5; numpy's linear quantiles 1 + 0.1 x 9 = 1.9 and 1 + 0.9 x 9 = 9.1;
+    mean 5.5; population std sqrt(mean of squares - 5.5^2) = sqrt(38.5 - 30.25)."""
+    st = statistics([3, 1, 2, 10, 9, 8, 7, 6, 5, 4, float("nan"), None])
+    assert st == {"n": 10, "median": 5.5, "q10": pytest.approx(1.9, abs=1e-15),
+                  "q90": pytest.approx(9.1, abs=1e-15), "mean": 5.5,
+                  "std": pytest.approx(math.sqrt(8.25), rel=1e-15)}
+    assert statistics([])["n"] == 0 and statistics([])["median"] is None
+
+
+def test_aggregate_counts_mechanisms_failures_and_survivals():
+    rows = [{"status": "ok", "lambda": 0.5, "mechanism": "D", "survived": False, "seed": 0},
+            {"status": "ok", "lambda": 0.7, "mechanism": "B2", "survived": False, "seed": 1},
+            {"status": "ok", "lambda": 0.6, "mechanism": "D", "survived": True, "seed": 2},
+            {"status": "failed", "seed": 3}, {"status": "pending", "seed": 4}]
+    agg = aggregate(rows)
+    assert agg["n_realisations"] == 5 and agg["n_ok"] == 3 and agg["n_failed"] == 1
+    assert agg["n_pending"] == 1
+    assert agg["mechanisms"] == {"B2": 1, "D": 2}
+    assert agg["survived"] == 1 and agg["collapsed"] == 2
+    assert agg["statistics"]["lambda"]["median"] == 0.6
+    assert "seed" not in agg["statistics"]
+
+
+def test_realisation_scalars_of_tilt_and_shake_records():
+    tilt = {"status": "ok", "summary": {"collapse": {"detected": True, "load_factor": 0.42,
+                                                     "angle_deg": 22.8},
+                                        "mechanism": {"mechanism": "A"}}}
+    assert realisation_scalars(tilt) == {"status": "ok", "lambda": 0.42, "angle_deg": 22.8,
+                                         "mechanism": "A", "survived": False}
+    shake = {"status": "ok", "summary": {},
+             "post": {"analysis_status": "ok", "amplification": {"ds": 2.0, "da": None},
+                      "lag": {"ds": {"s": 0.13}}, "excited": {"n_excited": 46},
+                      "collapse_suspected": False}}
+    assert realisation_scalars(shake) == {"status": "ok", "amplification_ds": 2.0,
+                                          "lag_ds_s": 0.13, "excited_bricks": 46,
+                                          "survived": True}
+
+
+def _case(tmp_path, **imp):
+    path = tmp_path / "case.yaml"
+    path.write_text(yaml.safe_dump({
+        "name": "stack",
+        "scene": {"blocks": [{"size": [0.1, 0.1, 0.2], "position": [0, 0, 0.1],
+                              "density": 2000.0}]},
+        "material": {"friction": 0.8, "normal_stiffness": "rigid"},
+        "loading": {"type": "tilt", "axis": "x", "method": "quasi_static", "start_angle": 20.0,
+                    "quasi_static": {"max_relax_time": 0.3}},
+        "run": {"duration": 20.0, "vtk": False, "snapshot": False},
+        "imperfections": {"arris": 2e-3, "bed_unevenness": 2e-4, "face_shape": "planar", **imp},
+    }))
+    return path
+
+
+def test_dem_ensemble_runs_resumes_and_reports_a_failed_realisation(tmp_path):
+    case = _case(tmp_path)
+    out = tmp_path / "ens"
+    out.mkdir()
+    (out / "seed-6").write_text("in the way")  # the realisation of seed 6 cannot be written
+    runner = CliRunner()
+    res = runner.invoke(app, ["ensemble", str(case), "--out", str(out), "--realisations", "3",
+                              "--seed", "5", "--workers", "2"])
+    assert res.exit_code == 1, res.output
+    data = json.loads((out / "ensemble.json").read_text())
+    rows = {r["name"]: r for r in data["realisations"]}
+    assert rows["seed-6"]["status"] == "failed" and rows["seed-6"]["error"]
+    assert rows["seed-5"]["status"] == "ok" and rows["seed-7"]["status"] == "ok"
+    # tipping of the 0.1 x 0.2 m block, arris 2 mm: tan = (0.1 - 0.004) / 0.2 = 0.48, lowered
+    # a little by the warped bed (the block tips on its lowest corners)
+    for name in ("seed-5", "seed-7"):
+        assert 0.40 < rows[name]["lambda"] < 0.49
+    assert rows["seed-5"]["lambda"] != rows["seed-7"]["lambda"]  # different specimens
+    assert data["aggregate"]["n_failed"] == 1 and data["aggregate"]["n_ok"] == 2
+    assert (out / "lambda.png").is_file()
+    # a rerun keeps the two finished realisations and computes the failed one
+    (out / "seed-6").unlink()
+    res = runner.invoke(app, ["ensemble", str(case), "--out", str(out), "--realisations", "3",
+                              "--seed", "5", "--workers", "1"])
+    assert res.exit_code == 0, res.output
+    data = json.loads((out / "ensemble.json").read_text())
+    rows = {r["name"]: r for r in data["realisations"]}
+    assert rows["seed-5"].get("reused") and rows["seed-7"].get("reused")
+    assert not rows["seed-6"].get("reused") and rows["seed-6"]["status"] == "ok"
+    lam = [r["lambda"] for r in data["realisations"]]
+    assert data["aggregate"]["statistics"]["lambda"]["median"] == float(np.median(lam))
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--realisations", "0"], "--realisations must be >= 1"),
+    (["--realisations", "2", "--seed", "-1"], "--seed must be >= 0"),
+    (["--realisations", "2", "--workers", "0"], "--workers must be >= 1"),
+])
+def test_bad_ensemble_options_exit_2_naming_the_option(tmp_path, args, message):
+    res = CliRunner().invoke(app, ["ensemble", str(_case(tmp_path)), "--out",
+                                   str(tmp_path / "o"), *args])
+    assert res.exit_code == 2
+    assert message in res.output
