@@ -100,7 +100,16 @@ def run_case(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
 
     try:
         if case.imperfections.any():                                  # settle
-            summary["settling"] = settle(sim, loading, case.solver.local_damping, max_steps)
+            from dem.run.settle import MAX_TIME
+
+            settling_bar = Progress(progress, MAX_TIME, f"{case.name} settling")
+            try:
+                summary["settling"] = settle(
+                    sim, loading, case.solver.local_damping, max_steps,
+                    on_look=lambda: settling_bar.update(sim.t, sim.step_count / max(
+                        time.perf_counter() - run0, 1e-9)))
+            finally:
+                settling_bar.close()
         recording.start()
         if isinstance(loading, HeldTilt):                             # load: quasi-static
             search = QuasiStaticTilt(case, scene, loading, sim, recording, progressed,

@@ -35,8 +35,10 @@ CALM_CHECKS = 3      # looks in a row at rest
 MAX_TIME = 5.0       # s: give up (reported) after this
 
 
-def settle(sim, loading, local_damping: float, max_steps: int | None = None) -> dict:
-    """Bring the scene to rest (module docstring); returns summary.json's ``settling``."""
+def settle(sim, loading, local_damping: float, max_steps: int | None = None,
+           on_look=None) -> dict:
+    """Bring the scene to rest (module docstring); returns summary.json's ``settling``.
+    ``on_look()`` is called at every look (progress display)."""
     g0 = loading.gravity(np.array([0.0]))[0]
     zero = np.zeros(3)
 
@@ -63,6 +65,8 @@ def settle(sim, loading, local_damping: float, max_steps: int | None = None) -> 
                        + radius * np.linalg.norm(st.omega[:n], axis=1))[movable].max(initial=0.0))
         ratio = sim.unbalanced_force_ratio(g0)
         calm = calm + 1 if speed < REST_SPEED and ratio < TOLERANCE else 0
+        if on_look is not None:
+            on_look()
         if calm >= CALM_CHECKS:
             break
     sim.set_local_damping(local_damping)
