@@ -107,10 +107,6 @@ def realised_summary(scene: Scene, params: ImperfectionParams,
            "face_shape": params.face_shape,
            "size_scatter_m": list(params.size_scatter), "arris_m": params.arris,
            "file": "imperfections.npz"}
-    if params.bed_unevenness > 0 and params.face_shape == "bilinear":
-        out["warning"] = ("twisted (bilinear) faces: the warped contact creates energy while "
-                          "blocks move (docs/imperfections.md, Limits); face_shape: planar "
-                          "conserves it")
     if params.bed_unevenness > 0 and movable.any():
         off = scene.face_offset[movable]
         tw = twist(off)

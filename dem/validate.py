@@ -111,9 +111,8 @@ def imperfection_line(imp: dict) -> str:
     if "sizes" in imp:
         parts[-1] += f" (largest deviation {imp['sizes']['largest_deviation_m'] * mm:.3g} mm)"
     parts.append(f"arris {imp['arris_m'] * mm:.3g} mm")
-    line = (f"imperfections (seed {imp['seed']}): " + ", ".join(parts)
+    return (f"imperfections (seed {imp['seed']}): " + ", ".join(parts)
             + "; the scene settles under gravity before it is loaded (docs/imperfections.md)")
-    return line + (f"\nwarning: {imp['warning']}" if "warning" in imp else "")
 
 
 def joint_line(joints: dict) -> str:

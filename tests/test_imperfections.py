@@ -105,14 +105,13 @@ def free_play_estimate(scene, n):
 @pytest.mark.parametrize("sigma", [1e-4, 2e-4])
 def test_warped_beds_give_the_free_play_of_the_realised_twists(sigma):
     """Five bricks at a = 0.05 g (the column tips at b/h = 0.6 g): the travel matches the
-    rigid-block estimate of the realised twists.  Tolerance 6 %: the engine reads 2-4 % below
-    the estimate in every configuration tried (1, 2 and 5 bricks, 0.1 and 0.2 mm; the third
-    support sits on the crossing point of the clipped patch a little inside the corner, see
-    docs/imperfections.md), while the elastic part is 2 micrometres (0.2-0.5 %)."""
+    rigid-block estimate of the realised twists.  Tolerance 3 %: the engine reads 1.5 % (0.2 mm)
+    and 1.7 % (0.1 mm) below the estimate, cause not pinned down (docs/imperfections.md), while
+    the elastic part is 2 micrometres (0.2-0.5 %)."""
     scene, travel = _free_play(5, sigma)
     estimate = free_play_estimate(scene, 5)
     assert estimate > 50 * 2.1e-6  # far above the perfect column's elastic travel
-    assert travel == pytest.approx(estimate, rel=0.06)
+    assert travel == pytest.approx(estimate, rel=0.03)
 
 
 def test_a_perfect_column_moves_only_elastically():

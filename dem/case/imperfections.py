@@ -27,8 +27,8 @@ class Imperfections(_Strict):
     face_shape: Literal["bilinear", "planar"] = Field(
         default="bilinear",
         description="warped faces: 'bilinear' (the four corners as drawn: a twisted face, which "
-                    "frees rotation per joint but creates energy while blocks move) or "
-                    "'planar' (the corners' best-fit plane: tilted flat faces, energy-conserving)")
+                    "frees rotation in every joint) or 'planar' (the corners' best-fit plane: "
+                    "tilted flat faces, free play only where bricks bridge)")
     size_scatter: Vec3 = Field(
         default=[0.0, 0.0, 0.0],
         description="m: standard deviations [sigma_L, sigma_W, sigma_H] of each builder brick's "
