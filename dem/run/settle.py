@@ -51,7 +51,7 @@ def settle(sim, loading, local_damping: float, max_steps: int | None = None,
     radius = sim.model.radius_np[:n]
     sim.set_local_damping(ALPHA)
     calm = 0
-    speed = ratio = float("inf")
+    speed = ratio = None  # not looked at yet (a step limit before the first look)
     steps0 = sim.step_count
     while sim.t < MAX_TIME:
         k = CHECK_STEPS
