@@ -106,8 +106,9 @@ def free_play_estimate(scene, n):
 def test_warped_beds_give_the_free_play_of_the_realised_twists(sigma):
     """Five bricks at a = 0.05 g (the column tips at b/h = 0.6 g): the travel matches the
     rigid-block estimate of the realised twists.  Tolerance 3 %: the engine reads 1.5 % (0.2 mm)
-    and 1.7 % (0.1 mm) below the estimate, cause not pinned down (docs/imperfections.md), while
-    the elastic part is 2 micrometres (0.2-0.5 %)."""
+    and 1.7 % (0.1 mm) below the estimate, a third to a half of it because the recessed corners
+    shorten the lever arms (docs/imperfections.md), while the elastic part is 2 micrometres
+    (0.2-0.5 %)."""
     scene, travel = _free_play(5, sigma)
     estimate = free_play_estimate(scene, 5)
     assert estimate > 50 * 2.1e-6  # far above the perfect column's elastic travel
