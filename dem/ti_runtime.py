@@ -14,6 +14,8 @@ import sys
 
 import taichi as ti
 
+from dem.signals import deferred
+
 _settings: dict | None = None
 
 
@@ -49,7 +51,7 @@ def init(threads: int | None = None, precision: str = "f64", debug: bool = False
         kwargs["cpu_max_num_threads"] = int(threads)
     # ti.init prints "[Taichi] Starting on arch=x64" on stdout unconditionally; stdout is for
     # results, so the line goes to stderr (the import banner is off: dem/__init__.py)
-    with contextlib.redirect_stdout(sys.stderr):
+    with contextlib.redirect_stdout(sys.stderr), deferred():  # deferred: see dem.signals
         ti.init(**kwargs)
     _settings = wanted
     return _settings

@@ -191,6 +191,42 @@ def test_sigterm_before_the_first_step_leaves_nothing(tmp_path):
     assert not out.exists()
 
 
+
+def test_a_stop_signal_swallowed_by_a_bare_except_is_raised_again():
+    """Taichi's decorators and compiler call code with bare ``except:`` clauses, which swallowed
+    the Interrupted of a SIGTERM (the run then went on to its end): raise_if_stopped raises it
+    again; outside stop_on_signals, or with no signal, it does nothing."""
+    from dem.signals import Interrupted, raise_if_stopped, stop_on_signals
+
+    raise_if_stopped()
+    with stop_on_signals():
+        raise_if_stopped()
+        try:  # as taichi.lang.kernel_impl._inside_class does
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(1.0)  # the handler runs at the next bytecode
+            pytest.fail("the handler did not raise")
+        except:  # noqa: E722
+            pass
+        with pytest.raises(Interrupted) as err:
+            raise_if_stopped()
+        assert err.value.signame == "SIGTERM"
+    raise_if_stopped()  # cleared on leaving
+
+
+def test_stop_signals_are_held_inside_deferred_and_delivered_after():
+    """A SIGTERM that arrives inside deferred() (Taichi's import, ti.init) is raised when the
+    block exits, not inside it (where a C extension's init turned it into ImportError)."""
+    from dem.signals import Interrupted, deferred, stop_on_signals
+
+    reached_end = False
+    with stop_on_signals():
+        with pytest.raises(Interrupted):
+            with deferred():
+                os.kill(os.getpid(), signal.SIGTERM)
+                time.sleep(0.2)
+                reached_end = True
+    assert reached_end
+
 # ------------------------------------------------------------------------------------------
 # run directories
 # ------------------------------------------------------------------------------------------

@@ -19,7 +19,10 @@ __all__ = ["Simulation", "JointLaw", "StepOptions", "InputError", "SimulationErr
 
 def __getattr__(name: str):
     if name == "Simulation":
-        from dem.engine.simulation import Simulation
+        from dem.signals import deferred
+
+        with deferred():  # a stop signal inside Taichi's import would be lost (dem.signals)
+            from dem.engine.simulation import Simulation
 
         return Simulation
     raise AttributeError(f"module 'dem.engine' has no attribute {name!r}")

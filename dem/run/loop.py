@@ -32,6 +32,7 @@ from dem.run.stop import StopRule
 from dem.run.write import (OutputError, RunWriter, engine_results, imperfection_record,
                            initial_summary, write_case)
 from dem.scene import Scene
+from dem.signals import raise_if_stopped
 
 Analysis = Callable[[Case, Scene, dict, dict], dict]
 
@@ -65,6 +66,7 @@ def run_case(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
     out = Path(out_dir) if out_dir is not None else None
     built = build(case, scene)                                        # build
     scene, loading, sim = built.scene, built.loading, built.sim
+    raise_if_stopped()  # a stop signal Taichi swallowed while starting: nothing written yet
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
         write_case(out, case)
@@ -95,6 +97,7 @@ def run_case(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
     run0 = time.perf_counter()
 
     def progressed(*_) -> None:
+        raise_if_stopped()  # one swallowed by Taichi's compiler (dem.signals)
         bar.update(sim.t, sim.step_count / max(time.perf_counter() - run0, 1e-9))
         writer.checkpoint(summary, sim)
 
@@ -106,8 +109,8 @@ def run_case(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
             try:
                 summary["settling"] = settle(
                     sim, loading, case.solver.local_damping, max_steps,
-                    on_look=lambda: settling_bar.update(sim.t, sim.step_count / max(
-                        time.perf_counter() - run0, 1e-9)))
+                    on_look=lambda: (raise_if_stopped(), settling_bar.update(
+                        sim.t, sim.step_count / max(time.perf_counter() - run0, 1e-9))))
             finally:
                 settling_bar.close()
         recording.start()
