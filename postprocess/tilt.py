@@ -60,9 +60,30 @@ def wall_geometry(scene, moving, load_dir) -> WallGeometry:
     return derive_geometry(scene, np.isin(scene.group, groups) & free, load_dir)
 
 
+ISOLATION_GAP = 1e-3  # m: a block is isolated if no other free block comes this close to it
+
+
+def isolated_blocks(scene) -> np.ndarray:
+    """bool [N]: free blocks that touch no other free block (their bounding boxes, grown by
+    ISOLATION_GAP, overlap none): blocks standing alone on the table, not parts of a wall."""
+    from dem.builders.checks import vertices
+
+    v = vertices(scene)
+    lo, hi = v.min(axis=1) - ISOLATION_GAP, v.max(axis=1) + ISOLATION_GAP
+    free = ~scene.fixed
+    touch = np.all((lo[:, None, :] <= hi[None, :, :]) & (lo[None, :, :] <= hi[:, None, :]),
+                   axis=2)
+    touch &= free[:, None] & free[None, :]
+    np.fill_diagonal(touch, False)
+    return free & ~touch.any(axis=1)
+
+
 def classify(case, scene, pos0, quat0, pos, quat, load_dir) -> dict:
     """Mechanism from the poses at one frame (see classification_frame), for any scene:
 
+    * blocks standing alone (isolated_blocks: no other free block touches them): kind "block"
+      (one moving) or "blocks", mechanism sliding / tipping / mixed from the share of rotation
+      in their motion (in_plane_mechanism's measure); no wall labels;
     * a scene with a "facade" group: out of plane, A / B1 / D / B2 / G (out_of_plane_mechanism;
       the courses derived from the blocks where no builder laid them);
     * otherwise the wall (wall_geometry: a builder's, or derived from explicit blocks) is loaded
@@ -79,7 +100,17 @@ def classify(case, scene, pos0, quat0, pos, quat, load_dir) -> dict:
     names = list(scene.group_names)
     load_dir = np.asarray(load_dir, float)
     out: dict = {"max_motion_m": float(m.max())}
-    if "facade" in names:
+    if moved_mask.any() and isolated_blocks(scene)[moved_mask].all():
+        # lone blocks (no wall): each slides or tips on its own; the share of rotation decides
+        # as for a wall's blocks (in_plane_mechanism), the wall labels do not apply
+        normal = np.cross([0.0, 0.0, 1.0], load_dir)
+        mech = in_plane_mechanism(scene, pos0, quat0, pos, quat, moved_mask, load_dir, normal)
+        out["kind"] = "block" if moved_mask.sum() == 1 else "blocks"
+        out.update({k: mech[k] for k in ("mechanism", "overturning_mass_fraction", "n_moving",
+                                         "moving_mass_fraction")})
+        if out["mechanism"] == "overturning":
+            out["mechanism"] = "tipping"
+    elif "facade" in names:
         out["kind"] = "out-of-plane"
         free = ~scene.fixed
         course = scene.course if (scene.course[free] >= 0).all() else \

@@ -180,6 +180,36 @@ def test_collapsed_portion_reads_rotation_as_well_as_displacement():
     assert res["blocks"] == [0, 1, 2, 3] and res["mass_fraction"] == pytest.approx(0.8)
 
 
+def test_a_lone_block_slides_or_tips_and_gets_no_wall_label():
+    """cases/analytic/block-on-tilt.yaml's blocks, apart on the table: the slender one turning
+    about its toe reads "tipping", the squat one translated reads "sliding", kind "block" (the
+    facade labels A / B1 ... of a one-block "wall" meant nothing); a stack of the same blocks
+    is a wall and still reads overturning."""
+    blocks = [BlockSpec(size=[0.2, 0.2, 0.1], position=[0.0, 0.0, 0.05], mass=4.0),
+              BlockSpec(size=[0.1, 0.1, 0.4], position=[1.0, 0.0, 0.2], density=2000)]
+    sc = blocks_to_scene(blocks)
+    load = np.array([0.0, -1.0, 0.0])  # tilt about +x: gravity gains a -y component
+    rot = Rotation.from_rotvec([0.1, 0.0, 0.0])  # about +x: the top moves to -y
+    toe = np.array([1.0, -0.05, 0.0])
+    pos, quat = sc.position.copy(), sc.quat.copy()
+    pos[1] = toe + rot.apply(sc.position[1] - toe)
+    quat[1] = quaternion.from_rotation(rot * quaternion.rotation(sc.quat[1:2]))[0]
+    res = classify(CASE, sc, sc.position, sc.quat, pos, quat, load)
+    assert res["kind"] == "block" and res["mechanism"] == "tipping"
+    assert res["collapsed"]["blocks"] == [1]
+    pos, quat = sc.position.copy(), sc.quat.copy()
+    pos[0] += 0.02 * load
+    res = classify(CASE, sc, sc.position, sc.quat, pos, quat, load)
+    assert res["kind"] == "block" and res["mechanism"] == "sliding"
+    stack = blocks_to_scene([BlockSpec(size=[0.1, 0.1, 0.4], position=[0.0, 0.0, 0.2 + 0.4 * k],
+                                       density=2000) for k in range(2)])
+    toe = np.array([0.0, -0.05, 0.0])
+    pos = toe + rot.apply(stack.position - toe)
+    quat = quaternion.from_rotation(rot * quaternion.rotation(stack.quat))
+    res = classify(CASE, stack, stack.position, stack.quat, pos, quat, load)
+    assert res["kind"] != "block" and res["mechanism"] != "tipping"
+
+
 # --- what a tilt run shows --------------------------------------------------------------------
 
 def test_result_line_of_a_tilt_names_lambda_angle_mechanism_and_collapsed_blocks():
