@@ -287,8 +287,11 @@ def check_case(case: Case, source: str | Path | None = None,
     out.scene = scene
     n = scene.n_blocks
     out.blocks_estimate = n
+    # size scatter: two bricks' heights differ by up to 6 sigma (each truncated at 3 sigma), so
+    # a brick bridging them may rock that far onto the lower one while the scene settles
     report = check_scene(scene, overlap_tolerance=case.solver.overlap_tolerance,
-                         allow_floating=case.scene.allow_floating)
+                         allow_floating=case.scene.allow_floating,
+                         settle_gap=6.0 * max(case.imperfections.size_scatter))
     out.report = report
     if not report.ok:
         out.errors.append(f"{where(('scene',))}: the scene cannot be run:\n{report.format()}")
