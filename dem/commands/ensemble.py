@@ -145,7 +145,6 @@ def run_ensemble(case_path, out, realisations: int, seed: int | None = None,
         f"local cluster, {workers or os.cpu_count()} workers"
     say(f"ensemble {case.name}: {len(cases)} realisations, seeds {meta['seeds'][0]}.."
         f"{meta['seeds'][-1]} ({len(todo)} to run), {where}")
-    threads_env = os.environ.get("DEM_THREADS")
     from dem.signals import signal_name, stop_on_signals
 
     try:
@@ -158,11 +157,6 @@ def run_ensemble(case_path, out, realisations: int, seed: int | None = None,
         say(f"interrupted by {signal_name(err)}; finished realisations are in "
             f"{out}/ensemble.json (a rerun of the same command keeps them)")
         return exit_code_for(err)
-    finally:
-        if threads_env is None:
-            os.environ.pop("DEM_THREADS", None)
-        else:
-            os.environ["DEM_THREADS"] = threads_env
     data = write_ensemble(out, meta, names, records, plots=True)
     agg = data["aggregate"]
     lam = agg["statistics"].get("lambda")

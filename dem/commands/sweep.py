@@ -141,9 +141,6 @@ def run_sweep(case_path, out, frequencies: str | None = None, rng: str | None = 
     where = f"scheduler {scheduler}" if scheduler else \
         f"local cluster, {workers or os.cpu_count()} workers"
     say(f"sweep {case.name}: {len(cases)} frequencies {freqs} Hz ({len(todo)} to run), {where}")
-    # run_batch sets DEM_THREADS=1 in this (client) process for its workers to inherit; put it
-    # back afterwards, or a later Taichi initialisation in this process would clash
-    threads_env = os.environ.get("DEM_THREADS")
     from dem.signals import signal_name, stop_on_signals
 
     try:
@@ -155,11 +152,6 @@ def run_sweep(case_path, out, frequencies: str | None = None, rng: str | None = 
         say(f"interrupted by {signal_name(err)}; finished points are in {out}/sweep.json (a rerun"
             f" of the same command keeps them and runs the others)")
         return exit_code_for(err)
-    finally:
-        if threads_env is None:
-            os.environ.pop("DEM_THREADS", None)
-        else:
-            os.environ["DEM_THREADS"] = threads_env
     for rec in records:  # records the callback may not have seen (should not happen)
         if rec is not None and points[rec["name"]]["status"] == "pending":
             on_done(rec)
