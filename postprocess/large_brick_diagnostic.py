@@ -112,6 +112,10 @@ def analyse_wall(name: str, case_file: str, s_over_h: float) -> dict:
             r = lp_limit(bl, mu, mub, direction=d, mu_head=mh)
             lp[f"{label} {dname}"] = {"load_factor": r.load_factor,
                                       "moving_blocks": int(r.moving().sum())}
+    # the builder's 0.7-0.8 mm head gaps of the English header courses taken as closed
+    r = lp_limit(bl, mu, mub, head_gap=2e-3)
+    lp["head_friction_mu, gaps up to 2 mm closed +x"] = {"load_factor": r.load_factor,
+                                                         "moving_blocks": int(r.moving().sum())}
     # no sliding possible anywhere: what turning alone needs (a diagnostic of the geometry)
     r = lp_limit(bl, 100.0, 100.0, mu_head=0.0)
     lp["friction 100, head frictionless +x"] = {"load_factor": r.load_factor,
