@@ -373,6 +373,15 @@ def report(out: Path) -> None:
     fig.savefig(out / "lambda_trends.png", dpi=120)
     plt.close(fig)
     lines += ["", "![trends](lambda_trends.png)", "", "![rate](lambda_vs_rate.png)", ""]
+    if (out / "large-brick-diagnostic" / "README.md").is_file():
+        lines += ["## The L/H = 2.5 large-brick walls on their exact layouts", "",
+                  "Why they slide at mu where eq 3-2 gives overturning at 0.38 / 0.40: rigid-block "
+                  "LP limit analysis and toe-rotation portions on the builder's blocks, and DEM "
+                  "runs with the windward part held fixed, in "
+                  "[large-brick-diagnostic/README.md](large-brick-diagnostic/README.md) "
+                  "(`python -m postprocess.large_brick_diagnostic --out "
+                  "results/tilt/large-brick-diagnostic --dem all`); what they show: FINDINGS.md.",
+                  ""]
     failed = [r for r in res.values() if r["status"] != "ok"]
     if failed:
         lines += ["## Failed runs", ""] + [f"- {r['name']}: {r.get('error')}" for r in failed]
