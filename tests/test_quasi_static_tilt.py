@@ -126,3 +126,51 @@ def test_dem_post_of_a_quasi_static_run_keeps_its_collapse(tmp_path):
     assert post["collapse"]["load_factor"] == ran["collapse"]["load_factor"]
     assert post["collapse"]["method"] == "quasi_static"
     assert post["mechanism"] == ran["mechanism"]
+
+
+def _detector(window=0.04):
+    """A QuasiStaticTilt with only what _accelerating reads (the case defaults)."""
+    from dem.case import CollapseSpec, QuasiStaticSpec
+    from dem.run.quasi_static import QuasiStaticTilt
+
+    q = QuasiStaticTilt.__new__(QuasiStaticTilt)
+    q.spec, q.collapse = QuasiStaticSpec(accelerating_window=window), CollapseSpec()
+    return q
+
+
+def _first_alarm(q, t, m):
+    """Time of the first look (every 1.7 ms, as CHECK_STEPS at the walls' step) at which the
+    motion history m(t) reads as a mechanism, or None."""
+    for k in range(2, len(t) + 1):
+        if q._accelerating(list(t[:k]), list(m[:k])):
+            return t[k - 1]
+    return None
+
+
+def test_a_settling_wall_is_not_a_mechanism_and_a_mechanism_is_found_before_confirm():
+    """One degree of freedom under Cundall local damping alpha = 0.8 after a step of load F:
+    m'' = (1 - alpha) (F - k m) / mass while it moves along the net force.  With k > 0 (an
+    equilibrium at F / k) the speed's gains shrink: never a mechanism, even when the equilibrium
+    lies 4 mm away (beyond the 0.5 mm gate, 40 % short of confirm) and it takes 0.9 s to get
+    there.  With k < 0 (beyond the limit) the motion grows as cosh: found before it has moved
+    confirm (5 mm), within 0.05 s of passing the 0.5 mm gate.  (A rule on rising speed alone
+    would take the settling one for a mechanism: its speed rises for 0.45 s.)"""
+    q = _detector()
+    t = np.arange(0.0, 1.0, 1.7e-3)
+    w = 2 * math.pi / 1.8 * math.sqrt(0.2)         # settles at 4 mm after ~0.9 s
+    assert _first_alarm(q, t, 0.004 * (1 - np.cos(np.minimum(w * t, math.pi)))) is None
+    s = 8.0                                         # 1/s: growth rate beyond the limit
+    m = 1e-4 * (np.cosh(s * t) - 1)
+    found = _first_alarm(q, t, m)
+    assert found is not None
+    assert np.interp(found, t, m) < 0.005
+    assert found - t[np.argmax(m >= 5e-4)] <= 0.05
+    assert _first_alarm(_detector(0.0), t, m) is None          # off
+    # a creep at 3.4 mm/s whose speed wavers by +-7 % with a 0.15 s period (slip spreading: the
+    # 5 x 25 in-plane wall creeps so, its gains growing by up to 4.8 % of the speed per window,
+    # for 0.3-0.6 s, then settles) has gains that grow now and then, by less than ACCEL_GROWTH
+    # of the speed (with 5 % it would read as a mechanism)
+    a, per = 0.07, 0.15
+    creep = 3.4e-3 * (t - a * per / (2 * math.pi) * (np.cos(2 * math.pi * t / per) - 1))
+    assert _first_alarm(q, t, creep) is None
+    assert _first_alarm(q, t, creep + m) is not None  # and a mechanism under it still shows

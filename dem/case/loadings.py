@@ -34,11 +34,13 @@ class CollapseSpec(_Strict):
 class QuasiStaticSpec(_Strict):
     """How a quasi-static tilt finds the angle at which equilibrium is lost (dem.run.quasi_static).
 
-    The angle advances by ``increment``; after each advance the scene relaxes with Cundall local
-    damping (``local_damping``: it does not change a static equilibrium, it only removes the
+    The angle advances by ``increment`` (doubling up to ``max_increment`` while the wall's lean
+    per degree shows it far from its limit); after each advance the scene relaxes with Cundall
+    local damping (``local_damping``: it does not change a static equilibrium, it only removes the
     motion) until the unbalanced-force ratio (sum over blocks of |net force| + |net torque| /
     radius, over the sum of their weights) is below ``tolerance`` with every block at rest;
-    equilibrium is lost when a block moves ``collapse.confirm`` while relaxing, or when
+    equilibrium is lost when a block moves ``collapse.confirm`` while relaxing, or its motion
+    accelerates with growing gains over three ``accelerating_window`` s, or when
     ``max_relax_time`` passes without that and a block moved more than a tenth of
     ``collapse.confirm`` (less: in equilibrium).  The first failing increment is bisected down to
     ``resolution``; lambda = tan(last angle in equilibrium).  Then the run goes on dynamically
@@ -47,6 +49,11 @@ class QuasiStaticSpec(_Strict):
     """
 
     increment: float = Field(default=1.0, gt=0.0, le=10.0, description="degrees per advance")
+    max_increment: float = Field(
+        default=4.0, gt=0.0, le=10.0,
+        description="degrees: the advance doubles up to this while the wall's lean per degree "
+        "stays within 1.5 x the first advance's (elastic, far from its limit); back to "
+        "increment once it grows (dem.run.quasi_static); <= increment: a constant advance")
     resolution: float = Field(default=0.05, gt=0.0, description="bisection width, degrees")
     tolerance: float = Field(
         default=1e-3, gt=0.0, lt=1.0,
@@ -59,6 +66,14 @@ class QuasiStaticSpec(_Strict):
                              description="s over which each advance turns the table (smoothstep)")
     max_relax_time: float = Field(default=1.0, gt=0.0,
                                   description="s of relaxation before an angle counts as failed")
+    accelerating_window: float = Field(
+        default=0.04, ge=0.0,
+        description="s: an angle also fails, before a block has moved collapse.confirm, once the "
+        "largest motion (past a tenth of confirm) has accelerated over three windows of this "
+        "length, its mean speed growing by more than 10 % per window with growing gains (a "
+        "mechanism: the net force grows with the motion; near an equilibrium it falls, "
+        "dem.run.quasi_static); 0: off.  Walls near their limit creep for up to 0.6 s at a "
+        "speed that wavers by a few % per window, then settle")
 
 
 class TiltLoading(_Strict):
