@@ -16,9 +16,9 @@ analysis predicts), as 3DEC / UDEC find static solutions:
    ``collapse.onset_speed``) at ``CALM_CHECKS`` looks in a row;
 2. equilibrium is lost at an angle when, while relaxing, a block moves ``collapse.confirm`` (the
    motion measure of dem.collapse, from the poses at the start of the relaxation), or the
-   largest motion accelerates with growing gains of its mean speed over ``ACCEL_WINDOWS``
-   windows of ``accelerating_window`` s (a mechanism: its net force grows with the motion;
-   QuasiStaticTilt._accelerating), or ``max_relax_time`` passes with R above the tolerance and
+   largest motion accelerates over ``ACCEL_WINDOWS`` windows of ``accelerating_window`` s, its
+   mean speed growing by more than ``ACCEL_GROWTH`` per window with growing gains (a mechanism:
+   its net force grows with the motion; QuasiStaticTilt._accelerating), or ``max_relax_time`` passes with R above the tolerance and
    a block moved more than ``REST_MOTION`` x confirm (less: in equilibrium, whatever R and the
    speeds say).  (A rise of the block speeds alone is no sign: near its limit a wall creeps at
    mm/s for hundreds of ms while slip spreads, then settles; taken as a failure it read lambda
@@ -52,17 +52,17 @@ CALM_CHECKS = 3    # equilibrium: R below the tolerance and every block at rest 
                    # looks in a row (R alone can dip below it while a wall swings through)
 ACCEL_WINDOWS = 3  # windows of quasi_static.accelerating_window over which a mechanism's mean
                    # speed must rise with growing gains (QuasiStaticTilt._accelerating)
+ACCEL_GROWTH = 0.1  # ... and the mean speed must grow by more than this fraction per window (an
+                    # e-folding time under ~0.4 s at 0.04 s windows): a wall near its limit
+                    # creeps while slip spreads at a speed that wavers by up to 4.8 % per window
+                    # with growing gains (the 5 x 25 in-plane wall, which then settles); the
+                    # failing trials measured grow by 7-60 %
 LINEAR_COMPLIANCE = 1.5  # the increment doubles (up to quasi_static.max_increment) while an
                          # increment's lean per degree (largest motion of its relaxation over
                          # its angle, m/deg) is within this factor of the first increment's:
                          # the wall still responds elastically, far from its limit
 COMPLIANCE_FLOOR = 1e-6  # m/deg: the reference compliance is at least this (a micrometre per
                          # degree; stiffer walls' motions are at the joints' vibration level)
-ACCEL_GROWTH = 0.1  # ... and the mean speed must grow by more than this fraction per window (an
-                    # e-folding time under ~0.4 s at 0.04 s windows): a wall near its limit
-                    # creeps while slip spreads at a speed that wavers by up to 4.8 % per window
-                    # with growing gains (the 5 x 25 in-plane wall, which then settles); the
-                    # failing trials measured grow by 7-60 %
 REST_MOTION = 0.1  # at max_relax_time, blocks that moved less than this x confirm (0.5 mm) in the
                    # relaxation are in equilibrium whatever R and the speeds say: R has a floor
                    # of ~1e-4 on some walls and ~1e-2 on the box models (nanometre joint
