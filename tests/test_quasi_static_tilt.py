@@ -129,7 +129,7 @@ def test_dem_post_of_a_quasi_static_run_keeps_its_collapse(tmp_path):
 
 
 def _detector(window=0.04):
-    """A QuasiStaticTilt with only what _accelerating reads (the case defaults)."""
+    """A QuasiStaticTilt with only what _accelerating reads (its rule on, at window s)."""
     from dem.case import CollapseSpec, QuasiStaticSpec
     from dem.run.quasi_static import QuasiStaticTilt
 
