@@ -64,18 +64,18 @@ ISOLATION_GAP = 1e-3  # m: a block is isolated if no other free block comes this
 
 
 def isolated_blocks(scene) -> np.ndarray:
-    """bool [N]: free blocks that touch no other free block (their bounding boxes, grown by
-    ISOLATION_GAP, overlap none): blocks standing alone on the table, not parts of a wall."""
-    from dem.builders.checks import vertices
+    """bool [N]: free blocks that touch no other free block (no other's bounding box comes
+    within ISOLATION_GAP of theirs; dem.builders.checks.candidate_pairs, a sweep, so large
+    scenes cost no N x N table): blocks standing alone on the table, not parts of a wall."""
+    from dem.builders.checks import candidate_pairs, vertices
 
     v = vertices(scene)
-    lo, hi = v.min(axis=1) - ISOLATION_GAP, v.max(axis=1) + ISOLATION_GAP
     free = ~scene.fixed
-    touch = np.all((lo[:, None, :] <= hi[None, :, :]) & (lo[None, :, :] <= hi[:, None, :]),
-                   axis=2)
-    touch &= free[:, None] & free[None, :]
-    np.fill_diagonal(touch, False)
-    return free & ~touch.any(axis=1)
+    touching = np.zeros(scene.n_blocks, dtype=bool)
+    for i, j in candidate_pairs(v.min(axis=1), v.max(axis=1), ISOLATION_GAP):
+        if free[i] and free[j]:
+            touching[i] = touching[j] = True
+    return free & ~touching
 
 
 def classify(case, scene, pos0, quat0, pos, quat, load_dir) -> dict:

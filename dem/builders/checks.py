@@ -108,7 +108,7 @@ def _sat_separation(c1, r1, h1, c2, r2, h2) -> float:
     return float(best)
 
 
-def _candidate_pairs(lo: np.ndarray, hi: np.ndarray, pad: float) -> list[tuple[int, int]]:
+def candidate_pairs(lo: np.ndarray, hi: np.ndarray, pad: float) -> list[tuple[int, int]]:
     """Pairs whose bounding boxes come within ``pad`` of each other (sweep along x)."""
     order = np.argsort(lo[:, 0])
     pairs = []
@@ -183,7 +183,7 @@ def check_scene(
         supports[i].append(np.array([[lo[i, 0], lo[i, 1]], [hi[i, 0], hi[i, 1]]]))
 
     landing: list[list[np.ndarray]] = [[] for _ in range(n)]  # supports within settle_gap
-    for i, j in _candidate_pairs(lo, hi, max(contact_tolerance, settle_gap, 0.0)):
+    for i, j in candidate_pairs(lo, hi, max(contact_tolerance, settle_gap, 0.0)):
         if scene.fixed[i] and scene.fixed[j]:
             continue
         if aligned[i] and aligned[j]:
