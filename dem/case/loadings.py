@@ -34,14 +34,11 @@ class CollapseSpec(_Strict):
 class QuasiStaticSpec(_Strict):
     """How a quasi-static tilt finds the angle at which equilibrium is lost (dem.run.quasi_static).
 
-    The angle advances by ``increment`` (optionally doubling up to ``max_increment`` while the
-    wall's lean per degree shows it far from its limit); after each advance the scene relaxes with Cundall
-    local damping (``local_damping``: it does not change a static equilibrium, it only removes the
+    The angle advances by ``increment``; after each advance the scene relaxes with Cundall local
+    damping (``local_damping``: it does not change a static equilibrium, it only removes the
     motion) until the unbalanced-force ratio (sum over blocks of |net force| + |net torque| /
     radius, over the sum of their weights) is below ``tolerance`` with every block at rest;
-    equilibrium is lost when a block moves ``collapse.confirm`` while relaxing (or, with
-    ``accelerating_window`` > 0, an option off by default, its motion accelerates with growing
-    gains over three such windows), or when
+    equilibrium is lost when a block moves ``collapse.confirm`` while relaxing, or when
     ``max_relax_time`` passes without that and a block moved more than a tenth of
     ``collapse.confirm`` (less: in equilibrium).  The first failing increment is bisected down to
     ``resolution``; lambda = tan(last angle in equilibrium).  Then the run goes on dynamically
@@ -50,14 +47,6 @@ class QuasiStaticSpec(_Strict):
     """
 
     increment: float = Field(default=1.0, gt=0.0, le=10.0, description="degrees per advance")
-    max_increment: float = Field(
-        default=1.0, gt=0.0, le=10.0,
-        description="degrees; <= increment (the default): a constant advance.  Above it the "
-        "advance doubles up to this while the wall's lean per degree stays within 1.5 x the "
-        "first advance's (elastic, far from its limit), back to increment once it grows "
-        "(dem.run.quasi_static).  Not the default: the larger advances change the joints' "
-        "friction history, and at 4 deg the 9 x 15 wall with s = 10 mm read 0.520 against "
-        "0.531 (-2.1 %; 24 of the 25 Chapter 3 walls within 0.5 %), for 0.6-0.9 x the steps")
     resolution: float = Field(default=0.05, gt=0.0, description="bisection width, degrees")
     tolerance: float = Field(
         default=1e-3, gt=0.0, lt=1.0,
@@ -70,14 +59,6 @@ class QuasiStaticSpec(_Strict):
                              description="s over which each advance turns the table (smoothstep)")
     max_relax_time: float = Field(default=1.0, gt=0.0,
                                   description="s of relaxation before an angle counts as failed")
-    accelerating_window: float = Field(
-        default=0.0, ge=0.0,
-        description="s; 0 (the default): off.  An angle also fails, before a block has moved "
-        "collapse.confirm, once the largest motion (past a tenth of confirm) has accelerated "
-        "over three windows of this length, its mean speed growing by more than 10 % per "
-        "window with growing gains (dem.run.quasi_static).  Off by default because it misjudges "
-        "walls that creep and then settle: at 0.04 s it read 7 of the 25 Chapter 3 walls 0.8-7 "
-        "% low (poor/poor facade 0.267 against 0.280, results/tilt), for 0.76 x the steps")
 
 
 class TiltLoading(_Strict):

@@ -5,40 +5,32 @@ and 12 % low out of plane, results/tilt/FINDINGS.md).  Here the table angle is t
 variable (thesis Chapter 3: "the table was tilted slowly"; the static answer is what limit
 analysis predicts), as 3DEC / UDEC find static solutions:
 
-1. advance the angle by ``increment`` (with ``max_increment`` > ``increment``, an option off
-   by default, doubled up to it while the wall's lean per degree stays within
-   ``LINEAR_COMPLIANCE`` x the first increment's: far from its limit the wall responds
-   elastically, and near it the lean per degree grows, 20 x on the out-of-plane wall; measured
-   to change lambda by -2.1 % on one of the 25 Chapter 3 walls, the frictional history of large
-   advances; turned over ``ramp_time`` s, smoothstep), then relax with
+1. advance the angle by ``increment`` (turned over ``ramp_time`` s, smoothstep), then relax with
    Cundall local damping alpha (a force -alpha |F| sign(v) per component: it removes motion and
    leaves every static equilibrium as it is) until the unbalanced-force ratio R (sum of
    |F_i| + |T_i| / r_i over the sum of the weights, dem.engine.Simulation.unbalanced_force_ratio)
    is below ``tolerance`` and every block is at rest (|v| + r |omega| below
    ``collapse.onset_speed``) at ``CALM_CHECKS`` looks in a row;
 2. equilibrium is lost at an angle when, while relaxing, a block moves ``collapse.confirm`` (the
-   motion measure of dem.collapse, from the poses at the start of the relaxation), or
+   motion measure of dem.collapse, from the poses at the start of the relaxation) or
    ``max_relax_time`` passes with R above the tolerance and a block moved more than
-   ``REST_MOTION`` x confirm (less: in equilibrium, whatever R and the speeds say); optionally
-   (``accelerating_window`` > 0, off by default) also once the largest motion accelerates over
-   ``ACCEL_WINDOWS`` windows, its mean speed growing by more than ``ACCEL_GROWTH`` per window
-   with growing gains (QuasiStaticTilt._accelerating: measured to misjudge walls that creep and
-   then settle, 7 of the 25 Chapter 3 walls read 0.8-7 % low).  (A rise of the block speeds alone is no sign: near its limit a wall creeps at
-   mm/s for hundreds of ms while slip spreads, then settles; taken as a failure it read lambda
-   5 % low on the 5 x 7 wall.  What settles is a speed whose gains shrink.)
+   ``REST_MOTION`` x confirm (less: in equilibrium, whatever R and the speeds say).  Faster
+   rules were tried and removed, each wrong on some Chapter 3 walls: a rise of the block speeds
+   (near its limit a wall creeps at mm/s for hundreds of ms while slip spreads, then settles:
+   lambda 5 % low on the 5 x 7 wall); a mean speed accelerating by more than 10 % per 0.04 s
+   window with growing gains (7 of the 25 walls 0.8-7 % low, the poor/poor facade 0.267 against
+   0.280); advances doubling up to 4 deg while the lean per degree stays elastic (the 9 x 15
+   wall with s = 10 mm 2.1 % low, and no faster on its own).  benchmarks/speed_error.md
+   "Quasi-static tilt" has their numbers (commit 3d3558e has their code).
 3. the first failing increment is bisected: each trial starts from the saved state of the last
    angle in equilibrium (poses, velocities, contacts with their shear history:
    Simulation.save_point / restore_point) until the bracket is narrower than ``resolution``;
    lambda = tan(theta_eq), theta_eq the last angle in equilibrium (the true limit lies in
    [theta_eq, theta_eq + resolution]);
-4. from the state at theta_eq the table turns to the first failing increment's angle (at most
-   one ``increment`` above theta_eq: a doubled advance may have failed far above the limit)
-   and the run goes on dynamically (no local damping, true masses) for ``collapse.after`` s or
-   until a block moved ``collapse.stop``, so that the mechanism shows in the frames.  (Going on
-   from the failed trial's own state instead saved ~20 % of the steps out of plane but read
-   the incipient mechanism differently: the 5 x 7 and 7 x 7 in-plane walls "overturning", 9
-   blocks, where the thesis and this continuation see sliding with the leeward column
-   overturning, "mixed".)
+4. from the state at theta_eq the table turns to the first failing increment's angle and the
+   run goes on
+   dynamically (no local damping, true masses) for ``collapse.after`` s or until a block moved
+   ``collapse.stop``, so that the mechanism shows in the frames.
 
 Density scaling is not used: the relaxation runs at the true masses and the critical step.
 Frames: one at the start, one at every angle found in equilibrium, then every
@@ -56,19 +48,6 @@ from dem.collapse import motion_measure
 CHECK_STEPS = 100  # steps between two looks at R and the motion while relaxing
 CALM_CHECKS = 3    # equilibrium: R below the tolerance and every block at rest at this many
                    # looks in a row (R alone can dip below it while a wall swings through)
-ACCEL_WINDOWS = 3  # windows of quasi_static.accelerating_window over which a mechanism's mean
-                   # speed must rise with growing gains (QuasiStaticTilt._accelerating)
-ACCEL_GROWTH = 0.1  # ... and the mean speed must grow by more than this fraction per window (an
-                    # e-folding time under ~0.4 s at 0.04 s windows): a wall near its limit
-                    # creeps while slip spreads at a speed that wavers by up to 4.8 % per window
-                    # with growing gains (the 5 x 25 in-plane wall, which then settles); the
-                    # failing trials measured grow by 7-60 %
-LINEAR_COMPLIANCE = 1.5  # the increment doubles (up to quasi_static.max_increment) while an
-                         # increment's lean per degree (largest motion of its relaxation over
-                         # its angle, m/deg) is within this factor of the first increment's:
-                         # the wall still responds elastically, far from its limit
-COMPLIANCE_FLOOR = 1e-6  # m/deg: the reference compliance is at least this (a micrometre per
-                         # degree; stiffer walls' motions are at the joints' vibration level)
 REST_MOTION = 0.1  # at max_relax_time, blocks that moved less than this x confirm (0.5 mm) in the
                    # relaxation are in equilibrium whatever R and the speeds say: R has a floor
                    # of ~1e-4 on some walls and ~1e-2 on the box models (nanometre joint
@@ -106,19 +85,13 @@ class QuasiStaticTilt:
         sim.set_local_damping(sp.local_damping)
         ok, ratio, moved, why = False, math.inf, 0.0, "max_relax_time"
         calm = 0
-        times, motions = [t0], [0.0]  # the largest motion at every look
         while True:
             sim.advance(self._chunk(CHECK_STEPS), self.loading)
             ratio = sim.unbalanced_force_ratio(self.loading.gravity(np.array([sim.t]))[0])
             moved = float(motion_measure(pos0, quat0, st.pos[: self.n], st.quat[: self.n],
                                          self.radius).max())
-            times.append(sim.t)
-            motions.append(moved)
             if moved >= self.collapse.confirm:
                 why = "moved"
-                break
-            if self._accelerating(times, motions):
-                why = "accelerating"
                 break
             turned = sim.t - t0 >= sp.ramp_time
             at_rest = self._speed() < self.collapse.onset_speed
@@ -142,44 +115,6 @@ class QuasiStaticTilt:
         if self.on_progress is not None:
             self.on_progress(angle)
         return ok, ratio, moved
-
-    def _accelerating(self, times: list, motions: list) -> bool:
-        """A mechanism, before it has moved ``collapse.confirm``: the largest motion m (m) has
-        passed REST_MOTION x confirm, and over the last ACCEL_WINDOWS windows of
-        ``accelerating_window`` W (s) its mean speeds u_k = (m(t - kW) - m(t - (k+1)W)) / W
-        (m/s, k = 0 latest) all rise, their gains grow and the oldest gain is more than
-        ``ACCEL_GROWTH`` of the oldest speed: u_0 - u_1 > u_1 - u_2 > ACCEL_GROWTH u_2 > 0.
-
-        Under local damping a block moving along its net force F gets (1 - alpha) F / mass.  Near
-        an equilibrium (tangent stiffness > 0) F falls as the motion grows, so the gains of the
-        mean speed shrink and turn negative past the equilibrium (the wall settles, however long
-        it creeps); beyond the limit gravity's pull outgrows the joints' resistance (tangent
-        stiffness <= 0) and the gains stay or grow.  Measured (W = 0.04 s) on the walls of
-        benchmarks/quasi_static_tilt.py, the 5 x 25 in-plane and the strong-strong
-        out-of-plane walls: the settling trials nearest their limits reach a gain ratio
-        (u_0 - u_1) / (u_1 - u_2) of 0.66 on the benchmark walls (1.9 at W = 0.02 s: slip
-        spreading accelerates a wall for some 60 ms before it settles), but the 5 x 25 wall
-        creeps for 0.3-0.6 s at a speed whose gains do grow, by up to 4.8 % of the speed per
-        window, hence ``ACCEL_GROWTH`` = 10 %; the failing trials grew by 7-60 %.  A trial
-        that does not accelerate so still fails on ``collapse.confirm`` or
-        ``max_relax_time``: the rule only decides sooner.
-
-        Off by default: rerun over the 25 Chapter 3 walls (results/tilt) it read 7 of them
-        0.8-7 % low.  The poor/poor facade at 15.0 deg: the rule fired at 0.15 s with 0.58 mm of
-        motion; relaxed on, the same angle settles after 0.85 mm, and 15.5 deg holds too
-        (lambda 0.267 with the rule, 0.280 without, as before it).  The 10 % margin measured on
-        five walls does not hold across walls."""
-        w = self.spec.accelerating_window
-        t, m = times[-1], motions[-1]
-        if w <= 0.0 or m < REST_MOTION * self.collapse.confirm \
-                or t - ACCEL_WINDOWS * w < times[0]:
-            return False
-        ts = t - w * np.arange(ACCEL_WINDOWS, -1, -1)  # oldest first
-        ms = np.interp(ts, times, motions)[::-1]      # latest first
-        u = ms[:-1] - ms[1:]
-        gain = u[:-1] - u[1:]
-        return bool((u > 0).all() and (gain[:-1] > gain[1:]).all()
-                    and gain[-1] > ACCEL_GROWTH * u[-1])
 
     def _stopped_note(self) -> str:
         return ("run.duration or the step limit ran out before equilibrium was lost (raise "
@@ -213,17 +148,11 @@ class QuasiStaticTilt:
                                 self.undecided else "no equilibrium at the start angle")
         rec.frame()
         eq, eq_ratio, saved = start, ratio, sim.save_point()
-        fail, step, linear = None, sp.increment, None
+        fail = None
         while fail is None and eq < self.max_angle and not self._out_of_time():
-            trial = min(eq + step, self.max_angle)
-            ok, ratio, moved = self.relax(trial)
+            trial = min(eq + sp.increment, self.max_angle)
+            ok, ratio, _ = self.relax(trial)
             if ok:
-                # lean per degree (m/deg); the first increment's is the elastic reference
-                compliance = moved / (trial - eq)
-                if linear is None:
-                    linear = LINEAR_COMPLIANCE * max(compliance, COMPLIANCE_FLOOR)
-                step = min(2.0 * step, max(sp.max_increment, sp.increment)) \
-                    if compliance <= linear else sp.increment
                 eq, eq_ratio, saved = trial, ratio, sim.save_point()
                 rec.frame()
             elif not self.undecided:
@@ -244,15 +173,12 @@ class QuasiStaticTilt:
             else:
                 fail = mid
         sim.restore_point(saved)
-        # no further than one increment: a doubled advance may have failed far above the limit
-        return self._continue_dynamically(eq, fail, eq_ratio,
-                                          min(first_fail, eq + sp.increment))
+        return self._continue_dynamically(eq, fail, eq_ratio, first_fail)
 
     def _continue_dynamically(self, eq: float, fail: float, eq_ratio: float,
                               to_angle: float) -> dict:
         """From the state at ``eq``, the table turns to ``to_angle`` (the first increment that
-        failed, at most one ``increment`` above ``eq``, so that the mechanism develops in a
-        short time) and the run goes on without local damping."""
+        failed, so that the mechanism develops in a short time) and the run goes on."""
         sim, rec, col = self.sim, self.recording, self.collapse
         sim.set_local_damping(0.0)
         self.loading.turn(sim.t, to_angle, self.spec.ramp_time)
@@ -287,10 +213,7 @@ class QuasiStaticTilt:
                "resolution_deg": (fail - eq) if fail is not None else None,
                "unbalanced_ratio_at_angle": eq_ratio,
                "criterion": {"tolerance": sp.tolerance, "local_damping": sp.local_damping,
-                             "increment_deg": sp.increment,
-                             "max_increment_deg": sp.max_increment,
-                             "accelerating_window_s": sp.accelerating_window,
-                             "resolution_deg": sp.resolution,
+                             "increment_deg": sp.increment, "resolution_deg": sp.resolution,
                              "max_relax_time_s": sp.max_relax_time,
                              "confirm_m": self.collapse.confirm},
                "relaxations": self.relaxations, "relax_steps": self.relax_steps,
