@@ -127,6 +127,11 @@ def candidate_pairs(lo: np.ndarray, hi: np.ndarray, pad: float) -> list[tuple[in
     return pairs
 
 
+def _plan_overlap(lo: np.ndarray, hi: np.ndarray, a: int, b: int) -> np.ndarray:
+    """The overlap in plan of the bounding boxes of blocks a and b, [[xlo, ylo], [xhi, yhi]]."""
+    return np.array([np.maximum(lo[a, :2], lo[b, :2]), np.minimum(hi[a, :2], hi[b, :2])])
+
+
 def _rectangle_corners(rects: list[np.ndarray]) -> np.ndarray:
     """The four corners of each support rectangle [[xlo, ylo], [xhi, yhi]], as points [4k, 2]."""
     r = np.array(rects)  # [k, 2, 2]
@@ -200,10 +205,7 @@ def check_scene(
         if sep > contact_tolerance:
             if gaps is not None and sep <= settle_gap and gaps[0] < 0 and gaps[1] < 0:
                 up, down = (i, j) if lo[i, 2] > lo[j, 2] else (j, i)
-                landing[up].append(np.array([[max(lo[up, 0], lo[down, 0]),
-                                              max(lo[up, 1], lo[down, 1])],
-                                             [min(hi[up, 0], hi[down, 0]),
-                                              min(hi[up, 1], hi[down, 1])]]))
+                landing[up].append(_plan_overlap(lo, hi, up, down))
             continue
         # the two touch: does one rest on the other?
         for up, down in ((i, j), (j, i)):
@@ -214,14 +216,7 @@ def check_scene(
                     and gaps[1] < -contact_tolerance
                 )
                 if rests:
-                    supports[up].append(
-                        np.array(
-                            [
-                                [max(lo[up, 0], lo[down, 0]), max(lo[up, 1], lo[down, 1])],
-                                [min(hi[up, 0], hi[down, 0]), min(hi[up, 1], hi[down, 1])],
-                            ]
-                        )
-                    )
+                    supports[up].append(_plan_overlap(lo, hi, up, down))
             else:
                 rests = scene.position[down, 2] < scene.position[up, 2] or scene.fixed[down]
             if rests:
