@@ -128,6 +128,23 @@ class Scene:
         return (self.face_offset != 0).any(axis=(1, 2)) | (self.arris != 0)
 
 
+def scene_to_blocks(scene: Scene, groups: bool = True) -> list[dict]:
+    """The blocks of a scene as a case's explicit blocks (``scene: blocks:`` entries, m, kg,
+    intrinsic XYZ Euler angles in degrees), in scene order: the inverse of
+    :func:`blocks_to_scene` (``groups``: keep each block's group; ``fixed`` where it is)."""
+    eul = quaternion.rotation(scene.quat).as_euler("XYZ", degrees=True)
+    out = []
+    for i in range(scene.n_blocks):
+        b = {"size": scene.size[i].tolist(), "position": scene.position[i].tolist(),
+             "rotation": eul[i].tolist(), "mass": float(scene.mass[i])}
+        if groups:
+            b["group"] = scene.group_names[scene.group[i]]
+        if scene.fixed[i]:
+            b["fixed"] = True
+        out.append(b)
+    return out
+
+
 def blocks_to_scene(blocks) -> Scene:
     """Scene from a list of :class:`dem.case.BlockSpec`."""
     names: list[str] = []

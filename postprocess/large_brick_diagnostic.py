@@ -224,19 +224,11 @@ def plot_layouts(res: dict, path: Path) -> None:
 def diagnostic_case(case, scene, fixed, name: str, friction: float | None = None) -> dict:
     """The exact blocks as an explicit-block case (``fixed`` [N] held), on the quasi-static
     tilt about +y; ``friction`` replaces the brick and base friction when given."""
-    from dem import quaternion
+    from dem.scene import scene_to_blocks
 
-    eul = quaternion.rotation(scene.quat).as_euler("XYZ", degrees=True)
-    blocks = []
-    for i in range(scene.n_blocks):
-        b = {"size": scene.size[i].tolist(), "position": scene.position[i].tolist(),
-             "rotation": eul[i].tolist(), "mass": float(scene.mass[i])}
-        if fixed[i]:
-            b["fixed"] = True
-            b["group"] = "held"
-        else:
-            b["group"] = "wall"
-        blocks.append(b)
+    blocks = scene_to_blocks(scene, groups=False)
+    for b, held in zip(blocks, fixed):
+        b.update({"fixed": True, "group": "held"} if held else {"group": "wall"})
     mat = {"friction": case.material.friction, "base_friction": case.material.mu_base}
     if friction is not None:
         mat = {"friction": friction, "base_friction": max(friction, case.material.mu_base)}

@@ -24,7 +24,7 @@ from dem.commands.run import RUN_ANALYSES, result_line
 from dem.loading import Tilt
 from dem.output.snapshot import table_to_lab
 from dem.run import run_case
-from dem.scene import blocks_to_scene
+from dem.scene import blocks_to_scene, scene_to_blocks
 from postprocess.limit_analysis import elastic_tipping_factor
 from postprocess.mechanisms import CRACK_ANGLE_DEFINITION, collapsed_portion
 from postprocess.tilt import classify, lean_series, plot_lean, top_blocks, wall_layout
@@ -37,15 +37,7 @@ RATE = {"method": "constant_rate"} if "method" in TiltLoading.model_fields else 
 
 def blocks_of(scene, keep_groups: bool = False) -> list[dict]:
     """The blocks of a builder scene as a case's explicit blocks (same order)."""
-    eul = quaternion.rotation(scene.quat).as_euler("XYZ", degrees=True)
-    out = []
-    for i in range(scene.n_blocks):
-        b = {"size": scene.size[i].tolist(), "position": scene.position[i].tolist(),
-             "rotation": eul[i].tolist(), "mass": float(scene.mass[i])}
-        if keep_groups:
-            b["group"] = scene.group_names[scene.group[i]]
-        out.append(b)
-    return out
+    return scene_to_blocks(scene, groups=keep_groups)
 
 
 def explicit(scene, keep_groups: bool = False):
