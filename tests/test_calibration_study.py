@@ -1,0 +1,211 @@
+"""The Chapter 3 calibration study (issue 13 step 1, postprocess/calibration_study.py): the cases it
+builds (the candidate's imperfections on the quasi-static specimen, friction untouched), a smoke
+point end to end and its resume (a finished point starts nothing; an unfinished one reruns only
+its unfinished realisations), and the scoring on hand-made ensembles with known answers."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+import yaml
+
+from dem.case import load_case
+from postprocess import calibration_study as cs
+
+CAND = {"bed_unevenness": 1.0e-4, "face_shape": "planar", "size_scatter": [3e-4, 2e-4, 1e-4],
+        "arris": 5e-4}
+
+
+# ---- case construction ---------------------------------------------------------------------------
+def test_specimens_are_the_small_brick_tilt_walls_cheapest_first():
+    specs = cs.specimens()
+    assert specs and all("small" in n for n in specs)
+    assert not any("large" in n for n in specs)  # held out
+    assert {"ip-small-5x5", "ip-small-5x25", "oop-small-5x15-strong-strong"} <= set(specs)
+    assert specs["ip-small-5x5"]["l_over_h"] == 3.0  # 5 x 105 / (5 x 35)
+    assert specs["ip-small-5x7"]["l_over_h"] == 2.14
+    assert specs["ip-small-5x25"]["l_over_h"] == 0.6
+    order = list(specs)
+    assert order.index("ip-small-5x5") < order.index("oop-small-10x21-strong-strong")
+
+
+@pytest.mark.parametrize("specimen", ["ip-small-5x5", "oop-small-5x15-strong-strong"])
+def test_specimen_case_applies_the_candidate_and_leaves_friction_alone(specimen):
+    spec = cs.specimens()[specimen]
+    base = load_case(spec["path"])
+    case = cs.specimen_case(spec["path"], CAND, "x")
+    imp = case.imperfections
+    assert (imp.bed_unevenness, imp.face_shape, imp.size_scatter, imp.arris) == \
+        (1.0e-4, "planar", [3e-4, 2e-4, 1e-4], 5e-4)
+    assert case.material == base.material  # friction and joint stiffness are not parameters
+    assert case.material.friction == 0.81
+    assert base.loading.method == "constant_rate" and base.loading.rate == 2.0
+    assert case.loading.method == "quasi_static" and case.loading.rate is None
+    assert case.loading.axis == base.loading.axis and case.loading.max_angle == \
+        base.loading.max_angle
+    assert case.scene == base.scene
+    assert case.run.vtk is False
+
+
+def test_candidates_file_and_the_perfect_reference():
+    cands = cs.load_candidates()
+    assert list(cands)[:2] == ["perfect", "bed-0.1-planar"]
+    assert cs.is_perfect(cands["perfect"]) and cs.realisations_for(cands["perfect"], 20) == 1
+    assert not cs.is_perfect(cands["bed-0.1-planar"])
+    assert cs.realisations_for(cands["bed-0.1-planar"], 20) == 20
+    for name, params in cands.items():  # every candidate makes a valid case
+        cs.specimen_case(cs.specimens()["ip-small-5x5"]["path"], params, name)
+
+
+def test_a_candidate_may_not_tune_friction(tmp_path):
+    f = tmp_path / "c.yaml"
+    f.write_text(yaml.safe_dump({"cheat": {"bed_unevenness": 1e-4, "friction": 0.6}}))
+    with pytest.raises(ValueError, match="friction"):
+        cs.load_candidates(f)
+
+
+# ---- a smoke point and its resume --------------------------------------------------------------
+def test_smoke_point_runs_then_resumes_without_rerunning(tmp_path, monkeypatch):
+    cfile = tmp_path / "candidates.yaml"
+    cfile.write_text(yaml.safe_dump({"smoke": CAND}))
+    out = tmp_path / "cal"
+    argv = ["--out", str(out), "--candidates-file", str(cfile), "--specimens", "ip-small-5x5",
+            "--realisations", "2", "--max-steps", "300"]
+    assert cs.main(argv) == 0
+    point = out / "smoke" / "ip-small-5x5" / "ensemble.json"
+    data = json.loads(point.read_text())
+    cal = data["calibration"]
+    assert cal["finished"] and cal["seeds"] == [0, 1] and cal["max_steps"] == 300
+    assert cal["friction"] == 0.81 and cal["parameters"] == CAND
+    assert cal["cpu_seconds"] > 0
+    assert [r["status"] for r in data["realisations"]] == ["ok", "ok"]
+    assert data["imperfections"]["bed_unevenness"] == 1e-4
+    runs = out / "runs" / "smoke" / "ip-small-5x5"
+    assert (runs / "seed-1" / "summary.json").is_file()
+    assert not list(point.parent.glob("*.npz"))  # the committed side holds no frames
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["points"]["smoke"]["ip-small-5x5"]["smoke"] is True
+    assert "pending" in (out / "README.md").read_text()  # the other specimens
+
+    # a rerun of a finished point starts nothing and writes nothing
+    launches = []
+
+    def no_launch(*a, **k):
+        launches.append(a)
+        raise AssertionError("a finished point was run again")
+
+    mtime = point.stat().st_mtime_ns
+    seed_mtime = (runs / "seed-0" / "summary.json").stat().st_mtime_ns
+    monkeypatch.setattr(cs.subprocess, "Popen", no_launch)
+    assert cs.main(argv) == 0
+    assert launches == [] and point.stat().st_mtime_ns == mtime
+    monkeypatch.undo()
+
+    # an unfinished point is handed back to dem ensemble, which keeps its finished realisations
+    data["calibration"]["finished"] = False
+    point.write_text(json.dumps(data))
+    assert cs.main(argv) == 0
+    again = json.loads(point.read_text())
+    assert again["calibration"]["finished"] and again["calibration"]["sessions"] == 2
+    assert all(r.get("reused") for r in again["realisations"])
+    assert (runs / "seed-0" / "summary.json").stat().st_mtime_ns == seed_mtime
+
+
+# ---- scoring on hand-made ensembles --------------------------------------------------------------
+def _ensemble(lams, mechs, otf=None, kind="in-plane", lh=3.0, n=None, friction=0.81):
+    """An ensemble.json as run_point writes it, with the given per-realisation results."""
+    n = len(lams) if n is None else n
+    rows = [{"name": f"seed-{i}", "seed": i, "status": "ok", "lambda": lam, "mechanism": m}
+            for i, (lam, m) in enumerate(zip(lams, mechs))]
+    from postprocess.ensemble import aggregate
+
+    extras = {f"seed-{i}": {"overturning_mass_fraction": f, "engine_seconds": 10.0}
+              for i, f in enumerate(otf or [0.0] * len(lams))}
+    return {"realisations": rows, "aggregate": {**aggregate(rows), "n_realisations": n},
+            "calibration": {"n_realisations": n, "finished": len(lams) == n, "kind": kind,
+                            "l_over_h": lh, "friction": friction, "cpu_seconds": 12.0 * n,
+                            "max_steps": None, "extras": extras}}
+
+
+def _pt(*a, **k):
+    return cs.point_summary(_ensemble(*a, **k))
+
+
+def test_point_summary_median_band_and_pending():
+    p = _pt([0.80, 0.81, 0.82, 0.79, 0.83], ["sliding"] * 4 + ["mixed"])
+    assert p["status"] == "finished" and p["lambda_median"] == pytest.approx(0.81)
+    assert p["lambda_q10"] == pytest.approx(0.794) and p["lambda_q90"] == pytest.approx(0.826)
+    assert p["modal_mechanism"] == "sliding" and p["mechanisms"] == {"mixed": 1, "sliding": 4}
+    pending = _pt([0.80, 0.81], ["sliding"] * 2, n=20)
+    assert pending["status"] == "pending" and "lambda_median" not in pending
+    assert cs.point_summary(None)["status"] == "pending"
+
+
+def test_sliding_invariant_passes_within_3_percent_and_fails_outside():
+    ok = {"ip-small-5x5": _pt([0.83, 0.82, 0.83], ["sliding"] * 3)}  # +2.1 %
+    assert cs.check_sliding(ok)["status"] == "pass"
+    low = {"ip-small-5x5": _pt([0.77, 0.78, 0.78], ["sliding"] * 3)}  # -3.7 %
+    res = cs.check_sliding(low)
+    assert res["status"] == "fail" and res["relative_error"] == pytest.approx(0.78 / 0.81 - 1)
+    tipping = {"ip-small-5x5": _pt([0.81] * 3, ["mixed"] * 3)}  # right lambda, wrong mechanism
+    assert cs.check_sliding(tipping)["status"] == "fail"
+    assert cs.check_sliding({"ip-small-5x5": _pt([0.81], ["sliding"], n=20)})["status"] == \
+        "pending"
+
+
+def _series(mechs, otfs):
+    lhs = {"ip-small-5x5": 3.0, "ip-small-5x7": 2.14, "ip-small-5x15": 1.0,
+           "ip-small-5x20": 0.75, "ip-small-5x25": 0.6}
+    return {n: _pt([0.6] * 3, [m] * 3, [f] * 3, lh=lh)
+            for (n, lh), m, f in zip(lhs.items(), mechs, otfs)}
+
+
+def test_mechanism_sequence_kept_or_broken():
+    good = _series(["sliding", "mixed", "mixed", "overturning", "overturning"],
+                   [0.0, 0.3, 0.6, 0.9, 0.94])
+    assert cs.check_sequence(good)["status"] == "pass"
+    assert cs.check_in_plane_mechanisms(good)["status"] == "pass"
+    # L/H = 0.75 mixed after L/H = 1 overturning: the sequence is broken
+    bad = _series(["sliding", "mixed", "overturning", "mixed", "overturning"],
+                  [0.0, 0.3, 0.9, 0.6, 0.94])
+    res = cs.check_sequence(bad)
+    assert res["status"] == "fail" and any("0.75" in p for p in res["problems"])
+    # the L/H = 3 wall tipping is a broken sequence even if the order is monotone
+    tip = _series(["mixed"] * 3 + ["overturning"] * 2, [0.3, 0.3, 0.6, 0.9, 0.94])
+    assert cs.check_sequence(tip)["status"] == "fail"
+    unfinished = dict(good, **{"ip-small-5x20": _pt([0.5], ["mixed"], lh=0.75, n=20)})
+    assert cs.check_sequence(unfinished)["status"] == "pending"
+
+
+def test_no_wings_and_stagger_checks():
+    oop = {"oop-small-5x15-strong-strong": _pt([0.4] * 3, ["B2"] * 3, kind="out-of-plane")}
+    assert cs.check_no_wings_lowest(oop)["status"] == "n/a"
+    high = dict(oop, **{"oop-small-5x15-no-wings": _pt([0.45] * 3, ["A"] * 3,
+                                                       kind="out-of-plane")})
+    assert cs.check_no_wings_lowest(high)["status"] == "fail"
+    low = dict(oop, **{"oop-small-5x15-no-wings": _pt([0.2] * 3, ["A"] * 3,
+                                                      kind="out-of-plane")})
+    assert cs.check_no_wings_lowest(low)["status"] == "pass"
+    assert cs.check_oop_mechanisms(oop)["status"] == "pass"
+    wrong = {"oop-small-5x15-strong-strong": _pt([0.4] * 3, ["A"] * 3, kind="out-of-plane")}
+    assert cs.check_oop_mechanisms(wrong)["status"] == "fail"
+    rising = {f"ip-small-9x15-s{s}": _pt([lam] * 3, ["mixed"] * 3, lh=1.8)
+              for s, lam in (("10", 0.53), ("35", 0.57), ("52.5", 0.63))}
+    assert cs.check_stagger_trend(rising)["status"] == "pass"
+    falling = dict(rising, **{"ip-small-9x15-s52.5": _pt([0.55] * 3, ["mixed"] * 3, lh=1.8)})
+    assert cs.check_stagger_trend(falling)["status"] == "fail"
+
+
+def test_score_candidate_fails_on_one_broken_invariant_and_waits_on_a_pending_one():
+    pts = _series(["sliding", "mixed", "mixed", "overturning", "overturning"],
+                  [0.0, 0.3, 0.6, 0.9, 0.94])
+    pts["ip-small-5x5"] = _pt([0.81] * 3, ["sliding"] * 3)
+    assert cs.score_candidate(pts)["invariants_pass"] is True
+    pts["ip-small-5x5"] = _pt([0.70] * 3, ["sliding"] * 3)  # slides 14 % below mu
+    assert cs.score_candidate(pts)["invariants_pass"] is False
+    pts["ip-small-5x5"] = _pt([0.81], ["sliding"], n=20)
+    assert cs.score_candidate(pts)["invariants_pass"] is None
+    fam = {r["l_over_h"]: r for r in cs.score_candidate(pts)["famive"]}
+    assert fam[3.0]["status"] == "pending"
+    assert fam[1.0]["famive"] == 0.65 and fam[1.0]["median"] == pytest.approx(0.6)
