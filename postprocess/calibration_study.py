@@ -706,6 +706,30 @@ def _detail(key: str, v: dict) -> str:
 
 
 # ---- command line -------------------------------------------------------------------------------
+def _repo_rel(path: Path) -> str:
+    """A path relative to the git checkout that holds it (results/calibration), else as given."""
+    path = Path(path).resolve()
+    for parent in path.parents:
+        if (parent / ".git").exists():
+            return str(path.relative_to(parent))
+    return str(path)
+
+
+def _command(args) -> str:
+    """The command that regenerates the study, as run from the checkout that holds --out (the
+    session's --stop-at and --runs left out: they do not change the results)."""
+    cmd = ["python -m postprocess.calibration_study", "--out", _repo_rel(args.out)]
+    if args.candidates:
+        cmd += ["--candidates", *args.candidates]
+    if args.specimens:
+        cmd += ["--specimens", *args.specimens]
+    if args.realisations != DEFAULT_REALISATIONS:
+        cmd += ["--realisations", str(args.realisations)]
+    if args.max_steps is not None:
+        cmd += ["--max-steps", str(args.max_steps)]
+    return " ".join(cmd)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     ap.add_argument("--out", type=Path, default=ROOT / "results" / "calibration")
@@ -737,8 +761,7 @@ def main(argv=None) -> int:
     out = args.out
     runs = args.runs or out / "runs"
     out.mkdir(parents=True, exist_ok=True)
-    command = "python -m postprocess.calibration_study " + " ".join(
-        a if " " not in a else repr(a) for a in (argv if argv is not None else sys.argv[1:]))
+    command = _command(args)
     signal.signal(signal.SIGTERM, _on_signal)
     signal.signal(signal.SIGINT, _on_signal)
     if not args.report:
