@@ -37,7 +37,7 @@ SCALING = {142: (9, 15), 300: (14, 22), 500: (18, 28), 800: (20, 38), 1600: (28,
            3200: (40, 76)}
 
 
-def _measure(length, courses, mode, steps, repeats):
+def _measure(length, courses, mode, steps, repeats, patch_reuse=0.0):
     """Runs inside the child process."""
     t0 = time.perf_counter()
     import numpy as np
@@ -50,7 +50,7 @@ def _measure(length, courses, mode, steps, repeats):
     scene = build_wall("small", length=length, courses=courses)
     t_import = time.perf_counter() - t0
     sim = Simulation(scene, joint_law(Material(friction=0.81)),
-                     step_options(SolverSpec(mode=mode)))
+                     step_options(SolverSpec(mode=mode, patch_reuse=patch_reuse)))
     g = np.array([0.0, 0.0, -9.81])
     loads = lambda t: (np.tile(g, (len(t), 1)), np.zeros((len(t), 3)))  # noqa: E731
     sim.advance(min(steps, 500), loads)  # warm-up (settling, caches)
@@ -71,7 +71,7 @@ def _measure(length, courses, mode, steps, repeats):
     }
 
 
-def _stages(repeats):
+def _stages(repeats, patch_reuse=1e-6):
     """Runs inside the child process: per-stage cost (see the module docstring)."""
     import copy
 
@@ -121,7 +121,7 @@ def _stages(repeats):
                 pz = geometry.point_buffer()
                 dep = geometry.point_buffer()
                 w = geometry.point_buffer()
-                axis, n, n_points, shrink, centroid = geometry.box_contact(
+                axis, n, n_points, shrink, centroid, _whole = geometry.box_contact(
                     state.pos[i], state.rot[i], model.half[i], state.pos[j], state.rot[j],
                     model.half[j], contacts.code[p], 1e-3 * hmin, hmin * hmin, model, False,
                     i, j, px, py, pz, dep, w)
@@ -151,14 +151,26 @@ def _stages(repeats):
     st = copy.deepcopy(sim.state)
     ctl = Control(sim.skin, 50.0, 0.0)
     ctl.loads[0, 0] = g
+    # the same contact stage with patch reuse (dem.engine.coherence): the poses do not change
+    # between the timed calls, so every closed patch is reused, and a step with it
+    ctl_reuse = Control(sim.skin, 50.0, 0.0, patch_reuse)
+    ctl_reuse.loads[0, 0] = g
+    c_reuse = copy.deepcopy(sim.contacts)
+    sim_reuse = Simulation(build_wall("small", length=9, courses=15),
+                           joint_law(Material(friction=0.81)),
+                           step_options(SolverSpec(mode="serial", patch_reuse=patch_reuse)))
+    sim_reuse.advance(500, loads)
     P, B = c.n_pairs, m.n_bodies
     runs = {  # name: (per, reps, launch)
         "sat": (P, 400, lambda r: sat(r, P, m.args, st.args, c.args)),
         "narrow": (P, 200, lambda r: narrow(r, P, m.args, st.args, c.args)),
         "contact": (P, 100, lambda r: contact(r, P, sim.dt, m.args, st.args, c.args, ctl.args)),
+        "contact_reuse": (P, 100, lambda r: contact(r, P, sim.dt, m.args, st.args, c_reuse.args,
+                                                    ctl_reuse.args)),
         "integrate": (B, 300, lambda r: integrate(r, B, sim.dt, m.args, st.args, c.args,
                                                   ctl.args)),
         "step": (1, 200, lambda r: sim.advance(r, loads)),
+        "step_reuse": (1, 200, lambda r: sim_reuse.advance(r, loads)),
     }
     out = {}
     for name, (per, reps, launch) in runs.items():
@@ -170,6 +182,7 @@ def _stages(repeats):
             times.append((time.process_time() - c0) / reps / per)
         out[name] = (float(np.median(times)), float(np.min(times)))
     out["pairs"], out["bodies"] = P, B
+    out["kept"] = int((sim_reuse.contacts.patch_shape[:P, 0, 3] > 0).sum())
     return out
 
 
@@ -238,8 +251,8 @@ def _launch_cost(repeats):
     return out
 
 
-def run_child(length, courses, mode, threads, steps, repeats, cache_dir=None):
-    call = f"_measure({length}, {courses}, {mode!r}, {steps}, {repeats})"
+def run_child(length, courses, mode, threads, steps, repeats, cache_dir=None, patch_reuse=0.0):
+    call = f"_measure({length}, {courses}, {mode!r}, {steps}, {repeats}, {patch_reuse!r})"
     return _child(call, threads, cache_dir)
 
 
@@ -266,21 +279,26 @@ def main():
     ap.add_argument("--scaling", action="store_true")
     ap.add_argument("--threads", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--sizes", type=int, nargs="+", default=list(SCALING))
+    ap.add_argument("--patch-reuse", type=float, default=0.0,
+                    help="solver.patch_reuse of the --quick and --scaling runs (m; 0 = off); "
+                    "--stages times the contact stage and a step with 1e-6 m beside the default")
     args = ap.parse_args()
     print(f"# engine_speed  python {sys.version.split()[0]}, {os.cpu_count()} cores, "
           f"{time.strftime('%Y-%m-%d %H:%M')}")
     if args.stages:
         r = _child(f"_stages({args.repeats})", 1)
         print(f"\n## Stages on the 9 x 15 wall ({r['pairs']} pairs, {r['bodies']} bodies; "
-              "1 thread, CPU time)")
+              f"1 thread, CPU time; patch reuse 1e-6 m keeps {r['kept']} patches)")
         print("| stage | median | min |")
         print("|---|---|---|")
         for name, what, unit, scale in (
                 ("sat", "separating axes + axis choice", "ns/pair", 1e9),
                 ("narrow", "narrow phase (box_contact)", "ns/pair", 1e9),
                 ("contact", "contact stage (narrow phase + law + history)", "ns/pair", 1e9),
+                ("contact_reuse", "contact stage, patch reuse 1e-6 m", "ns/pair", 1e9),
                 ("integrate", "integrate stage", "ns/body", 1e9),
-                ("step", "serial step", "us", 1e6)):
+                ("step", "serial step", "us", 1e6),
+                ("step_reuse", "serial step, patch reuse 1e-6 m", "us", 1e6)):
             med, low = r[name]
             print(f"| {what} | {med * scale:.0f} {unit} | {low * scale:.0f} {unit} |")
         return
@@ -302,9 +320,10 @@ def main():
         for target in args.sizes:
             length, courses = SCALING[target]
             steps = max(100, args.steps * 150 // target)
-            ser = run_child(length, courses, "serial", 1, steps, args.repeats)
-            par = [run_child(length, courses, "parallel", t, steps, args.repeats)
-                   for t in args.threads]
+            ser = run_child(length, courses, "serial", 1, steps, args.repeats,
+                            patch_reuse=args.patch_reuse)
+            par = [run_child(length, courses, "parallel", t, steps, args.repeats,
+                             patch_reuse=args.patch_reuse) for t in args.threads]
             best = max(p["brick_steps_per_s"] for p in par) / ser["brick_steps_per_s"]
             print(f"| {ser['blocks']} | {ser['pairs']} | {ser['brick_steps_per_s']:.3g} "
                   f"({ser['brick_steps_per_cpu_s']:.3g}) | " + " | ".join(
@@ -317,7 +336,8 @@ def main():
     print("|---|---|---|---|---|---|---|")
     for threads in (1, 2):
         for mode in ("serial", "parallel"):
-            r = run_child(9, 15, mode, threads, args.steps, args.repeats)
+            r = run_child(9, 15, mode, threads, args.steps, args.repeats,
+                          patch_reuse=args.patch_reuse)
             print(f"| {threads} | {mode} | {r['brick_steps_per_s']:.3g} | "
                   f"{min(r['rates']):.3g} - {max(r['rates']):.3g} | "
                   f"{r['brick_steps_per_cpu_s']:.3g} | {r['pairs']} | {r['contact_points']} |",

@@ -102,7 +102,7 @@ def _box_contact(inp: nd(dtype=ti.f64, ndim=2), res: nd(dtype=ti.f64, ndim=2),
         pz = geometry.point_buffer()
         dep = geometry.point_buffer()
         w = geometry.point_buffer()
-        code, n, npts, shrink, centroid = geometry.box_contact(
+        code, n, npts, shrink, centroid, _whole = geometry.box_contact(
             pA, RA, hA, pB, RB, hB, ti.cast(inp[i, 30], ti.i32), inp[i, 31], inp[i, 32],
             faces, True, 2 * i, 2 * i + 1, px, py, pz, dep, w)
         res[i, 0] = ti.cast(code, ti.f64)

@@ -65,3 +65,10 @@ class SolverSpec(_Strict):
         description="floating point of the engine (f32 only for speed/error studies: one "
         "precision per process)",
     )
+    patch_reuse: float = Field(
+        default=1e-7, ge=0.0, le=1e-3,
+        description="reuse a closed joint's contact patch while its faces drift less than this "
+        "in their plane, m (0 = off: a full narrow phase every step; dem/engine/coherence.py). "
+        "1e-7: results within the round-off sensitivity of the thesis' cases, 1.1-1.3x faster "
+        "(benchmarks/speed_error.md)",
+    )

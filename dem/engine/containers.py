@@ -112,6 +112,12 @@ CONTACT_FIELDS = (
     _f("ft", "vec3", ("P", "K"), "N", "contact law", "shear force on j"),
     _f("wrench", "vec3", ("P", 3), "N, N m", "contact law",
        "force on i, torque on i, torque on j (force on j = -force on i)"),
+    _f("patch_point", "vec3", ("P", "K"), "m, m, m^2", "narrow phase (coherence.store_patch)",
+       "kept patch: quadrature point (x, y) in the reference face's coordinates, weight"),
+    _f("patch_shape", "vec4", ("P", 3), "m, m, -, -; m", "narrow phase (coherence.store_patch)",
+       "kept patch: [0] area centroid (x, y), shrink factor, number of points (0: nothing kept, "
+       "the pair's patch is not reusable); [1], [2] the x's and y's of the incident face's "
+       "corners projected on the reference face"),
     _f("dissipation", "vec3", "P", "J", "contact law",
        "last step's normal-damping, shear-damping and friction dissipation of the pair"),
 )
@@ -126,6 +132,9 @@ CONTROL_FIELDS = (
     _f("skin", "real", (1,), "m", "Simulation", "neighbour-list skin"),
     _f("max_speed", "real", (1,), "m/s", "Simulation", "a faster body stops the run"),
     _f("local_damping", "real", (1,), "-", "Simulation", "Cundall local damping coefficient"),
+    _f("patch_tolerance", "real", (1,), "m", "Simulation",
+       "patch reuse: largest in-plane drift of a kept contact patch (dem.engine.coherence); "
+       "0 = off"),
     _f("status", "i32", (1,), "-", "integrate_stage", "bits REBUILD | NONFINITE | RUNAWAY"),
     _f("bad_body", "i32", (1,), "-", "integrate_stage", "a body that raised NONFINITE/RUNAWAY"),
     _f("steps_done", "i32", (1,), "-", "advance_serial", "steps done by the last launch"),
@@ -290,8 +299,10 @@ class Control(_Container):
 
     FIELDS, ARGS = CONTROL_FIELDS, ControlArgs
 
-    def __init__(self, skin: float, max_speed: float, local_damping: float):
+    def __init__(self, skin: float, max_speed: float, local_damping: float,
+                 patch_tolerance: float = 0.0):
         _allocate(self, CONTROL_FIELDS, {"S": SERIAL_CHUNK})
+        self.patch_tolerance[0] = patch_tolerance
         self.skin[0] = skin
         self.max_speed[0] = max_speed
         self.local_damping[0] = local_damping
@@ -356,6 +367,8 @@ class Contacts(_Container):
         else:
             self.code[...] = -1
             self.npts[...] = 0
+        # a kept patch belongs to a pair index of the old list: none is reused across a rebuild
+        self.patch_shape[:, 0, 3] = 0.0
         self.n_pairs = n
 
     def max_depth(self) -> float:

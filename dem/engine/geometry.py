@@ -314,28 +314,23 @@ def polygon_quadrature(xs: ti.template(), ys: ti.template(), n, w: ti.template()
 
 
 @ti.func
-def face_contact(pR, RR, hR, k, sgn, pI, RI, hI, faces: ti.template(), warped: ti.template(),
-                 rb, ib, px: ti.template(), py: ti.template(), pz: ti.template(),
-                 dep: ti.template(), w: ti.template()):
-    """Contact patch of reference face k of box R (outward normal sgn * R e_k) with box I.
-
-    ``faces`` holds the bodies' imperfections (face_offset, arris, imperfect: dem.engine's
-    Model); rb, ib are the indices of R and I in it.  Writes the points (world coordinates,
-    midway through the overlap) to (px, py, pz), their depth (m) to dep and weight (m^2) to w,
-    and returns (n, npts, s, centroid): n points from R to I; the polygon vertex behind point q
-    is centroid + (p_q - centroid) / s.  ``warped`` (compile time): whether the kernel handles
-    imperfect faces at all; without it this is the perfect model's code alone.  With it, pairs
-    of perfect faces still take the perfect code and imperfect ones :func:`warped_patch`.
-    """
+def face_frame(pR, RR, hR, k, sgn):
+    """The reference face k of box R with outward normal sgn * R e_k: returns (n, u1, u2, c),
+    its normal, the in-plane axes R e_(k+1), R e_(k+2) and its centre (m)."""
     k1 = (k + 1) % 3
     k2 = (k + 2) % 3
     n = sgn * vec3(RR[0, k], RR[1, k], RR[2, k])
     u1 = vec3(RR[0, k1], RR[1, k1], RR[2, k1])
     u2 = vec3(RR[0, k2], RR[1, k2], RR[2, k2])
-    e1 = hR[k1]
-    e2 = hR[k2]
     c = pR + n * hR[k]
-    # incident face of I: most anti-parallel to n
+    return n, u1, u2, c
+
+
+@ti.func
+def incident_face(n, RI, hI):
+    """The face of box I most anti-parallel to n: returns (m, sm, nI, b1, b2), its axis m, the
+    sign sm of its outward normal nI = sm RI e_m (towards R) and its half-edge vectors
+    b1 = hI[m+1] RI e_(m+1), b2 = hI[m+2] RI e_(m+2) (m)."""
     dots = RI.transpose() @ n
     m = 0
     if ti.abs(dots[1]) > ti.abs(dots[m]):
@@ -346,15 +341,66 @@ def face_contact(pR, RR, hR, k, sgn, pI, RI, hI, faces: ti.template(), warped: t
     sm = 1.0
     if dots[m] > 0.0:
         sm = -1.0
-    nI = sm * bm  # incident face outward normal (towards R)
+    nI = sm * bm
     m1 = (m + 1) % 3
     m2 = (m + 2) % 3
     b1 = vec3(RI[0, m1], RI[1, m1], RI[2, m1]) * hI[m1]
     b2 = vec3(RI[0, m2], RI[1, m2], RI[2, m2]) * hI[m2]
+    return m, sm, nI, b1, b2
+
+
+@ti.func
+def incident_corners(c, u1, u2, ci, b1, b2, xs: ti.template(), ys: ti.template()):
+    """The incident face's corners ci +- b1 +- b2 projected on the reference face plane, in its
+    coordinates (m, along u1, u2 from its centre c): written to xs[0:4], ys[0:4]."""
+    for q in ti.static(range(4)):
+        s1 = 1.0 if q == 0 or q == 3 else -1.0
+        s2 = 1.0 if q < 2 else -1.0
+        v = ci + s1 * b1 + s2 * b2 - c
+        xs[q] = v.dot(u1)
+        ys[q] = v.dot(u2)
+
+
+@ti.func
+def affine_gap(c, u1, u2, n, nI, ci):
+    """Penetration of the incident face plane (through ci, outward normal nI) behind the
+    reference face plane (centre c, normal n) at the point c + x u1 + y u2:
+    d(x, y) = d0 + gx x + gy y = ((c + x u1 + y u2) - ci) . nI / (n . nI)  (m).
+    Returns (d0, gx, gy)."""
+    den = n.dot(nI)
+    d0 = (c - ci).dot(nI) / den
+    gx = u1.dot(nI) / den
+    gy = u2.dot(nI) / den
+    return d0, gx, gy
+
+
+@ti.func
+def face_contact(pR, RR, hR, k, sgn, pI, RI, hI, faces: ti.template(), warped: ti.template(),
+                 rb, ib, px: ti.template(), py: ti.template(), pz: ti.template(),
+                 dep: ti.template(), w: ti.template()):
+    """Contact patch of reference face k of box R (outward normal sgn * R e_k) with box I.
+
+    ``faces`` holds the bodies' imperfections (face_offset, arris, imperfect: dem.engine's
+    Model); rb, ib are the indices of R and I in it.  Writes the points (world coordinates,
+    midway through the overlap) to (px, py, pz), their depth (m) to dep and weight (m^2) to w,
+    and returns (n, npts, s, centroid, whole): n points from R to I; the polygon vertex behind
+    point q is centroid + (p_q - centroid) / s; whole = 1 if the patch is the whole overlap of
+    two flat faces (the gap clip d >= 0 cut nothing: the faces bear everywhere), else 0.  ``warped`` (compile time): whether the kernel handles
+    imperfect faces at all; without it this is the perfect model's code alone.  With it, pairs
+    of perfect faces still take the perfect code and imperfect ones :func:`warped_patch`.
+    """
+    k1 = (k + 1) % 3
+    k2 = (k + 2) % 3
+    n, u1, u2, c = face_frame(pR, RR, hR, k, sgn)
+    e1 = hR[k1]
+    e2 = hR[k2]
+    m, sm, nI, b1, b2 = incident_face(n, RI, hI)
     imperfect = 0
     if ti.static(warped):
         imperfect = faces.imperfect[rb] + faces.imperfect[ib]
         if imperfect > 0:  # the patch inset by the arrises (module docstring, 5)
+            m1 = (m + 1) % 3
+            m2 = (m + 2) % 3
             e1 -= faces.arris[rb]
             e2 -= faces.arris[rb]
             b1 = vec3(RI[0, m1], RI[1, m1], RI[2, m1]) * (hI[m1] - faces.arris[ib])
@@ -364,24 +410,16 @@ def face_contact(pR, RR, hR, k, sgn, pI, RI, hI, faces: ti.template(), warped: t
     ys = point_buffer()
     xt = point_buffer()  # second pair of buffers for the clipping passes
     yt = point_buffer()
-    for q in ti.static(range(4)):
-        s1 = 1.0 if q == 0 or q == 3 else -1.0
-        s2 = 1.0 if q < 2 else -1.0
-        v = ci + s1 * b1 + s2 * b2 - c
-        xs[q] = v.dot(u1)
-        ys[q] = v.dot(u2)
+    incident_corners(c, u1, u2, ci, b1, b2, xs, ys)
     npoly = clip_halfplane(xs, ys, 4, 1.0, 0.0, e1, xt, yt)
     npoly = clip_halfplane(xt, yt, npoly, -1.0, 0.0, e1, xs, ys)
     npoly = clip_halfplane(xs, ys, npoly, 0.0, 1.0, e2, xt, yt)
     npoly = clip_halfplane(xt, yt, npoly, 0.0, -1.0, e2, xs, ys)
-    # gap (penetration) d(x, y) = ((c + x u1 + y u2) - ci) . nI / (n . nI), affine in (x, y)
-    den = n.dot(nI)
-    d0 = (c - ci).dot(nI) / den
-    gx = u1.dot(nI) / den
-    gy = u2.dot(nI) / den
+    d0, gx, gy = affine_gap(c, u1, u2, n, nI, ci)
     npts = 0
     shrink = 1.0
     centroid = vec3(0.0)
+    whole = 0
     if ti.static(warped):
         if imperfect > 0:
             npts, shrink, centroid = warped_patch(
@@ -389,12 +427,12 @@ def face_contact(pR, RR, hR, k, sgn, pI, RI, hI, faces: ti.template(), warped: t
                 RI, hI, m, faces.face_offset[ib, face_index(m, sm)], d0, gx, gy, npoly, xs, ys,
                 xt, yt, px, py, pz, dep, w)
         else:
-            npts, shrink, centroid = flat_patch(c, n, u1, u2, d0, gx, gy, npoly, xs, ys, xt, yt,
-                                                px, py, pz, dep, w)
+            npts, shrink, centroid, whole = flat_patch(c, n, u1, u2, d0, gx, gy, npoly, xs, ys,
+                                                       xt, yt, px, py, pz, dep, w)
     else:
-        npts, shrink, centroid = flat_patch(c, n, u1, u2, d0, gx, gy, npoly, xs, ys, xt, yt, px,
-                                            py, pz, dep, w)
-    return n, npts, shrink, centroid
+        npts, shrink, centroid, whole = flat_patch(c, n, u1, u2, d0, gx, gy, npoly, xs, ys, xt,
+                                                   yt, px, py, pz, dep, w)
+    return n, npts, shrink, centroid, whole
 
 
 @ti.func
@@ -402,7 +440,11 @@ def flat_patch(c, n, u1, u2, d0, gx, gy, npoly, xs: ti.template(), ys: ti.templa
                xt: ti.template(), yt: ti.template(), px: ti.template(), py: ti.template(),
                pz: ti.template(), dep: ti.template(), w: ti.template()):
     """The last clip (d >= 0, d affine), quadrature and points of :func:`face_contact` for flat
-    faces.  Returns (npts, shrink, centroid) as face_contact."""
+    faces.  Returns (npts, shrink, centroid, whole) as face_contact."""
+    whole = 1  # the last clip cuts nothing when every vertex bears (dem.engine.coherence)
+    for q in range(npoly):
+        if d0 + gx * xs[q] + gy * ys[q] <= 0.0:
+            whole = 0
     npoly = clip_halfplane(xs, ys, npoly, -gx, -gy, d0, xt, yt)
     area, shrink, gcx, gcy = polygon_quadrature(xt, yt, npoly, w)
     dc = ti.max(d0 + gx * gcx + gy * gcy, 0.0)
@@ -410,14 +452,23 @@ def flat_patch(c, n, u1, u2, d0, gx, gy, npoly, xs: ti.template(), ys: ti.templa
     npts = 0
     if area > 0.0:
         npts = ti.min(npoly, MAXP)
-        for q in range(npts):
-            dq = ti.max(d0 + gx * xt[q] + gy * yt[q], 0.0)
-            p = c + xt[q] * u1 + yt[q] * u2 - 0.5 * dq * n
-            px[q] = p[0]
-            py[q] = p[1]
-            pz[q] = p[2]
-            dep[q] = dq
-    return npts, shrink, centroid
+        patch_points(c, n, u1, u2, d0, gx, gy, npts, xt, yt, px, py, pz, dep)
+    return npts, shrink, centroid, whole
+
+
+@ti.func
+def patch_points(c, n, u1, u2, d0, gx, gy, npts, xs: ti.template(), ys: ti.template(),
+                 px: ti.template(), py: ti.template(), pz: ti.template(), dep: ti.template()):
+    """The points of a flat patch whose quadrature points are (xs, ys) in the reference face's
+    coordinates: depth d = max(d0 + gx x + gy y, 0) (m) and position c + x u1 + y u2 - d n / 2,
+    midway through the overlap (table frame, m)."""
+    for q in range(npts):
+        dq = ti.max(d0 + gx * xs[q] + gy * ys[q], 0.0)
+        p = c + xs[q] * u1 + ys[q] * u2 - 0.5 * dq * n
+        px[q] = p[0]
+        py[q] = p[1]
+        pz[q] = p[2]
+        dep[q] = dq
 
 
 @ti.func
@@ -549,8 +600,9 @@ def box_contact(pA, RA, hA, pB, RB, hB, prev_code, margin, edge_area, faces: ti.
     read only if ``warped``, a compile-time flag: see :func:`face_contact`).
 
     Writes the points, depths and weights to the buffers (px, py, pz, dep, w: point buffers, zero beyond
-    the points) and returns (code, n, npts, shrink, centroid); n points from A to B whatever
-    the reference face; see :func:`face_contact` for shrink and centroid.
+    the points) and returns (code, n, npts, shrink, centroid, whole); n points from A to B
+    whatever the reference face; see :func:`face_contact` for shrink, centroid and whole (0 for
+    edge contacts and warped faces).
     """
     ov = sat_overlaps(pA, RA, hA, pB, RB, hB)
     # the overlaps are those of the nominal boxes: a block resting on recessed (warped) faces
@@ -571,6 +623,7 @@ def box_contact(pA, RA, hA, pB, RB, hB, prev_code, margin, edge_area, faces: ti.
     npts = 0
     shrink = 1.0
     centroid = vec3(0.0)
+    whole = 0
     if code >= 0 and code < 6:
         # reference box R (owner of the face), incident box I
         pR = pA
@@ -594,12 +647,12 @@ def box_contact(pA, RA, hA, pB, RB, hB, prev_code, margin, edge_area, faces: ti.
         sg = 1.0
         if (pI - pR).dot(vec3(RR[0, k], RR[1, k], RR[2, k])) < 0.0:
             sg = -1.0
-        n, npts, shrink, centroid = face_contact(pR, RR, hR, k, sg, pI, RI, hI, faces, warped,
-                                                 rb, ib, px, py, pz, dep, w)
+        n, npts, shrink, centroid, whole = face_contact(pR, RR, hR, k, sg, pI, RI, hI, faces,
+                                                        warped, rb, ib, px, py, pz, dep, w)
         if code >= 3:
             n = -n
     elif code >= 6:
         n, npts, shrink, centroid = edge_contact(
             pA, RA, hA, pB, RB, hB, (code - 6) // 3, (code - 6) % 3, ov[code], edge_area, px,
             py, pz, dep, w)
-    return code, n, npts, shrink, centroid
+    return code, n, npts, shrink, centroid, whole

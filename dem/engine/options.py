@@ -44,6 +44,8 @@ class StepOptions:
     mode                "auto" | "serial" | "parallel" kernel
     threads             CPU threads, or None: all
     precision           "f64" | "f32"
+    patch_reuse         largest in-plane drift of a kept contact patch, m; 0 = off
+                        (dem.engine.coherence)
     """
 
     dt: float | None
@@ -56,3 +58,4 @@ class StepOptions:
     mode: Literal["auto", "serial", "parallel"]
     threads: int | None
     precision: Literal["f64", "f32"]
+    patch_reuse: float = 0.0

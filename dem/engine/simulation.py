@@ -79,7 +79,8 @@ class Simulation:
             threads = ti_runtime.settings()["threads"] or os.cpu_count() or 1
             self.mode = ("parallel" if self.model.n_bodies >= parallel_min_bodies(threads)
                          else "serial")
-        self.control = Control(self.skin, options.max_speed, options.local_damping)
+        self.control = Control(self.skin, options.max_speed, options.local_damping,
+                               options.patch_reuse)
         t0 = time.perf_counter()
         self._warm_up()
         self.compile_seconds = time.perf_counter() - t0

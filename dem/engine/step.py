@@ -43,7 +43,7 @@ Integrator (symplectic Euler with an exact-angular-momentum rotation splitting):
 
 import taichi as ti
 
-from dem.engine import geometry, laws
+from dem.engine import coherence, geometry, laws
 from dem.engine.containers import (NONFINITE, REBUILD, RUNAWAY, ContactArgs, ControlArgs,
                                    ModelArgs, StateArgs)
 from dem.engine.geometry import point_buffer
@@ -53,18 +53,37 @@ from dem.engine.pair import pair_properties
 
 @ti.func
 def narrow_phase(p, i, j, model: ti.template(), state: ti.template(), contacts: ti.template(),
-                 warped: ti.template(), px: ti.template(), py: ti.template(),
+                 control: ti.template(), warped: ti.template(), px: ti.template(), py: ti.template(),
                  pz: ti.template(), dep: ti.template(), w: ti.template()):
     """Contact patch of pair p = (i, j) into the point buffers (see geometry.box_contact);
-    keeps the sticky axis in contacts.code.  Returns (n, npts, shrink, centroid)."""
-    hA = model.half[i]
-    hB = model.half[j]
-    hmin = ti.min(hA.min(), hB.min())
-    code, n, npts, shrink, centroid = geometry.box_contact(
-        state.pos[i], state.rot[i], hA, state.pos[j], state.rot[j], hB, contacts.code[p],
-        1e-3 * hmin, hmin * hmin, model, warped, i, j, px, py, pz, dep, w)
-    if code >= 0:
-        contacts.code[p] = code
+    keeps the sticky axis in contacts.code.  Returns (n, npts, shrink, centroid).  With
+    control.patch_tolerance > 0 a closed flat patch of the last steps is reused while the poses
+    allow it (dem.engine.coherence), and a full narrow phase keeps its patch for that."""
+    reused = 0
+    n = vec3(0.0, 0.0, 1.0)
+    npts = 0
+    shrink = 1.0
+    centroid = vec3(0.0)
+    tol = control.patch_tolerance[0]
+    if ti.static(not warped):  # patch reuse: perfect faces only (dem.engine.coherence)
+        if tol > 0.0:
+            reused, n, npts, shrink, centroid = coherence.reuse_patch(
+                p, i, j, tol, model, state, contacts, px, py, pz, dep, w)
+    if reused == 0:
+        hA = model.half[i]
+        hB = model.half[j]
+        hmin = ti.min(hA.min(), hB.min())
+        code = 0
+        whole = 0
+        code, n, npts, shrink, centroid, whole = geometry.box_contact(
+            state.pos[i], state.rot[i], hA, state.pos[j], state.rot[j], hB, contacts.code[p],
+            1e-3 * hmin, hmin * hmin, model, warped, i, j, px, py, pz, dep, w)
+        if code >= 0:
+            contacts.code[p] = code
+        if ti.static(not warped):
+            if tol > 0.0:
+                coherence.store_patch(p, i, j, code, whole, npts, shrink, centroid, model,
+                                      state, contacts, px, py, pz, w)
     return n, npts, shrink, centroid
 
 
@@ -125,8 +144,8 @@ def contact_stage(p, dt, model: ti.template(), state: ti.template(), contacts: t
     pz = point_buffer()
     dep = point_buffer()
     w = point_buffer()
-    n, npts, shrink, centroid = narrow_phase(p, i, j, model, state, contacts, warped, px, py,
-                                             pz, dep, w)
+    n, npts, shrink, centroid = narrow_phase(p, i, j, model, state, contacts, control, warped,
+                                             px, py, pz, dep, w)
     lx = point_buffer()
     ly = point_buffer()
     lz = point_buffer()
@@ -433,7 +452,7 @@ def probe_pair(p, out_depth: ti.template(), out_area: ti.template(), model: ti.t
     pz = point_buffer()
     dep = point_buffer()
     w = point_buffer()
-    _axis, _normal, n_points, _shrink, _centroid = geometry.box_contact(
+    _axis, _normal, n_points, _shrink, _centroid, _whole = geometry.box_contact(
         state.pos[i], state.rot[i], hA, state.pos[j], state.rot[j], hB, -1, 1e-3 * hmin,
         hmin * hmin, model, warped, i, j, px, py, pz, dep, w)
     dmax = 0.0

@@ -1,0 +1,168 @@
+"""Patch reuse: temporal coherence of the narrow phase for closed flat face contacts.
+
+A brick joint that stays closed keeps the same contact polygon from step to step: the polygon is
+the intersection of the reference face rectangle with the incident face projected on it
+(dem.engine.geometry, module docstring 2-3), and it only changes when the two faces move *in
+their plane* relative to each other (sliding, twisting).  The penetration over it, the affine
+gap d(x, y) = d0 + gx x + gy y, changes with every nanometre of normal motion, and that is what
+the joint law needs exactly.
+
+So after a full narrow phase of a flat face-face pair whose patch is *closed* (the last clip,
+d >= 0, cut nothing, and every polygon vertex bears at least ``CLOSED_RATIO`` of the deepest
+vertex's depth), :func:`store_patch` keeps in Contacts:
+  * the quadrature points (x, y) in the reference face's coordinates and their weights w, the
+    area centroid and the shrink factor (patch_point, patch_shape[p, 0]);
+  * the incident face's four corners projected on the reference face plane (patch_shape[p, 1:3]).
+(Two fields, not four: Taichi 1.7.4 takes at most 64 argument elements per kernel on x64.)
+
+At the next steps :func:`reuse_patch` recomputes only the reference frame, the incident face,
+its projected corners and the affine gap from the current poses (the first, cheap lines of
+geometry.face_contact), and takes the kept points if
+  1. no projected corner moved more than ``tol`` (m) in the reference face plane since the patch
+     was stored: the kept polygon is then within tol of the true one (Hausdorff distance; the
+     polygon is the intersection of the reference rectangle with the corners' quadrilateral),
+     so its area, centroid and second moments err by O(tol / brick size); and
+  2. every kept vertex is still at least CLOSED_RATIO of the deepest one's depth under the
+     *current* gap: the last clip would still cut nothing.
+The depths and the points' positions are then those of the full narrow phase at the kept
+(x, y) (geometry.patch_points: the same lines); the separating-axis test is skipped too, so the
+sticky axis cannot change while a patch is reused (it changes only when another axis beats it
+by 1e-3 of the smallest half extent; tol is far below that).  Otherwise the full narrow phase
+runs, and stores the patch again if it is closed.
+
+Off when tol = 0 (``solver.patch_reuse``), the default; perfect faces only (the warped kernels
+never reuse).  Its speed and its error on the thesis' cases: benchmarks/speed_error.md.
+"""
+
+import taichi as ti
+
+from dem.engine import geometry
+from dem.engine.geometry import point_buffer
+from dem.engine.mathutil import vec3, vec4
+
+CLOSED_RATIO = 1e-3  # a patch is closed when its shallowest vertex is this fraction of its deepest
+
+
+@ti.func
+def reference_and_incident(code, i, j, model: ti.template(), state: ti.template()):
+    """For a face code (0-5, geometry.box_contact), the reference face frame (n from R to I,
+    u1, u2, c), the incident face (nI, b1, b2, ci), and whether n must be flipped to point from
+    i to j (code >= 3: body j owns the face), from the current poses."""
+    rb = i
+    ib = j
+    if code >= 3:
+        rb = j
+        ib = i
+    pR = state.pos[rb]
+    RR = state.rot[rb]
+    hR = model.half[rb]
+    pI = state.pos[ib]
+    RI = state.rot[ib]
+    hI = model.half[ib]
+    k = code % 3
+    sg = 1.0
+    if (pI - pR).dot(vec3(RR[0, k], RR[1, k], RR[2, k])) < 0.0:
+        sg = -1.0
+    n, u1, u2, c = geometry.face_frame(pR, RR, hR, k, sg)
+    m, _sm, nI, b1, b2 = geometry.incident_face(n, RI, hI)
+    ci = pI + nI * hI[m]
+    return n, u1, u2, c, nI, b1, b2, ci
+
+
+@ti.func
+def closed(d0, gx, gy, gcx, gcy, inv_shrink, npts, xs: ti.template(), ys: ti.template()):
+    """Whether every polygon vertex behind the quadrature points (xs, ys) (vertex =
+    centroid + (point - centroid) / shrink) has a depth d0 + gx x + gy y of at least
+    CLOSED_RATIO of the deepest vertex's, the deepest being > 0."""
+    dmin = 1e300
+    dmax = -1e300
+    for q in range(npts):
+        x = gcx + (xs[q] - gcx) * inv_shrink
+        y = gcy + (ys[q] - gcy) * inv_shrink
+        d = d0 + gx * x + gy * y
+        dmin = ti.min(dmin, d)
+        dmax = ti.max(dmax, d)
+    ok = 0
+    if dmax > 0.0 and dmin >= CLOSED_RATIO * dmax:
+        ok = 1
+    return ok
+
+
+@ti.func
+def store_patch(p, i, j, code, whole, npts, shrink, centroid, model: ti.template(),
+                state: ti.template(), contacts: ti.template(), px: ti.template(),
+                py: ti.template(), pz: ti.template(), w: ti.template()):
+    """After a full narrow phase of pair p: keep its patch for reuse if it is a closed flat
+    face patch (``whole`` from geometry.box_contact: the gap clip cut nothing, and the
+    shallowest vertex bears CLOSED_RATIO of the deepest), else mark it not reusable.  The
+    points' coordinates in the reference face are recovered from their table-frame positions
+    (exact up to round-off)."""
+    contacts.patch_shape[p, 0][3] = 0.0
+    if whole != 0 and code >= 0 and code < 6 and npts >= 3:
+        n, u1, u2, c, nI, b1, b2, ci = reference_and_incident(code, i, j, model, state)
+        xs = point_buffer()
+        ys = point_buffer()
+        for q in range(npts):
+            r = vec3(px[q], py[q], pz[q]) - c
+            xs[q] = r.dot(u1)
+            ys[q] = r.dot(u2)
+        gcx = (centroid - c).dot(u1)
+        gcy = (centroid - c).dot(u2)
+        d0, gx, gy = geometry.affine_gap(c, u1, u2, n, nI, ci)
+        if closed(d0, gx, gy, gcx, gcy, 1.0 / shrink, npts, xs, ys) != 0:
+            for q in range(npts):
+                contacts.patch_point[p, q] = vec3(xs[q], ys[q], w[q])
+            cx = point_buffer()
+            cy = point_buffer()
+            geometry.incident_corners(c, u1, u2, ci, b1, b2, cx, cy)
+            contacts.patch_shape[p, 0] = vec4(gcx, gcy, shrink, npts)
+            contacts.patch_shape[p, 1] = vec4(cx[0], cx[1], cx[2], cx[3])
+            contacts.patch_shape[p, 2] = vec4(cy[0], cy[1], cy[2], cy[3])
+
+
+@ti.func
+def reuse_patch(p, i, j, tol, model: ti.template(), state: ti.template(),
+                contacts: ti.template(), px: ti.template(), py: ti.template(),
+                pz: ti.template(), dep: ti.template(), w: ti.template()):
+    """Pair p's kept patch at the current poses, if it may be reused (module docstring):
+    writes the point buffers as geometry.box_contact does and returns
+    (reused, n, npts, shrink, centroid); reused = 0 leaves the buffers untouched."""
+    reused = 0
+    n_out = vec3(0.0, 0.0, 1.0)
+    npts = 0
+    shrink = 1.0
+    centroid = vec3(0.0)
+    code = contacts.code[p]
+    shape = contacts.patch_shape[p, 0]
+    n_kept = ti.cast(shape[3], ti.i32)
+    if n_kept > 0 and code >= 0 and code < 6:
+        n, u1, u2, c, nI, b1, b2, ci = reference_and_incident(code, i, j, model, state)
+        cx = point_buffer()
+        cy = point_buffer()
+        geometry.incident_corners(c, u1, u2, ci, b1, b2, cx, cy)
+        kx = contacts.patch_shape[p, 1]
+        ky = contacts.patch_shape[p, 2]
+        drift = 0.0
+        for q in ti.static(range(4)):
+            drift = ti.max(drift, ti.max(ti.abs(cx[q] - kx[q]), ti.abs(cy[q] - ky[q])))
+        if drift <= tol:
+            xs = point_buffer()
+            ys = point_buffer()
+            for q in range(n_kept):
+                k = contacts.patch_point[p, q]
+                xs[q] = k[0]
+                ys[q] = k[1]
+            d0, gx, gy = geometry.affine_gap(c, u1, u2, n, nI, ci)
+            if closed(d0, gx, gy, shape[0], shape[1], 1.0 / shape[2], n_kept, xs, ys) != 0:
+                reused = 1
+                npts = n_kept
+                shrink = shape[2]
+                geometry.patch_points(c, n, u1, u2, d0, gx, gy, npts, xs, ys, px, py, pz, dep)
+                for q in range(npts):
+                    w[q] = contacts.patch_point[p, q][2]
+                dc = ti.max(d0 + gx * shape[0] + gy * shape[1], 0.0)
+                centroid = c + shape[0] * u1 + shape[1] * u2 - 0.5 * dc * n
+                n_out = n
+                if code >= 3:
+                    n_out = -n
+    return reused, n_out, npts, shrink, centroid
