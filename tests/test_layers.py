@@ -25,7 +25,8 @@ LAYERS = [
     ("run loop", ("dem.run", "dem.batch", "dem.validate", "dem.rocking")),
     ("analysis", ("postprocess",)),
     ("commands and studies", ("dem.commands", "dem.cli", "studies", "postprocess.tilt_study",
-                              "postprocess.shake_study", "postprocess.rocking_report",
+                              "postprocess.shake_study", "postprocess.calibration_study",
+                              "postprocess.rocking_report",
                               "postprocess.rocking_vs_dem_sweep")),
 ]
 
