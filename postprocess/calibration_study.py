@@ -130,15 +130,18 @@ def _cost_order() -> dict[str, float]:
 
 
 def specimens() -> dict[str, dict]:
-    """The calibration specimens, cheapest first: name ("ip-small-5x5", "oop-small-...") ->
-    {path, kind ("in-plane" / "out-of-plane"), l_over_h, n_blocks estimate}."""
+    """The calibration specimens: name ("ip-small-5x5", "oop-small-...") -> {path, kind
+    ("in-plane" / "out-of-plane"), l_over_h}.  Order: the L = 5 in-plane series first (the
+    invariants, which decide whether a candidate is admissible at all), then the others; each
+    group cheapest first."""
     found = {}
     for kind, prefix in (("in-plane", "ip"), ("out-of-plane", "oop")):
         for f in sorted((TILT / kind).glob("small-*.yaml")):
             case = load_case(f)
             found[f"{prefix}-{f.stem}"] = {"path": f, "kind": kind, "l_over_h": _l_over_h(case)}
     cost = _cost_order()
-    order = sorted(found, key=lambda n: (cost.get(n, float("inf")), n))
+    order = sorted(found, key=lambda n: (not n.startswith("ip-small-5x"),
+                                         cost.get(n, float("inf")), n))
     return {n: found[n] for n in order}
 
 
@@ -348,7 +351,9 @@ def point_summary(data: dict | None) -> dict:
            "n_failed": agg.get("n_failed", 0), "cpu_seconds": cal.get("cpu_seconds"),
            "deterministic": cal.get("deterministic", False), "l_over_h": cal.get("l_over_h"),
            "kind": cal.get("kind"), "friction": cal.get("friction"),
-           "smoke": cal.get("max_steps") is not None}
+           "smoke": cal.get("max_steps") is not None,
+           "commit": (cal.get("source") or {}).get("commit"),
+           "dirty": (cal.get("source") or {}).get("dirty")}
     if out["status"] != "finished":
         return out
     lam = (agg.get("statistics") or {}).get("lambda") or {}
@@ -536,7 +541,8 @@ def famive_comparison(points: dict) -> list[dict]:
         if _finished(p) and p.get("lambda_median") is not None:
             row.update({"median": p["lambda_median"],
                         "relative_difference": p["lambda_median"] / FAMIVE[key] - 1.0,
-                        "in_band": p["lambda_q10"] <= FAMIVE[key] <= p["lambda_q90"]})
+                        "in_band": None if p.get("deterministic") else
+                        p["lambda_q10"] <= FAMIVE[key] <= p["lambda_q90"]})
         else:
             row["status"] = "pending"
         rows.append(row)
@@ -632,9 +638,9 @@ def report(out: Path, candidates: dict, specs: dict, n: int, command: str) -> di
     for c, params in candidates.items():
         pts, sc = points[c], scores[c]
         L += [f"## {c}", "", "`" + json.dumps(params) + "`", "",
-              "| specimen | L/H | done | median lambda | 10-90 % | mechanisms | median "
-              "overturning fraction | CPU s | CPU s / realisation |",
-              "|---|---|---|---|---|---|---|---|---|"]
+              "| specimen | L/H | done | median lambda | vs perfect | 10-90 % | mechanisms | "
+              "median overturning fraction | CPU s | CPU s / realisation |",
+              "|---|---|---|---|---|---|---|---|---|---|"]
         for s in specs:
             p = pts[s]
             done = f"{p.get('n_ok', 0)}/{p.get('n_realisations') or '-'}"
@@ -648,13 +654,17 @@ def report(out: Path, candidates: dict, specs: dict, n: int, command: str) -> di
                 mech = ", ".join(mech) or "-"
                 if p.get("smoke"):
                     done += " (smoke: steps capped)"
+                ref = points.get("perfect", {}).get(s, {})
+                vs = (f"{100 * (p['lambda_median'] / ref['lambda_median'] - 1):+.1f} %"
+                      if c != "perfect" and _finished(ref) and ref.get("lambda_median")
+                      and p.get("lambda_median") is not None else "-")
                 L.append(f"| {s} | {_fmt(p.get('l_over_h'), 2)} | {done} | "
-                         f"{_fmt(p.get('lambda_median'), 4)} | {band} | {mech} | "
+                         f"{_fmt(p.get('lambda_median'), 4)} | {vs} | {band} | {mech} | "
                          f"{_fmt(p.get('overturning_fraction_median'), 2)} | "
                          f"{_fmt(cpu_s, 0)} | {_fmt(per, 0)} |")
             else:
-                L.append(f"| {s} | {_fmt(p.get('l_over_h'), 2)} | {done} | pending | pending "
-                         f"| pending | pending | {_fmt(cpu_s, 0)} | - |")
+                L.append(f"| {s} | {_fmt(p.get('l_over_h'), 2)} | {done} | pending | - | "
+                         f"pending | pending | pending | {_fmt(cpu_s, 0)} | - |")
         L += ["", "| check | kind | status | detail |", "|---|---|---|---|"]
         for k, v in sc["invariants"].items():
             L.append(f"| {k} | invariant | {v['status']} | {_detail(k, v)} |")
@@ -663,9 +673,16 @@ def report(out: Path, candidates: dict, specs: dict, n: int, command: str) -> di
         fam = "; ".join(
             f"L/H {r['l_over_h']}: FaMIVE {r['famive']}, DEM "
             + (f"{r['median']:.3f} ({100 * r['relative_difference']:+.0f} %, "
-               f"{'in' if r['in_band'] else 'outside'} the band)" if "median" in r else "pending")
+               + ("deterministic" if r["in_band"] is None else
+                  f"{'in' if r['in_band'] else 'outside'} the band") + ")"
+               if "median" in r else "pending")
             for r in sc["famive"])
         L += [f"| famive | thesis, MODEL values, not scored | - | {fam or '-'} |", ""]
+    commits = sorted({(p.get("commit"), p.get("dirty")) for c in points
+                      for p in points[c].values() if p.get("commit")})
+    L += ["## Code", "", "The points were computed by commit(s) " + (", ".join(
+        f"{c[:7]}" + (" (with uncommitted changes in dem/, postprocess/ or cases/)" if d else "")
+        for c, d in commits) or "-") + " (each point file's `calibration.source`).", ""]
     L += ["## CPU", "",
           f"CPU so far: {cpu:.0f} s ({cpu / 3600:.2f} h) over the finished and partial points."]
     per = est["cpu_seconds_per_realisation"]
