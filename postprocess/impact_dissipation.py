@@ -458,6 +458,9 @@ def run_portion(root: Path, free: str = "upper", start: str = "tilt", side_walls
     watch = np.array(sorted(set(fr.tolist()) | set(ups.tolist()) | set(lows.tolist())))
     q_up = sc.quat[watch].copy()
     w0 = release_rate(props, th_max)
+    # the far edge of the seat: the innermost bottom edge of the free bricks, upright (the
+    # side-wall bricks reach 105-158 mm inside the facade's outer face)
+    b_far = float((sc.position[fr, 1] + sc.size[fr, 1] / 2).max()) - props["y_outer_m"]
     if start == "tilt":
         tilt_portion(sc, fr, pivot, th_max)
     else:
@@ -487,11 +490,16 @@ def run_portion(root: Path, free: str = "upper", start: str = "tilt", side_walls
     ci, zi = props["pivot_inner_cz_m"]
     r_out_in = rigid_impact_r(props["mass_kg"], props["I_G_kg_m2"], c, z, b)   # outer -> inner
     r_in_out = rigid_impact_r(props["mass_kg"], props["I_G_kg_m2"], ci, zi, b)
+    # the far edge of the seat: the innermost bottom edge of the free bricks (the side-wall
+    # bricks reach 105-158 mm inside the facade's outer face)
     return {"start": start, "damping": sim.joints.damping, "dt_s": sim.dt, **props,
             "alpha_eq_rad": alpha, "theta0_rad": th_max, "release_fraction_of_alpha": frac,
             "omega0_rad_s": w0 if start == "kick" else 0.0,
             "housner_r_outer_to_inner": r_out_in, "housner_r_inner_to_outer": r_in_out,
             "housner_r_uniform_block": housner_r_block(b, props["height_m"]),
+            "housner_r_facade_edges_mean": math.sqrt(max(r_out_in, 0.0) * max(r_in_out, 0.0)),
+            "seat_width_far_m": b_far,
+            "housner_r_far_edge": rigid_impact_r(props["mass_kg"], props["I_G_kg_m2"], c, z, b_far),
             "housner_first_amplitude_ratio": amplitude_after_impact(th_max, r_out_in, c, z, ci, zi)
             / th_max,
             **ratios, "t_peaks_s": tp.tolist(),
@@ -590,7 +598,9 @@ def _strip(d):
     if isinstance(d, list):
         return [_strip(v) for v in d]
     if isinstance(d, (np.floating, np.integer)):
-        return d.item()
+        d = d.item()
+    if isinstance(d, float) and math.isfinite(d) and d != 0.0:
+        return float(f"{d:.6g}")
     return d
 
 
@@ -687,12 +697,114 @@ def plot_histories(hist: dict, summary: dict, path: Path) -> None:
     plt.close(fig)
 
 
+def markdown_tables(summary: dict) -> str:
+    """The README's tables from summary.json (printed by ``--tables``)."""
+    f3 = lambda x: "-" if x is None else f"{x:.3f}"  # noqa: E731
+    lst = lambda xs, n=6: ", ".join(f"{x:.3f}" for x in xs[:n]) or "-"  # noqa: E731
+    out = []
+    a = summary.get("a_blocks", {})
+    if a:
+        out += ["| body | b/h | release (rad) | Housner r | Housner A1/A0 | DEM A_{k+1}/A_k | DEM r_eq "
+                "(mean) | DEM omega+/omega- (mean) | CPU (s) |", "|---|---|---|---|---|---|---|---|---|"]
+        for k, v in a.items():
+            bh = v.get("b_over_h", 0.05 / 0.28)
+            out.append(f"| {k} | {bh:.3f} | {v['theta0_rad']:.4f} | {f3(v['housner_r'])} | "
+                       f"{f3(v['housner_first_amplitude_ratio'])} | {lst(v['amplitude_ratio'])} | "
+                       f"{f3(v['mean_r_eq'])} | {f3(v.get('mean_omega_ratio'))} | {v['cpu_s']:.1f} |")
+        out.append("")
+    b = summary.get("b_portion", {})
+    if b:
+        out += ["| DEM run | bricks, mass (kg) | c_out, z (mm) | release | Housner r, facade edges "
+                "(out-in, in-out; mean) | Housner r, far edge of the seat (width mm) | "
+                "DEM peaks (rad) | DEM A_{k+1}/A_k | DEM r (same side, mean) | max rotation "
+                "upper / lower (rad) | CPU (s) |",
+                "|---|---|---|---|---|---|---|---|---|---|---|"]
+        for k, v in b.items():
+            if k == "two_body_free":
+                continue
+            rel = (f"tilt {v['theta0_rad']:.3f} rad" if v["start"] == "tilt"
+                   else f"kick {v['omega0_rad_s']:.3f} rad/s (to {v['theta0_rad']:.3f} rad)")
+            c, z = v["pivot_outer_cz_m"]
+            lo = v["max_rotation_lower_rad"]
+            out.append(f"| {k} | {v['n_bricks']}, {v['mass_kg']:.2f} | {1e3 * c:.1f}, {1e3 * z:.1f} | "
+                       f"{rel} | {f3(v['housner_r_outer_to_inner'])}, "
+                       f"{f3(v['housner_r_inner_to_outer'])}; {f3(v['housner_r_facade_edges_mean'])} | "
+                       f"{f3(v['housner_r_far_edge'])} ({1e3 * v['seat_width_far_m']:.0f}) | "
+                       f"{lst(v['peaks_rad'])} | "
+                       f"{lst(v['amplitude_ratio'])} | {f3(v['mean_r_eq_same_side'])} | "
+                       f"{v['max_rotation_upper_rad']:.3f} / {'-' if lo is None else f'{lo:.4f}'} | "
+                       f"{v['cpu_s']:.1f} |")
+        out.append("")
+        tb = b.get("two_body_free", {})
+        if tb:
+            out += ["| two-body model (dem.rocking, plastic impacts) | start | locked-pair r | "
+                    "peaks (rad) | A_{k+1}/A_k | r_eq |", "|---|---|---|---|---|---|"]
+            for k, v in tb.items():
+                out.append(f"| {k.replace('|', ', ')} | {v['initial']} | {f3(v['housner_restitution_locked'])} | "
+                           f"{lst(v['peaks_rad'])} | {lst(v['amplitude_ratio'])} | {lst(v['r_eq'])} |")
+            out.append("")
+    c = summary.get("c_two_body", {})
+    if c:
+        laws = c["laws"]
+        out += ["| scenario (peak m/s2) | " + " | ".join(f"{k} (e = {v})" for k, v in laws.items()) + " |",
+                "|---|" + "---|" * len(laws)]
+        scen = sorted({k.split("|")[0] for k in c["runs"]}, key=lambda s: list(c["runs"]).index(s + "|housner"))
+        for sc in scen:
+            if all(r["max_abs_d_m"] == 0.0 for law in laws for r in c["runs"][f"{sc}|{law}"]):
+                fs = c["frequencies_hz"]
+                out.append(f"| {sc} {fs[0]:.1f}-{fs[-1]:.1f} Hz | " + " | ".join(["rest"] * len(laws))
+                           + " |")
+                continue
+            for i, f in enumerate(c["frequencies_hz"]):
+                cells = []
+                for law in laws:
+                    r = c["runs"][f"{sc}|{law}"][i]
+                    if r["status"] == "collapsed":
+                        cells.append(f"overturns {r['t_end_s']:.2f} s")
+                    elif r["max_abs_d_m"] == 0.0:
+                        cells.append("rest")
+                    else:
+                        cells.append(f"A = {r['amplification']:.2f} ({1e3 * r['steady_P_m']:+.1f} / "
+                                     f"{1e3 * r['steady_N_m']:+.1f} mm)")
+                out.append(f"| {sc} {f:.1f} Hz | " + " | ".join(cells) + " |")
+        out.append("")
+    d = summary.get("d_damping", {})
+    if d:
+        out += ["| zeta | point restitution e_n | block b/h = 50/280: A_{k+1}/A_k (mean), r_eq | "
+                "two-block stack: A_{k+1}/A_k (mean), r_eq | upper part, side walls: peaks | "
+                "upper part, no side walls: A_{k+1}/A_k |", "|---|---|---|---|---|---|"]
+        b50 = summary.get("b_portion", {})
+        for z in d["zetas"]:
+            k = str(z)
+            bl, st = d["block"][k], d["stack"][k]
+            up = d["upper"].get(k) or (b50.get("upper-tilt") if k == "0.5" else None)
+            un = d["upper-no-side-walls"].get(k) or (
+                b50.get("upper-tilt-no-side-walls") if k == "0.5" else None)
+            out.append(f"| {z} | {d['point_restitution'][k]:.3f} | {bl['mean_amplitude_ratio']:.4f}, "
+                       f"{bl['mean_r_eq']:.4f} | {st['mean_amplitude_ratio']:.4f}, {st['mean_r_eq']:.4f} | "
+                       f"{lst(up['peaks_rad'], 4) if up else '-'} | "
+                       f"{lst(un['amplitude_ratio'], 6) if un else '-'} |")
+        blk, stk = d["block"]["0.5"], d["stack"]["0.5"]
+        out.append(f"| Housner | - | {blk['housner_first_amplitude_ratio']:.4f}, {blk['housner_r']:.4f} | "
+                   f"{stk['housner_first_amplitude_ratio']:.4f}, {stk['housner_r']:.4f} | - | - |")
+        out.append("")
+    cpu = summary.get("cpu_s", {})
+    if cpu:
+        out += ["| part | CPU (s) |", "|---|---|"] + [f"| {k} | {v:.1f} |" for k, v in cpu.items()]
+    return "\n".join(out)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--out", default="results/prediction/impact-dissipation")
     ap.add_argument("--parts", default="abcd", help="which parts to run (a, b, c, d)")
     ap.add_argument("--portion-duration", type=float, default=1.2)
+    ap.add_argument("--tables", action="store_true",
+                    help="print the README's tables from OUT/summary.json and stop")
     args = ap.parse_args(argv)
+    if args.tables:
+        print(markdown_tables(json.loads((Path(args.out) / "summary.json").read_text())))
+        return None
     os.environ.setdefault("DEM_THREADS", "1")
     root = Path(__file__).resolve().parents[1]
     out = Path(args.out)
@@ -782,6 +894,7 @@ def main(argv=None):
             "co-moving-1.53": (two_body_params("table-5.1", 58.8, 0.81, "co-moving"), 1.53),
             "co-moving-1.98": (two_body_params("table-5.1", 58.8, 0.81, "co-moving"), 1.98),
             "no-load-1.84": (two_body_params("table-5.1"), 1.84),
+            "co-moving-4.0": (two_body_params("table-5.1", 58.8, 0.81, "co-moving"), 4.0),
         }
         res = {"laws": laws, "frequencies_hz": freqs, "cycles": 20, "runs": {}}
         for sname, (P, acc) in scenarios.items():
