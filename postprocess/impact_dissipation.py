@@ -5,9 +5,10 @@
 
 Runs (a) free rocking of single blocks, (b) the Model II y excited portion built of bricks,
 (c) the two-body model (dem.rocking) with Housner's impact law and with the DEM's measured
-restitution, (d) the dependence on the contact damping ratio, and writes summary.json, README.md
-and two plots under ``--out``.  Raw DEM histories are kept in memory only (nothing under the
-output folder but the summary, the report and the plots).
+restitution, (d) the dependence on the contact damping ratio (``--parts`` picks some; the others
+keep their entries of an existing summary.json), and writes summary.json and
+impact-dissipation.png under ``--out``; ``--tables`` prints the README's tables from it.  No run
+directories or frames: the rotation histories go to /tmp/impact_dissipation_histories.npz only.
 
 Closed forms (units SI: m, kg, s, rad; energies J)
 -------------------------------------------------
