@@ -605,6 +605,23 @@ def _strip(d):
     return d
 
 
+def compact_json(obj, indent: int = 0) -> str:
+    """JSON with every list of scalars and every dict of scalars on one line (the summary stays
+    readable and small)."""
+    flat = lambda o: all(not isinstance(v, (dict, list)) for v in  # noqa: E731
+                         (o.values() if isinstance(o, dict) else o))
+    pad, pad1 = " " * indent, " " * (indent + 1)
+    if isinstance(obj, (dict, list)) and (flat(obj) or not obj):
+        return json.dumps(obj)
+    if isinstance(obj, dict):
+        items = [f"{pad1}{json.dumps(k)}: {compact_json(v, indent + 1)}" for k, v in obj.items()]
+        return "{\n" + ",\n".join(items) + "\n" + pad + "}"
+    if isinstance(obj, list):
+        items = [pad1 + compact_json(v, indent + 1) for v in obj]
+        return "[\n" + ",\n".join(items) + "\n" + pad + "]"
+    return json.dumps(obj)
+
+
 def housner_sequence(theta0: float, r: float, c: float, z: float, n: int) -> np.ndarray:
     """Amplitudes (rad) of n half cycles of a rigid block with restitution r released from
     theta0 (symmetric pivots, G at (c, z) from each)."""
@@ -934,7 +951,7 @@ def main(argv=None):
         summary["d_damping"] = res
         cpu["d"] = time.process_time() - t0
 
-    summary_path.write_text(json.dumps(_strip(summary), indent=1))
+    summary_path.write_text(compact_json(_strip(summary)) + "\n")
     if set("abcd") <= set(args.parts):
         plot_histories(hist, summary, out / "impact-dissipation.png")
     np.savez_compressed("/tmp/impact_dissipation_histories.npz",
