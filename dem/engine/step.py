@@ -56,9 +56,10 @@ def narrow_phase(p, i, j, model: ti.template(), state: ti.template(), contacts: 
                  control: ti.template(), warped: ti.template(), px: ti.template(), py: ti.template(),
                  pz: ti.template(), dep: ti.template(), w: ti.template()):
     """Contact patch of pair p = (i, j) into the point buffers (see geometry.box_contact);
-    keeps the sticky axis in contacts.code.  Returns (n, npts, shrink, centroid).  With
-    control.patch_tolerance > 0 a closed flat patch of the last steps is reused while the poses
-    allow it (dem.engine.coherence), and a full narrow phase keeps its patch for that."""
+    keeps the sticky axis in contacts.code.  Returns (reused, n, npts, shrink, centroid).  With
+    control.patch_tolerance > 0 a closed flat patch of the last steps is reused (reused = 1)
+    while the poses allow it (dem.engine.coherence), and a full narrow phase keeps its patch for
+    that."""
     reused = 0
     n = vec3(0.0, 0.0, 1.0)
     npts = 0
@@ -84,7 +85,7 @@ def narrow_phase(p, i, j, model: ti.template(), state: ti.template(), contacts: 
             if tol > 0.0:
                 coherence.store_patch(p, i, j, code, whole, npts, shrink, centroid, model,
                                       state, contacts, px, py, pz, w)
-    return n, npts, shrink, centroid
+    return reused, n, npts, shrink, centroid
 
 
 @ti.func
@@ -144,8 +145,8 @@ def contact_stage(p, dt, model: ti.template(), state: ti.template(), contacts: t
     pz = point_buffer()
     dep = point_buffer()
     w = point_buffer()
-    n, npts, shrink, centroid = narrow_phase(p, i, j, model, state, contacts, control, warped,
-                                             px, py, pz, dep, w)
+    reused, n, npts, shrink, centroid = narrow_phase(p, i, j, model, state, contacts, control,
+                                                     warped, px, py, pz, dep, w)
     lx = point_buffer()
     ly = point_buffer()
     lz = point_buffer()
@@ -154,7 +155,12 @@ def contact_stage(p, dt, model: ti.template(), state: ti.template(), contacts: t
     uz = point_buffer()
     wo = point_buffer()
     claimed = point_buffer()
-    n_old = previous_points(p, contacts, lx, ly, lz, ux, uy, uz, wo)
+    # a reused patch has the points of the last step in the same slots (coherence.reuse_patch),
+    # which matched_point would pick (they moved by far less than its tolerance): the history
+    # is read from the slot itself, without the copies and the search
+    n_old = 0
+    if reused == 0:
+        n_old = previous_points(p, contacts, lx, ly, lz, ux, uy, uz, wo)
     imperfect_pair = 0
     if ti.static(warped):
         imperfect_pair = model.imperfect[i] + model.imperfect[j]
@@ -179,8 +185,12 @@ def contact_stage(p, dt, model: ti.template(), state: ti.template(), contacts: t
         pw = vec3(px[q], py[q], pz[q])
         rA = pw - pA
         lq = RA.transpose() @ rA
-        best = matched_point(q, lq, n_old, match_tol2, lx, ly, lz)
         u_old = vec3(0.0)
+        best = -1
+        if reused != 0:
+            u_old = contacts.shear[p, q]
+        else:
+            best = matched_point(q, lq, n_old, match_tol2, lx, ly, lz)
         if best >= 0:
             u_old = vec3(ux[best], uy[best], uz[best])
             if imperfect_pair > 0:
