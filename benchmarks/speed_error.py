@@ -83,6 +83,7 @@ VARIANTS = {
     "f32": {"solver.precision": "f32"},
     "parallel kernel, 2 threads": {"solver.mode": "parallel", "solver.threads": 2},
     "parallel kernel, 1 thread": {"solver.mode": "parallel", "solver.threads": 1},
+    "patch reuse off": {"solver.patch_reuse": 0.0},
     "patch reuse 1e-7 m": {"solver.patch_reuse": 1e-7},
     "patch reuse 1e-6 m": {"solver.patch_reuse": 1e-6},
     "patch reuse 1e-5 m": {"solver.patch_reuse": 1e-5},

@@ -12,7 +12,7 @@ from scipy.spatial.transform import Rotation
 from engine_helpers import (constant_loads, make_sim, record, rotation_angle, stretcher_wall,
                             tilt_gravity)
 
-TOL = 1e-6  # m, the tolerance tried in benchmarks/speed_error.md
+TOL = 1e-6  # m: 10 x the default (solver.patch_reuse = 1e-7), so the tests see more reuse
 
 
 def _kept(sim):
@@ -25,9 +25,10 @@ def test_a_resting_wall_gives_the_full_narrow_phase_to_round_off():
     """The 9 x 15 stretcher-bond wall settling under its weight: its bed joints stay closed and
     do not slide, so the kept polygons are the true ones and only round-off differs (the points'
     face coordinates are recovered from their table-frame positions).  Bound: 1e-11 m, 1e-5 of
-    a bed joint's closure under one course (~1e-6 m); measured 7e-14 m.  The joints start flush
-    (depth 0 +- round-off), so the first steps' patches are slivers cut by the gap with depths
-    at round-off level: keeping one (a bug once) moved the wall by 2e-8 m here."""
+    a bed joint's closure under one course (~1e-6 m); measured 7e-14 m after 4500 steps.  The
+    joints start flush (depth 0 +- round-off), so the first steps' patches are slivers cut by
+    the gap with depths at round-off level: keeping one (a bug once) moved the wall by 2e-8 m
+    here."""
     blocks = stretcher_wall(9, 15)
     runs = {}
     for tol in (0.0, TOL):
@@ -76,10 +77,11 @@ def test_a_rocking_block_opens_and_closes_its_joint_as_with_the_full_narrow_phas
     """While the block rocks its joint is a strip cut by the gap (never kept); at the impact
     the whole face closes and its patch is kept until the other edge lifts.  The first
     rebound's peak must be the full narrow phase's to well within the polygon's allowed error
-    TOL / b = 2e-5 (measured: 1e-8 relative; the trajectories of a rocking block later diverge
+    TOL / b = 2e-5 (measured: 9e-7 relative; the trajectories of a rocking block later diverge
     by the impacts' own sensitivity, a 1e-10 m nudge of the start gives 4e-6 rad at 1.5 s, so
-    only the first rebound is compared).  A sliver of the opening joint kept and reused after
-    the impact would give the slap a wrong area (a store without the closed-patch test fails here)."""
+    only the first rebound is compared).  A strip of the opening joint kept and reused after
+    the impact would give the slap a wrong area (a store without the closed-patch test fails
+    here)."""
     t, full, _ = _rocking(0.0)
     _, reuse, sim = _rocking(TOL)
     impact = np.argmax(full < 1e-3)  # first time (nearly) flat

@@ -385,9 +385,10 @@ def face_contact(pR, RR, hR, k, sgn, pI, RI, hI, faces: ti.template(), warped: t
     midway through the overlap) to (px, py, pz), their depth (m) to dep and weight (m^2) to w,
     and returns (n, npts, s, centroid, whole): n points from R to I; the polygon vertex behind
     point q is centroid + (p_q - centroid) / s; whole = 1 if the patch is the whole overlap of
-    two flat faces (the gap clip d >= 0 cut nothing: the faces bear everywhere), else 0.  ``warped`` (compile time): whether the kernel handles
-    imperfect faces at all; without it this is the perfect model's code alone.  With it, pairs
-    of perfect faces still take the perfect code and imperfect ones :func:`warped_patch`.
+    two flat faces (the gap clip d >= 0 cut nothing: the faces bear everywhere), else 0.
+    ``warped`` (compile time): whether the kernel handles imperfect faces at all; without it
+    this is the perfect model's code alone.  With it, pairs of perfect faces still take the
+    perfect code and imperfect ones :func:`warped_patch`.
     """
     k1 = (k + 1) % 3
     k2 = (k + 2) % 3

@@ -3,7 +3,9 @@
     for each step:
         contact_stage    for every pair of the neighbour list:
                            narrow_phase      geometry: contact points, depths, areas, normal
-                                             (dem.engine.geometry, Yade's Ig2)
+                                             (dem.engine.geometry, Yade's Ig2); a closed
+                                             joint's patch is reused while its faces do not
+                                             drift (dem.engine.coherence, solver.patch_reuse)
                            pair_properties   mu, kn, ks, damping coefficients (dem.engine.pair, Ip2)
                            previous_points   shear history of the pair (Contacts)
                            joint law         normal_law + coulomb_shear per point
@@ -53,8 +55,8 @@ from dem.engine.pair import pair_properties
 
 @ti.func
 def narrow_phase(p, i, j, model: ti.template(), state: ti.template(), contacts: ti.template(),
-                 control: ti.template(), warped: ti.template(), px: ti.template(), py: ti.template(),
-                 pz: ti.template(), dep: ti.template(), w: ti.template()):
+                 control: ti.template(), warped: ti.template(), px: ti.template(),
+                 py: ti.template(), pz: ti.template(), dep: ti.template(), w: ti.template()):
     """Contact patch of pair p = (i, j) into the point buffers (see geometry.box_contact);
     keeps the sticky axis in contacts.code.  Returns (reused, n, npts, shrink, centroid).  With
     control.patch_tolerance > 0 a closed flat patch of the last steps is reused (reused = 1)
