@@ -13,6 +13,11 @@ Taichi 1.7.4 takes a local variable at kernel level (not inside a ti.func) named
 argpack member for that kernel argument ("Kernel argument 'area' is immutable"): name kernel
 locals differently from the fields below.
 
+Taichi 1.7.4 limits a kernel's arguments ("The number of elements in kernel arguments is too
+big! Do not exceed 64 on x64 backend"): the kernels take the 56 arrays below and 3 scalars; 58
+arrays failed (patch reuse first wanted four Contacts fields, now two).  Pack a new field into an
+existing one (a wider vec or another row) when near the limit.
+
 Arrays are allocated once and only ever written in place (``a[...] = ...``): the argpacks and
 the cached launch contexts of :mod:`dem.engine.launch` hold their addresses.
 
