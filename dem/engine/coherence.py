@@ -30,8 +30,12 @@ sticky axis cannot change while a patch is reused (it changes only when another 
 by 1e-3 of the smallest half extent; tol is far below that).  Otherwise the full narrow phase
 runs, and stores the patch again if it is closed.
 
-Off when tol = 0 (``solver.patch_reuse``), the default; perfect faces only (the warped kernels
-never reuse).  Its speed and its error on the thesis' cases: benchmarks/speed_error.md.
+A reused patch emits the points of the last step in the same slots, so the contact stage reads
+each point's shear history from its own slot (dem.engine.step.contact_stage).
+
+``solver.patch_reuse`` is tol: 1e-7 m by default, 0 turns reuse off (a full narrow phase every
+step).  Perfect faces only: the warped kernels never reuse.  Its speed and its error on the
+thesis' cases: benchmarks/speed_error.md and benchmarks/RESULTS.md ("Patch reuse").
 """
 
 import taichi as ti
@@ -46,8 +50,8 @@ CLOSED_RATIO = 1e-3  # a patch is closed when its shallowest vertex is this frac
 @ti.func
 def reference_and_incident(code, i, j, model: ti.template(), state: ti.template()):
     """For a face code (0-5, geometry.box_contact), the reference face frame (n from R to I,
-    u1, u2, c), the incident face (nI, b1, b2, ci), and whether n must be flipped to point from
-    i to j (code >= 3: body j owns the face), from the current poses."""
+    u1, u2, c) and the incident face (nI, b1, b2, ci) from the current poses, as box_contact
+    finds them (R is body j for code >= 3: the caller flips n to point from i to j)."""
     rb = i
     ib = j
     if code >= 3:
