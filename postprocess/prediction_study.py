@@ -1,0 +1,1098 @@
+"""Blind prediction of the Chapter 4 shaking-table tests with the frozen imperfection set
+(issue 13, steps 3-5).
+
+    python -m postprocess.prediction_study --frozen cases/calibration/frozen.yaml \\
+        --out results/prediction                      # run (Model II y first), then report
+    python -m postprocess.prediction_study --frozen cases/calibration/frozen.yaml \\
+        --out results/prediction --only model-ii-y --realisations 10 --cycles 50
+    python -m postprocess.prediction_study --frozen cases/calibration/frozen.yaml \\
+        --out results/prediction --report             # report from the committed points.json
+
+The protocol (issue 13: calibrate -> freeze -> predict, in this order in the git history).
+
+* The frozen set (:func:`load_frozen`) is a YAML file under ``cases/`` with an ``imperfections:``
+  mapping (the fields of docs/imperfections.md except ``seed``: ``bed_unevenness`` (m),
+  ``face_shape``, ``size_scatter`` ([m, m, m]), ``arris`` (m)) and provenance fields
+  (``derived_in``: where the derivation is written, e.g. results/calibration/README.md;
+  ``candidate``: its name among cases/calibration/candidates.yaml; ``note``).  Nothing else:
+  friction and joint stiffness are not parameters (they stay the case files' measured /
+  physical values), and there is one set for every model (no per-model sections).  The study
+  refuses to start (exit 2, the message names the problem) when the file is missing, is not
+  such a mapping, is not tracked by git or differs from its last commit; the commit that last
+  changed it (``git log -1 --format=%H -- FILE``, "the commit that froze it") goes into every
+  output.
+* The prediction points are shake_study's sweeps (postprocess.shake_study.SWEEPS: the case files
+  of cases/shake/ and the Appendix I / Chapter 4 frequencies, imported, not copied), all but the
+  amplified one (a raised excitation is context, not a prediction): Model II y first, then II x,
+  II diagonal, I y, I x, III y (:data:`ORDER`).  Each case gets ``imperfections:`` = the frozen
+  set and nothing else changes.  ``--cycles`` (default 50, the thesis') cycles after settling,
+  N = ``--realisations`` (default 10) realisations per frequency with seeds 0 .. N-1, the same
+  for every sweep and frequency.  The plan (``<out>/plan.json``: frozen set, freezing commit,
+  seeds, sweeps, frequencies, cycles) is written before the first run; a later call with
+  another frozen commit, parameter set, seeds or cycles refuses (exit 2) rather than mixing.
+* One sweep = one ``dem sweep CASE --realisations N --seed 0`` (dem.commands.sweep) in a child
+  process with DEM_THREADS=1, its raw runs under ``--runs`` (default ``<out>/runs/``,
+  git-ignored by ``results/*/runs/``).  ``dem sweep`` skips every (seed, frequency) whose run
+  finished, so an interrupted sweep resumes; a sweep whose committed ``<out>/<sweep>/points.json``
+  holds every (seed, frequency) finished for the same fingerprint (case, seeds, frequencies,
+  cycles, step cap) is skipped without starting anything.  The child's CPU seconds (user +
+  system of its process tree) add up over sessions in points.json.
+* points.json is the committed analysis record of a sweep: one row per (seed, frequency) with
+  the numbers of the point's analysis.json (postprocess.shake via postprocess.sweep.compact):
+  amplification of ds, dsr, da, a (unfiltered), the first-harmonic ratio and dominant frequency
+  of ds, lags of ds and dsr (s), the excited portion, collapse_suspected, the mechanism labels.
+* ``<out>/summary.json`` and ``<out>/README.md`` (:func:`report`): per sweep the predicted
+  characteristic frequency (the rule of postprocess.sweep.effective_range on the median curve
+  over the surviving realisations; null with the reason when the peak is at the edge of the
+  sweep or not clear), the effective range, amplification of ds inside and outside (median and
+  10-90 % over the realisations), lag inside, excited bricks, survival rate, CPU time; the
+  criteria of issue 13 step 4 (:func:`criteria`) and the false-success checks of step 5
+  (:func:`false_success_checks`), each pass / fail / pending.
+
+Thesis numbers: ../shared/REFERENCE.md, "Shaking-table tests (Chapter 4)" (characteristic
+frequencies, effective ranges, amplifications, lags, excited portions; Appendix I groups and
+peak accelerations) and issue 13's table of success criteria.  Units: Hz, s, m, m/s2; the
+amplifications are dimensionless (thesis Section 4.2.5: steady-state peak-to-peak of the
+response over that of the excitation of the same kind).
+
+Not offered: a low-pass of the acceleration like an instrument's.  postprocess.shake analyses
+the unfiltered accelerometer signal (its acceleration amplification includes the impact spikes);
+the ``a`` column here is that unfiltered value and is not one of the criteria.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import math
+import os
+import resource
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from postprocess.ensemble import statistics
+from postprocess.shake_study import CASES, SWEEPS
+from postprocess.sweep import effective_range
+
+ROOT = Path(__file__).resolve().parents[1]
+DEFAULT_FROZEN = ROOT / "cases" / "calibration" / "frozen.yaml"
+DEFAULT_CYCLES = 50          # thesis: 50 cycles per test (REFERENCE.md, Excitation)
+DEFAULT_REALISATIONS = 10    # issue 13 step 3: at least 10 realisations per frequency
+PARAM_KEYS = ("bed_unevenness", "face_shape", "size_scatter", "arris")
+PROVENANCE_KEYS = ("derived_in", "candidate", "note", "frozen_on")
+#: the order of the study: Model II y in full first (issue 13 step 3)
+ORDER = ("model-ii-y", "model-ii-x", "model-ii-xy", "model-i-y", "model-i-x", "model-iii-y")
+MEASURED_FRICTION = 0.81     # small bricks, thesis Tables 3.1-3.2 (REFERENCE.md, Bricks)
+SURVIVAL_MIN = 0.8           # issue 13: at least 80 % of the realisations survive
+FC_TOL_HZ = 0.3              # characteristic frequency within +-0.3 Hz
+AMP_FACTOR = 1.5             # amplification inside the range within x 1.5
+AMP_RATIO_MIN = 3.0          # inside / outside > 3 for Model II
+LAG_TOL_S = 0.05             # lag inside the range within +-0.05 s
+EXCITED_REL_TOL = 0.2        # excited bricks within +-20 %
+COURSES_TOL = 1              # excited courses within +-1
+# rocking, not drift or a sliding ratchet (step 5; the harness' thresholds, not thesis values):
+H1_SHARE_MIN = 0.5    # the first harmonic at f carries >= half of the ds peak-to-peak
+DA_MIN = 1.1          # the absolute top motion exceeds the table's (moving with it reads 1)
+DSR_SHARE_MIN = 0.2   # the facade centre moves relative to its corners (a rigid slide reads 0)
+DOMINANT_REL_TOL = 0.05  # the dominant frequency of ds is f within 5 %
+
+#: thesis numbers per sweep (../shared/REFERENCE.md, Chapter 4; issue 13 step 4).  peak_acc:
+#: Appendix I constant peak accelerations (m/s2; the diagonal: 1.08 per axis); fc (Hz); range
+#: [lo, hi] Hz (None: the text gives none); amp_in / amp_out: ds amplification inside / outside;
+#: lag_in / lag_out (s); excited bricks and courses from the top.
+THESIS = {
+    "model-i-y": {"peak_acc": 1.53, "fc": 2.0, "range": [1.8, 2.5], "lag_in": 0.18,
+                  "lag_out": 0.02, "courses": 8},
+    "model-i-x": {"peak_acc": 1.71, "fc": 1.9, "range": None, "lag_in": 0.08, "lag_out": 0.06,
+                  "courses": 6},
+    "model-ii-y": {"peak_acc": 1.53, "fc": 2.8, "range": [2.4, 3.2], "amp_in": 2.0,
+                   "amp_out_max": 0.5, "lag_in": 0.13, "lag_out": 0.03, "excited": 46,
+                   "courses": 8},
+    "model-ii-x": {"peak_acc": 1.71, "fc": 2.8, "range": [2.4, 2.8], "lag_in": 0.13,
+                   "lag_out": 0.06, "excited": 50, "courses": 7},
+    "model-ii-xy": {"peak_acc": 1.08, "fc": None, "fc_note": "> 3.6 Hz: the response grows up to "
+                    "3.6 Hz, the highest frequency tested", "range": None},
+    "model-iii-y": {"peak_acc": 1.23, "fc": 2.4, "range": [2.4, 2.5], "amp_in": 3.5,
+                    "amp_out": 2.0, "excited": 62, "courses": 11},
+}
+
+
+class PredictionInputError(ValueError):
+    """Bad input (exit 2): the message names the file or option and the problem."""
+
+
+# ---- the frozen set -----------------------------------------------------------------------------
+def _git(cwd: Path, *args) -> subprocess.CompletedProcess:
+    return subprocess.run(["git", "-C", str(cwd), *args], capture_output=True, text=True,
+                          timeout=60)
+
+
+def git_state(path: Path) -> dict:
+    """Where ``path`` stands in its git repository: {repo (top level), rel (path in it), tracked,
+    modified (differs from HEAD: staged or not), commit (the last commit that changed it)}.
+    Raises PredictionInputError when it is not inside a git work tree."""
+    path = Path(path).resolve()
+    top = _git(path.parent, "rev-parse", "--show-toplevel")
+    if top.returncode != 0:
+        raise PredictionInputError(f"{path}: not inside a git repository (the freeze must be a "
+                                   f"commit)")
+    repo = Path(top.stdout.strip())
+    rel = str(path.relative_to(repo))
+    tracked = _git(repo, "ls-files", "--error-unmatch", "--", rel).returncode == 0
+    status = _git(repo, "status", "--porcelain", "--", rel).stdout.strip()
+    commit = _git(repo, "log", "-1", "--format=%H", "--", rel).stdout.strip() or None
+    return {"repo": str(repo), "rel": rel, "tracked": tracked, "modified": bool(status),
+            "commit": commit}
+
+
+def validate_frozen_data(data, where: str = "frozen file") -> dict:
+    """The ``imperfections:`` parameters of a frozen file's parsed YAML; PredictionInputError
+    naming the problem otherwise (not a mapping, no imperfections, seed given, unknown key,
+    missing key, a value the case schema rejects)."""
+    from pydantic import ValidationError
+
+    from dem.case.imperfections import Imperfections
+
+    if not isinstance(data, dict):
+        raise PredictionInputError(f"{where}: not a YAML mapping")
+    extra = set(data) - {"imperfections", *PROVENANCE_KEYS}
+    if extra:
+        raise PredictionInputError(
+            f"{where}: unknown top-level keys {sorted(extra)}: only imperfections: and the "
+            f"provenance fields {list(PROVENANCE_KEYS)} (one set for every model; friction and "
+            f"stiffness are not parameters)")
+    imp = data.get("imperfections")
+    if not isinstance(imp, dict):
+        raise PredictionInputError(f"{where}: no 'imperfections:' mapping")
+    if "seed" in imp:
+        raise PredictionInputError(f"{where}: imperfections.seed given: the seeds are the "
+                                   f"study's (0 .. N-1, fixed in advance), not the frozen set's")
+    bad = set(imp) - set(PARAM_KEYS)
+    if bad:
+        raise PredictionInputError(f"{where}: unknown imperfections keys {sorted(bad)} (allowed: "
+                                   f"{list(PARAM_KEYS)})")
+    missing = [k for k in PARAM_KEYS if k not in imp]
+    if missing:
+        raise PredictionInputError(f"{where}: imperfections lacks {missing}: a frozen set states "
+                                   f"every parameter")
+    try:
+        params = Imperfections.model_validate({**imp, "seed": 0}).model_dump()
+    except ValidationError as err:
+        raise PredictionInputError(f"{where}: imperfections: {err}") from None
+    params.pop("seed")
+    return params
+
+
+def load_frozen(path) -> dict:
+    """The frozen set (module docstring) with its provenance: {path, repo_path, parameters,
+    provenance, sha256, commit}.  Refuses (PredictionInputError) a missing, malformed, untracked
+    or modified file, and one outside ``cases/`` of its repository."""
+    path = Path(path)
+    if not path.is_file():
+        raise PredictionInputError(f"{path}: frozen parameter file missing (the freeze, issue 13 "
+                                   f"step 2, has not happened: commit it under cases/ first)")
+    text = path.read_text()
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as err:
+        raise PredictionInputError(f"{path}: not valid YAML ({err})") from None
+    params = validate_frozen_data(data, str(path))
+    g = git_state(path)
+    if not g["rel"].startswith("cases/"):
+        raise PredictionInputError(f"{path}: the frozen set must live under cases/ of its "
+                                   f"repository, it is {g['rel']}")
+    if not g["tracked"] or g["commit"] is None:
+        raise PredictionInputError(f"{path}: not committed in git: commit the freeze first")
+    if g["modified"]:
+        raise PredictionInputError(f"{path}: has uncommitted changes (git status): the "
+                                   f"prediction uses only a committed frozen set")
+    return {"path": g["rel"], "repo": g["repo"], "parameters": params,
+            "provenance": {k: data[k] for k in PROVENANCE_KEYS if k in data},
+            "sha256": hashlib.sha256(text.encode()).hexdigest(), "commit": g["commit"]}
+
+
+# ---- the prediction points ----------------------------------------------------------------------
+def sweep_names(only: str | None = None) -> list[str]:
+    """The sweeps in study order; ``only``: comma-separated names (exit 2 on an unknown one)."""
+    if not only:
+        return list(ORDER)
+    names = [s.strip() for s in only.split(",") if s.strip()]
+    bad = [n for n in names if n not in ORDER]
+    if bad:
+        raise PredictionInputError(f"--only: unknown sweep(s) {bad}; choose from {list(ORDER)}")
+    return [n for n in ORDER if n in names]
+
+
+def frequencies(name: str) -> list[float]:
+    """The sweep's frequencies (Hz): shake_study.SWEEPS (Appendix I / Chapter 4)."""
+    return [float(f) for f in SWEEPS[name][1]]
+
+
+def case_path(name: str) -> Path:
+    return CASES / SWEEPS[name][0]
+
+
+def sweep_case(name: str, params: dict):
+    """The case of a sweep: its cases/shake file with ``imperfections:`` = the frozen set (seed 0;
+    dem sweep sets each realisation's), the name pred-<sweep> and no VTK frames (output only:
+    one .vtu per 0.02 s frame is ~75 MB per 50-cycle run, 30 GB for the 400 runs; frames.npz
+    and instruments.npz, which the analysis reads, stay); the model, friction, stiffness and
+    excitation are the case file's."""
+    from dem.case import Case, load_case
+
+    data = load_case(case_path(name)).model_dump()
+    data["imperfections"] = {**params, "seed": 0}
+    data["name"] = f"pred-{name}"
+    data["run"]["vtk"] = False
+    return Case.model_validate(data)
+
+
+def fingerprint(case, freqs, seeds, cycles, max_steps) -> str:
+    """What a finished sweep must match to be skipped."""
+    h = hashlib.sha256(case.model_dump_json().encode())
+    h.update(json.dumps([list(freqs), list(seeds), cycles, max_steps]).encode())
+    return h.hexdigest()[:16]
+
+
+def source_state() -> dict:
+    """The code that ran: this checkout's HEAD and whether dem/, postprocess/ or cases/ differ."""
+    commit = _git(ROOT, "rev-parse", "HEAD").stdout.strip() or None
+    dirty = bool(_git(ROOT, "status", "--porcelain", "--", "dem", "postprocess", "cases")
+                 .stdout.strip()) if commit else None
+    return {"commit": commit, "dirty": dirty}
+
+
+def make_plan(frozen: dict, names: list[str], realisations: int, cycles: float,
+              max_steps: int | None) -> dict:
+    """The pre-registration written before any run: frozen set, freezing commit, seeds (k = k),
+    sweeps with their case files, frequencies and excitation, cycles, step cap."""
+    if realisations < 1:
+        raise PredictionInputError(f"--realisations must be >= 1, got {realisations}")
+    if not cycles > 0:
+        raise PredictionInputError(f"--cycles must be > 0, got {cycles}")
+    sweeps = {}
+    for n in names:
+        case = sweep_case(n, frozen["parameters"])
+        sweeps[n] = {"case_file": str(case_path(n).relative_to(ROOT)),
+                     "frequencies_hz": frequencies(n),
+                     "direction": list(case.loading.direction),
+                     "peak_acceleration_m_s2": case.loading.peak_acceleration,
+                     "friction": case.material.friction}
+    return {"kind": "prediction-plan", "frozen": {k: frozen[k] for k in
+                                                  ("path", "parameters", "provenance", "sha256",
+                                                   "commit")},
+            "seeds": list(range(realisations)), "cycles": cycles, "max_steps": max_steps,
+            "order": list(names), "sweeps": sweeps,
+            "created_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+            "code": source_state()}
+
+
+def write_plan(out: Path, plan: dict) -> dict:
+    """Write ``<out>/plan.json`` unless one exists; an existing plan must agree on the frozen
+    commit, parameters, seeds, cycles and step cap (sweeps may be added); returns the plan in
+    force.  PredictionInputError on a disagreement."""
+    from dem.output.atomic import write_json
+
+    path = Path(out) / "plan.json"
+    try:
+        old = json.loads(path.read_text())
+    except (OSError, ValueError):
+        old = None
+    if old is not None:
+        for key, a, b in (("frozen commit", old["frozen"]["commit"], plan["frozen"]["commit"]),
+                          ("frozen parameters", old["frozen"]["parameters"],
+                           plan["frozen"]["parameters"]),
+                          ("seeds", old["seeds"], plan["seeds"]),
+                          ("cycles", old["cycles"], plan["cycles"]),
+                          ("max_steps", old["max_steps"], plan["max_steps"])):
+            if a != b:
+                raise PredictionInputError(
+                    f"{path}: made with {key} {a!r}, this call has {b!r}: the plan is fixed "
+                    f"before the runs; use another --out for another plan")
+        added = [n for n in plan["order"] if n not in old["sweeps"]]
+        if not added:
+            return old
+        old["sweeps"].update({n: plan["sweeps"][n] for n in added})
+        old["order"] = [n for n in ORDER if n in old["sweeps"]]
+        plan = old
+    Path(out).mkdir(parents=True, exist_ok=True)
+    write_json(path, plan, indent=1)
+    return plan
+
+
+# ---- running one sweep --------------------------------------------------------------------------
+_CHILD: list[subprocess.Popen] = []
+_STOP = [False]
+
+
+def _on_signal(signum, _frame):
+    _STOP[0] = True
+    for p in _CHILD:
+        if p.poll() is None:
+            p.send_signal(signal.SIGTERM)  # dem sweep stops like Ctrl-C, keeping what finished
+
+
+def _child_cpu() -> float:
+    """CPU seconds (user + system) of the terminated, waited-for descendants of this process."""
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def points_path(out: Path, name: str) -> Path:
+    return Path(out) / name / "points.json"
+
+
+def _read(path: Path) -> dict | None:
+    try:
+        return json.loads(Path(path).read_text())
+    except (OSError, ValueError):
+        return None
+
+
+def row_from_point(seed: int, p: dict) -> dict:
+    """One committed row from a sweep.json point record (postprocess.sweep.point_record)."""
+    amp = p.get("amplification") or {}
+    lag = p.get("lag") or {}
+    err = str(p.get("error") or "")
+    # an analysis_status means the post hook ran, which it does only after a finished run
+    # (postprocess.sweep.point_record overwrites the "analysis: " prefix of the error)
+    run_ok = p.get("status") == "ok" or p.get("analysis_status") == "failed"
+    row = {"seed": seed, "frequency_hz": p["frequency_hz"],
+           "run_status": "ok" if run_ok else p.get("status", "pending"),
+           "analysis_status": "ok" if p.get("status") == "ok" else
+           ("failed" if run_ok else None),
+           "amplitude_m": p.get("amplitude_m"), "steps": p.get("steps"),
+           "sim_time_s": p.get("sim_time"), "wall_seconds": p.get("wall_seconds")}
+    if err:
+        row["error"] = err[:300]
+    if p.get("status") == "ok":
+        exc = p.get("excited") or {}
+        mech = p.get("mechanism") or {}
+        row.update({
+            "amplification": {q: amp.get(q) for q in ("ds", "dsr", "da", "a")},
+            "h1_ds": (p.get("h1_amplitude_ratio") or {}).get("ds"),
+            "dominant_frequency_hz": p.get("dominant_frequency_hz"),
+            "single_peak": p.get("single_peak"),
+            "lag_s": {q: (lag.get(q) or {}).get("s") for q in ("ds", "dsr")},
+            "excited": {k: exc.get(k) for k in ("n_excited", "n_upper", "n_lower",
+                                                "excited_courses_from_top")},
+            "collapse_suspected": p.get("collapse_suspected"),
+            "mechanism": {k: mech.get(k) for k in ("response", "corners", "line")},
+            "note": p.get("note")})
+    return row
+
+
+def collect_rows(runs_dir: Path, seeds, freqs) -> list[dict]:
+    """Rows for every (seed, frequency) from ``runs_dir/seed-<k>/sweep.json``; pending where
+    the sweep or the point is not there."""
+    rows = []
+    for s in seeds:
+        data = _read(Path(runs_dir) / f"seed-{s}" / "sweep.json") or {}
+        by_f = {round(p["frequency_hz"], 9): p for p in data.get("points", [])}
+        for f in freqs:
+            p = by_f.get(round(f, 9))
+            rows.append(row_from_point(s, p) if p else
+                        {"seed": s, "frequency_hz": f, "run_status": "pending",
+                         "analysis_status": None})
+    return rows
+
+
+def sweep_finished(data: dict | None, fp: str | None = None) -> bool:
+    """Every (seed, frequency) of a committed points.json has a finished run (and, if given,
+    the fingerprint is ``fp``)."""
+    if not data or "prediction" not in data:
+        return False
+    pred = data["prediction"]
+    if fp is not None and pred.get("fingerprint") != fp:
+        return False
+    rows = data.get("rows") or []
+    return len(rows) == len(pred["seeds"]) * len(pred["frequencies_hz"]) and \
+        all(r.get("run_status") == "ok" for r in rows)
+
+
+def run_sweep_point(out: Path, runs: Path, name: str, plan: dict, workers: int | None = None,
+                    log=print) -> str:
+    """Run (or skip) one sweep of the plan: "skipped" (finished before), "finished", "pending"
+    (interrupted or a run failed) or "failed" (dem sweep refused the case)."""
+    from dem.output.atomic import write_json
+
+    frozen = plan["frozen"]
+    case = sweep_case(name, frozen["parameters"])
+    freqs, seeds = plan["sweeps"][name]["frequencies_hz"], plan["seeds"]
+    fp = fingerprint(case, freqs, seeds, plan["cycles"], plan["max_steps"])
+    dest = points_path(out, name)
+    old = _read(dest)
+    if sweep_finished(old, fp):
+        return "skipped"
+    sweep_dir = Path(runs) / name
+    case_file = Path(runs) / f"{name}.yaml"
+    case_file.parent.mkdir(parents=True, exist_ok=True)
+    case_file.write_text(yaml.safe_dump(case.model_dump(mode="json"), sort_keys=False))
+    cmd = [sys.executable, "-c", "import sys; sys.argv[0] = 'dem'; from dem.cli import app; app()",
+           "sweep", str(case_file), "--out", str(sweep_dir),
+           "--frequencies", ",".join(f"{f:g}" for f in freqs), "--cycles", f"{plan['cycles']:g}",
+           "--realisations", str(len(seeds)), "--seed", str(seeds[0])]
+    if workers is not None:
+        cmd += ["--workers", str(workers)]
+    if plan["max_steps"] is not None:
+        cmd += ["--max-steps", str(plan["max_steps"])]
+    env = {**os.environ, "DEM_THREADS": "1",
+           "PYTHONPATH": os.pathsep.join([str(ROOT), *filter(None, [os.environ.get(
+               "PYTHONPATH")])])}
+    cpu0, t0 = _child_cpu(), time.perf_counter()
+    log(f"[{time.strftime('%H:%M:%S', time.gmtime())} UTC] {name}: {len(freqs)} frequencies x "
+        f"{len(seeds)} realisations, {plan['cycles']:g} cycles ...")
+    proc = subprocess.Popen(cmd, env=env, cwd=ROOT, stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True)
+    _CHILD.append(proc)
+    try:
+        for line in proc.stdout:
+            log("    " + line.rstrip())
+        rc = proc.wait()
+    finally:
+        _CHILD.remove(proc)
+    cpu, wall = _child_cpu() - cpu0, time.perf_counter() - t0
+    rows = collect_rows(sweep_dir, seeds, freqs)
+    if not any(r["run_status"] != "pending" for r in rows) and rc == 2:
+        log(f"    dem sweep exit {rc}: refused the case")
+        return "failed"
+    prev = (old or {}).get("prediction") or {}
+    same = prev.get("fingerprint") == fp
+    data = {"kind": "prediction-sweep", "sweep": name, "rows": rows, "prediction": {
+        "sweep": name, "case_file": plan["sweeps"][name]["case_file"],
+        "run_case": _rel(case_file), "frozen": frozen, "seeds": seeds,
+        "frequencies_hz": freqs, "cycles": plan["cycles"], "max_steps": plan["max_steps"],
+        "fingerprint": fp, "friction": case.material.friction,
+        "peak_acceleration_m_s2": case.loading.peak_acceleration,
+        "direction": list(case.loading.direction),
+        "cpu_seconds": (prev.get("cpu_seconds", 0.0) if same else 0.0) + cpu,
+        "wall_seconds": (prev.get("wall_seconds", 0.0) if same else 0.0) + wall,
+        "sessions": (prev.get("sessions", 0) if same else 0) + 1, "exit_code": rc,
+        "source": source_state()}}
+    data["prediction"]["finished"] = sweep_finished(data)
+    dest.parent.mkdir(parents=True, exist_ok=True)
+    write_json(dest, data, indent=1)
+    state = "finished" if data["prediction"]["finished"] else "pending"
+    log(f"    -> {state}: {cpu:.0f} CPU-s, {wall:.0f} s this call")
+    return state
+
+
+def _rel(path: Path) -> str:
+    path = Path(path).resolve()
+    return str(path.relative_to(ROOT)) if path.is_relative_to(ROOT) else str(path)
+
+
+# ---- analysis of one sweep ----------------------------------------------------------------------
+def _finite(x) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+
+
+def survived(row: dict) -> bool | None:
+    """True: the run finished, was analysed and nothing collapsed; False: collapse suspected or
+    the analysis failed (counted against survival: a run that cannot be analysed is not a
+    standing model); None: not run / run failed (pending)."""
+    if row.get("run_status") != "ok":
+        return None
+    if row.get("analysis_status") != "ok":
+        return False
+    return not bool(row.get("collapse_suspected"))
+
+
+def characteristic(freqs, curve: dict) -> dict:
+    """Characteristic frequency and effective range of an amplification curve {f: amplification}
+    by postprocess.sweep.effective_range; at an edge of the sweep the frequency is null with the
+    reason "peak at the edge of the sweep: no resonance found in the range"."""
+    fs = [f for f in freqs if _finite(curve.get(f))]
+    er = effective_range(fs, [curve[f] for f in fs])
+    if not fs:
+        er["characteristic_frequency_note"] = "no surviving realisation with an analysed response"
+    if er.get("characteristic_frequency_hz") is None and fs:
+        k = int(np.argmax([curve[f] for f in fs]))
+        if len(fs) >= 3 and k in (0, len(fs) - 1):
+            er["characteristic_frequency_note"] = (
+                f"peak at the edge of the sweep ({fs[k]:g} Hz, the "
+                f"{'lowest' if k == 0 else 'highest'} frequency): no resonance found in the range")
+            er["peak_at_edge"] = True
+    return er
+
+
+def _per_seed_mean(rows, seeds, freqs_in, key) -> list:
+    """Per seed, the mean of ``key(row)`` over its surviving rows at the frequencies freqs_in."""
+    out = []
+    for s in seeds:
+        v = [key(r) for r in rows if r["seed"] == s and r["frequency_hz"] in freqs_in
+             and survived(r)]
+        v = [x for x in v if _finite(x)]
+        out.append(float(np.mean(v)) if v else None)
+    return out
+
+
+def is_rocking(row: dict) -> dict:
+    """Step 5: is the row's ds amplification rocking, not drift or a sliding ratchet?  Rocking
+    when ds is at the excitation frequency (dominant frequency f within DOMINANT_REL_TOL and the
+    first harmonic >= H1_SHARE_MIN of the peak-to-peak amplification), the absolute top motion
+    exceeds the table's (da >= DA_MIN) and the centre moves relative to its corners (dsr >=
+    DSR_SHARE_MIN x ds).  Returns {rocking: bool | None, why}."""
+    amp = row.get("amplification") or {}
+    ds, da, dsr = amp.get("ds"), amp.get("da"), amp.get("dsr")
+    if not _finite(ds) or ds <= 0:
+        return {"rocking": None, "why": "no ds amplification"}
+    f, fd, h1 = row["frequency_hz"], row.get("dominant_frequency_hz"), row.get("h1_ds")
+    why = []
+    if not (_finite(fd) and abs(fd - f) <= DOMINANT_REL_TOL * f):
+        why.append(f"dominant frequency of ds {fd} Hz, not {f:g}")
+    if not (_finite(h1) and h1 >= H1_SHARE_MIN * ds):
+        why.append(f"first harmonic {h1} < {H1_SHARE_MIN} x ds amplification {ds:.3g}: drift")
+    if not (_finite(da) and da >= DA_MIN):
+        why.append(f"da amplification {da} < {DA_MIN}: the top moves with the table")
+    if not (_finite(dsr) and dsr >= DSR_SHARE_MIN * ds):
+        why.append(f"dsr amplification {dsr} < {DSR_SHARE_MIN} x ds: a rigid slide, not rocking")
+    return {"rocking": not why, "why": "; ".join(why) or "rocking"}
+
+
+def analyse_sweep(name: str, data: dict | None) -> dict:
+    """The numbers of one sweep (module docstring) from its points.json; {"status": "pending"}
+    without one."""
+    if not data or "prediction" not in data:
+        return {"status": "pending", "sweep": name}
+    pred, rows = data["prediction"], data.get("rows") or []
+    seeds, freqs = pred["seeds"], pred["frequencies_hz"]
+    thesis = THESIS.get(name, {})
+    out = {"sweep": name, "status": "finished" if sweep_finished(data) else "pending",
+           "n_rows": len(rows), "n_run": sum(1 for r in rows if r.get("run_status") == "ok"),
+           "n_expected": len(seeds) * len(freqs), "seeds": seeds, "frequencies_hz": freqs,
+           "cycles": pred["cycles"], "max_steps": pred["max_steps"],
+           "smoke": pred["max_steps"] is not None, "cpu_seconds": pred.get("cpu_seconds"),
+           "code": pred.get("source"), "friction": pred.get("friction"),
+           "peak_acceleration_m_s2": pred.get("peak_acceleration_m_s2"),
+           "frozen_commit": (pred.get("frozen") or {}).get("commit")}
+    # survival per frequency
+    surv = {}
+    for f in freqs:
+        s = [survived(r) for r in rows if r["frequency_hz"] == f]
+        known = [x for x in s if x is not None]
+        surv[f"{f:g}"] = {"n": len(known), "survived": int(sum(known)),
+                          "rate": (sum(known) / len(known)) if known else None}
+    rates = [v["rate"] for v in surv.values() if v["rate"] is not None]
+    out["survival"] = {"per_frequency": surv, "min_rate": min(rates) if rates else None,
+                       "overall_rate": (sum(v["survived"] for v in surv.values())
+                                        / max(1, sum(v["n"] for v in surv.values())))
+                       if rates else None}
+    # amplification curves: median and band over the surviving realisations
+    curves = {}
+    for q in ("ds", "dsr", "da", "a"):
+        curves[q] = {f"{f:g}": statistics((r.get("amplification") or {}).get(q) for r in rows
+                                          if r["frequency_hz"] == f and survived(r))
+                     for f in freqs}
+    out["amplification_curves"] = curves
+    med = {f: curves["ds"][f"{f:g}"]["median"] for f in freqs}
+    er = characteristic(freqs, med)
+    out["characteristic_frequency_hz"] = er.get("characteristic_frequency_hz")
+    out["characteristic_frequency_note"] = er.get("characteristic_frequency_note")
+    out["peak_at_edge"] = bool(er.get("peak_at_edge"))
+    out["effective_range_hz"] = er.get("effective_range_hz")
+    out["effective_range_rule"] = er.get("rule")
+    # per-seed characteristic frequencies (the band)
+    fcs = []
+    for s in seeds:
+        c = {r["frequency_hz"]: (r.get("amplification") or {}).get("ds") for r in rows
+             if r["seed"] == s and survived(r)}
+        fcs.append(characteristic(freqs, c).get("characteristic_frequency_hz"))
+    out["characteristic_frequency_per_seed_hz"] = fcs
+    out["characteristic_frequency_band"] = statistics(fcs)
+    out["realisations_without_characteristic_frequency"] = sum(1 for x in fcs if x is None)
+    # inside / outside: the thesis' range (the same frequencies as the tests; issue 13 step 4),
+    # and the DEM's own effective range where it found one
+    def split(rng):
+        if not rng:
+            return None, None
+        ins = [f for f in freqs if rng[0] - 1e-9 <= f <= rng[1] + 1e-9]
+        return ins, [f for f in freqs if f not in ins]
+
+    ranges = {"thesis_range": thesis.get("range") or ([thesis["fc"]] * 2 if thesis.get("fc")
+                                                       else None),
+              "dem_range": out["effective_range_hz"]}
+    out["inside_outside"] = {}
+    for label, rng in ranges.items():
+        ins, outs = split(rng)
+        if not ins:
+            out["inside_outside"][label] = {"range_hz": rng, "note": "no range"}
+            continue
+        a_in = _per_seed_mean(rows, seeds, ins, lambda r: (r.get("amplification") or {})
+                              .get("ds"))
+        a_out = _per_seed_mean(rows, seeds, outs, lambda r: (r.get("amplification") or {})
+                               .get("ds"))
+        ratio = [i / o if _finite(i) and _finite(o) and o > 0 else None
+                 for i, o in zip(a_in, a_out)]
+        lag_in = _per_seed_mean(rows, seeds, ins, lambda r: (r.get("lag_s") or {}).get("ds"))
+        lag_out = _per_seed_mean(rows, seeds, outs, lambda r: (r.get("lag_s") or {}).get("ds"))
+        out["inside_outside"][label] = {
+            "range_hz": rng, "inside_hz": ins, "outside_hz": outs,
+            "amplification_ds_inside": statistics(a_in),
+            "amplification_ds_outside": statistics(a_out),
+            "ratio_inside_outside": statistics(ratio),
+            "lag_ds_inside_s": statistics(lag_in), "lag_ds_outside_s": statistics(lag_out)}
+    # excited portion at the thesis' characteristic frequency (else the DEM's)
+    f_exc = thesis.get("fc") or out["characteristic_frequency_hz"]
+    ex_rows = [r for r in rows if f_exc is not None and abs(r["frequency_hz"] - f_exc) < 1e-9
+               and survived(r)]
+    out["excited_at_hz"] = f_exc
+    out["excited_bricks"] = statistics((r.get("excited") or {}).get("n_excited")
+                                       for r in ex_rows)
+    out["excited_courses"] = statistics((r.get("excited") or {}).get("excited_courses_from_top")
+                                        for r in ex_rows)
+    # rocking, not drift (step 5), at the frequencies inside the thesis' / DEM's range
+    chk = [{"seed": r["seed"], "frequency_hz": r["frequency_hz"], **is_rocking(r)}
+           for r in rows if survived(r)]
+    out["rocking_rows"] = {"n": len([c for c in chk if c["rocking"] is not None]),
+                           "rocking": sum(1 for c in chk if c["rocking"]),
+                           "not_rocking": [c for c in chk if c["rocking"] is False][:20]}
+    return out
+
+
+# ---- criteria (issue 13 step 4) and false-success checks (step 5) --------------------------------
+def band_verdict(stats: dict | None, thesis: float | None, tol_abs: float | None = None,
+                 factor: float | None = None) -> dict:
+    """pass / fail / pending of a numeric criterion judged two ways: the median within the
+    tolerance of the thesis value (``tol_abs``: |median - thesis| <= tol_abs; ``factor``:
+    thesis / factor <= median <= thesis x factor) AND the thesis value inside the 10-90 % band
+    [q10, q90] of the realisations.  pending without data."""
+    if thesis is None:
+        return {"status": "n/a", "why": "no thesis value"}
+    if not stats or not stats.get("n"):
+        return {"status": "pending", "why": "no realisation finished"}
+    med, q10, q90 = stats["median"], stats["q10"], stats["q90"]
+    if tol_abs is not None:
+        by_median = abs(med - thesis) <= tol_abs + 1e-12
+        tol = f"+-{tol_abs:g}"
+    else:
+        by_median = thesis / factor - 1e-12 <= med <= thesis * factor + 1e-12
+        tol = f"x/{factor:g}"
+    in_band = q10 - 1e-12 <= thesis <= q90 + 1e-12
+    ok = by_median and in_band
+    return {"status": "pass" if ok else "fail", "by_median": by_median, "in_band": in_band,
+            "thesis": thesis, "median": med, "band": [q10, q90], "tolerance": tol,
+            "why": ("median and band agree with the thesis" if ok else "; ".join(
+                w for w, bad in ((f"median {med:.3g} outside thesis {thesis:g} {tol}",
+                                  not by_median),
+                                 (f"thesis {thesis:g} outside the 10-90 % band "
+                                  f"[{q10:.3g}, {q90:.3g}]", not in_band)) if bad))}
+
+
+def fc_verdict(sw: dict, thesis_fc: float | None) -> dict:
+    """Characteristic frequency: the median curve's peak within FC_TOL_HZ of the thesis and the
+    thesis value inside the band of the per-seed characteristic frequencies; a null prediction
+    (peak at the edge, no clear peak) fails with its reason; fewer than half the seeds with a
+    characteristic frequency fails."""
+    if sw.get("status") == "pending" and not sw.get("n_run"):
+        return {"status": "pending", "why": "not run"}
+    if thesis_fc is None:
+        return {"status": "n/a", "why": "the thesis gives no characteristic frequency"}
+    fc = sw.get("characteristic_frequency_hz")
+    if fc is None:
+        return {"status": "fail" if sw.get("status") == "finished" else "pending",
+                "why": f"no characteristic frequency: {sw.get('characteristic_frequency_note')}"}
+    n_null = sw.get("realisations_without_characteristic_frequency", 0)
+    if n_null * 2 > len(sw.get("seeds") or []):
+        return {"status": "fail", "why": f"{n_null} of {len(sw['seeds'])} realisations have no "
+                                         f"characteristic frequency", "median_curve_fc": fc}
+    band = dict(sw.get("characteristic_frequency_band") or {})
+    band["median"] = fc  # judged on the peak of the median curve
+    v = band_verdict(band, thesis_fc, tol_abs=FC_TOL_HZ)
+    return v if sw.get("status") == "finished" or v["status"] == "fail" else \
+        {**v, "status": "pending", "why": "unfinished: " + v["why"]}
+
+
+def survival_verdict(sw: dict, min_rate: float = SURVIVAL_MIN) -> dict:
+    """At least ``min_rate`` of the realisations survive at every frequency."""
+    r = (sw.get("survival") or {}).get("min_rate")
+    if r is None:
+        return {"status": "pending", "why": "no realisation finished"}
+    ok = r >= min_rate - 1e-12
+    status = "pass" if ok else "fail"
+    if ok and sw.get("status") != "finished":
+        status = "pending"
+    return {"status": status, "min_rate": r, "threshold": min_rate,
+            "why": f"lowest survival over the frequencies {r:.0%} "
+                   f"({'>=' if ok else '<'} {min_rate:.0%})"}
+
+
+def criteria(summary: dict) -> list[dict]:
+    """The rows of issue 13 step 4 for every sweep in ``summary`` (sweep -> analyse_sweep)."""
+    rows = []
+
+    def add(sweep, quantity, thesis_text, v):
+        rows.append({"sweep": sweep, "quantity": quantity, "thesis": thesis_text, **v})
+
+    for name in ORDER:
+        sw, th = summary.get(name) or {"status": "pending"}, THESIS.get(name, {})
+        pend = {"status": "pending", "why": "not run"} if sw.get("status") == "pending" and \
+            not sw.get("n_run") else None
+        if th.get("fc") is not None:
+            add(name, "characteristic frequency (Hz)", f"{th['fc']:g} +-{FC_TOL_HZ:g}",
+                pend or fc_verdict(sw, th["fc"]))
+        elif name == "model-ii-xy":
+            fc, edge = sw.get("characteristic_frequency_hz"), sw.get("peak_at_edge")
+            v = pend or ({"status": "pass" if edge and sw.get("frequencies_hz") and
+                          (sw.get("characteristic_frequency_note") or "").find("highest") >= 0
+                          else "fail", "why": f"DEM: {fc if fc is not None else 'none'} "
+                          f"({sw.get('characteristic_frequency_note') or ''})"})
+            add(name, "response grows up to 3.6 Hz", th.get("fc_note", ""), v)
+        io = (sw.get("inside_outside") or {}).get("thesis_range") or {}
+        if th.get("amp_in") is not None:
+            add(name, "ds amplification inside the thesis range", f"~{th['amp_in']:g} (x/1.5)",
+                pend or band_verdict(io.get("amplification_ds_inside"), th["amp_in"],
+                                     factor=AMP_FACTOR))
+        if name == "model-ii-y":
+            st = io.get("ratio_inside_outside")
+            if pend or not st or not st.get("n"):
+                v = pend or {"status": "pending", "why": "no realisation finished"}
+            else:
+                ok = st["median"] > AMP_RATIO_MIN and st["q10"] > AMP_RATIO_MIN
+                v = {"status": "pass" if ok else "fail", "median": st["median"],
+                     "band": [st["q10"], st["q90"]],
+                     "why": f"median {st['median']:.3g}, 10 % quantile {st['q10']:.3g} "
+                            f"(need > {AMP_RATIO_MIN:g})"}
+            add(name, "ds amplification inside / outside", f"~2 / < 0.5: > {AMP_RATIO_MIN:g}", v)
+        if th.get("lag_in") is not None:
+            add(name, "lag inside the thesis range (s)", f"{th['lag_in']:g} +-{LAG_TOL_S:g}",
+                pend or band_verdict(io.get("lag_ds_inside_s"), th["lag_in"], tol_abs=LAG_TOL_S))
+        if th.get("excited") is not None:
+            add(name, f"excited bricks at {th['fc']:g} Hz", f"{th['excited']} +-20 %",
+                pend or band_verdict(sw.get("excited_bricks"), th["excited"],
+                                     tol_abs=EXCITED_REL_TOL * th["excited"]))
+        if th.get("courses") is not None:
+            add(name, f"excited courses from the top at {th['fc']:g} Hz", f"{th['courses']} +-1",
+                pend or band_verdict(sw.get("excited_courses"), th["courses"],
+                                     tol_abs=COURSES_TOL))
+        add(name, "survival (no overturning in the cycles)", ">= 80 % at every frequency",
+            pend or survival_verdict(sw))
+    ii, iii = summary.get("model-ii-y") or {}, summary.get("model-iii-y") or {}
+    f2, f3 = ii.get("characteristic_frequency_hz"), iii.get("characteristic_frequency_hz")
+    if ii.get("status") == "finished" and iii.get("status") == "finished":
+        v = {"status": "pass" if (f2 is not None and f3 is not None and f3 < f2) else "fail",
+             "why": f"III {f3} Hz, II {f2} Hz"}
+    else:
+        v = {"status": "pending", "why": "needs both sweeps finished"}
+    add("model-iii-y vs model-ii-y", "III below II (y)", "2.4 < 2.8", v)
+    add("chapter 3", "calibrated tilt results unchanged within 5 %", "results/calibration",
+        {"status": "pending", "why": "judged by the calibration study on the engine that runs "
+                                     "the prediction (not by this harness)"})
+    return rows
+
+
+def false_success_checks(plan: dict | None, summary: dict) -> list[dict]:
+    """Issue 13 step 5 as explicit rows, each pass / fail / pending with what was checked."""
+    rows = []
+    sweeps = (plan or {}).get("sweeps") or {}
+    frozen = (plan or {}).get("frozen") or {}
+    # 1. one parameter set and one seed list for everything
+    per = [(n, (summary.get(n) or {}).get("frozen_commit")) for n in sweeps]
+    commits = {c for _, c in per if c}
+    seeds = {tuple((summary.get(n) or {}).get("seeds") or ()) for n in sweeps
+             if (summary.get(n) or {}).get("seeds")}
+    ok = len(commits) <= 1 and commits <= {frozen.get("commit")} and len(seeds) <= 1 and \
+        (not seeds or seeds == {tuple(plan["seeds"])})
+    rows.append({"check": "no per-model or per-frequency parameters or seeds",
+                 "status": ("pass" if ok else "fail") if plan else "pending",
+                 "why": f"every sweep ran the frozen set of commit {frozen.get('commit')} "
+                        f"({frozen.get('path')}) with seeds {plan['seeds'] if plan else '-'}"
+                 if ok else f"sweeps disagree: commits {sorted(commits)}, seeds {sorted(seeds)}"})
+    # 2. friction unchanged
+    fr = {n: s.get("friction") for n, s in sweeps.items()}
+    bad = {n: f for n, f in fr.items() if f != MEASURED_FRICTION}
+    rows.append({"check": "friction unchanged (measured 0.81)",
+                 "status": ("fail" if bad else "pass") if sweeps else "pending",
+                 "why": f"not {MEASURED_FRICTION}: {bad}" if bad else
+                 f"every case: friction {MEASURED_FRICTION} (case files, not parameters)"})
+    # 3. excitation as in the thesis
+    bad = {n: s.get("peak_acceleration_m_s2") for n, s in sweeps.items()
+           if n in THESIS and s.get("peak_acceleration_m_s2") != THESIS[n]["peak_acc"]}
+    cyc = (plan or {}).get("cycles")
+    rows.append({"check": "excitation as in the thesis (Appendix I peak accelerations, 50 cycles)",
+                 "status": ("fail" if bad or cyc != DEFAULT_CYCLES or plan.get("max_steps")
+                            else "pass") if plan else "pending",
+                 "why": "; ".join(filter(None, [
+                     f"peak accelerations differ: {bad}" if bad else
+                     "peak accelerations 1.53 (y) / 1.71 (x) / 1.08 (diagonal) / 1.23 (III) m/s2",
+                     f"{cyc:g} cycles, not {DEFAULT_CYCLES}" if plan and cyc != DEFAULT_CYCLES
+                     else None,
+                     f"runs capped at {plan['max_steps']} steps (smoke)" if plan and
+                     plan.get("max_steps") else None]))})
+    # 4. an edge peak is not a characteristic frequency
+    edge = [n for n in sweeps if (summary.get(n) or {}).get("peak_at_edge")]
+    leak = [n for n in edge if (summary.get(n) or {}).get("characteristic_frequency_hz")
+            is not None]
+    ran = [n for n in sweeps if (summary.get(n) or {}).get("n_run")]
+    rows.append({"check": "a peak at the edge of a sweep is not a characteristic frequency",
+                 "status": "fail" if leak else ("pass" if ran else "pending"),
+                 "why": (f"edge peaks reported as null: {edge}" if edge else
+                         "no sweep peaked at an edge") if not leak else f"numbers at {leak}"})
+    # 5. rocking, not drift or a sliding ratchet (da, dsr), inside the DEM's range
+    bad, n_chk, pend = [], 0, False
+    for n in sweeps:
+        sw = summary.get(n) or {}
+        rng = sw.get("effective_range_hz")
+        if sw.get("status") != "finished":
+            pend = True
+        if not rng:
+            continue
+        for r in (sw.get("rocking_rows") or {}).get("not_rocking", []):
+            if rng[0] - 1e-9 <= r["frequency_hz"] <= rng[1] + 1e-9:
+                bad.append(f"{n} {r['frequency_hz']:g} Hz seed {r['seed']}: {r['why']}")
+        n_chk += 1
+    rows.append({"check": "amplification is rocking, not drift or a sliding ratchet (da, dsr)",
+                 "status": "fail" if bad else ("pending" if pend or not n_chk else "pass"),
+                 "why": "; ".join(bad[:5]) if bad else
+                 f"every surviving run inside the DEM's effective ranges ({n_chk} sweeps) rocks: "
+                 f"ds at f (first harmonic >= {H1_SHARE_MIN} of the peak-to-peak), da >= "
+                 f"{DA_MIN}, dsr >= {DSR_SHARE_MIN} ds"})
+    # 6. collapses are not a match
+    bad = []
+    for n in sweeps:
+        sw = summary.get(n) or {}
+        rng = sw.get("effective_range_hz")
+        for f, v in ((sw.get("survival") or {}).get("per_frequency") or {}).items():
+            if rng and rng[0] - 1e-9 <= float(f) <= rng[1] + 1e-9 and v["rate"] is not None \
+                    and v["rate"] < SURVIVAL_MIN:
+                bad.append(f"{n} {f} Hz: {v['survived']}/{v['n']} survive")
+    rows.append({"check": "a match by collapsing facades is not a match",
+                 "status": "fail" if bad else ("pending" if pend or not sweeps else "pass"),
+                 "why": "; ".join(bad) if bad else
+                 "amplifications use surviving realisations only; no frequency of a DEM "
+                 f"effective range has survival below {SURVIVAL_MIN:.0%}"})
+    return rows
+
+
+# ---- report -------------------------------------------------------------------------------------
+def _f(x, spec=".3g"):
+    return format(x, spec) if _finite(x) else "-"
+
+
+def _band(st: dict | None, spec=".3g") -> str:
+    if not st or not st.get("n"):
+        return "-"
+    return f"{_f(st['median'], spec)} ({_f(st['q10'], spec)} - {_f(st['q90'], spec)})"
+
+
+def report(out: Path, frozen: dict, command: str, runs: Path | None = None) -> dict:
+    """summary.json and README.md of ``out`` from plan.json and the sweeps' points.json."""
+    from dem.output.atomic import write_json
+
+    out = Path(out)
+    plan = _read(out / "plan.json")
+    summary = {n: analyse_sweep(n, _read(points_path(out, n))) for n in ORDER}
+    crit = criteria(summary)
+    checks = false_success_checks(plan, summary)
+    cpu = sum((s.get("cpu_seconds") or 0.0) for s in summary.values())
+    data = {"kind": "prediction-summary", "command": command,
+            "frozen": {k: frozen[k] for k in ("path", "parameters", "provenance", "sha256",
+                                              "commit")},
+            "freezing_commit": frozen["commit"], "plan": plan, "cpu_seconds": cpu,
+            "low_pass": "not offered by postprocess.shake: the acceleration amplification "
+                        "('a') is unfiltered and is not a criterion",
+            "sweeps": summary, "criteria": crit, "false_success_checks": checks}
+    write_json(out / "summary.json", data, indent=1)
+    L = ["# Blind prediction of Chapter 4 (issue 13, steps 3-5)", "",
+         f"Generated by `{command}`; `--report` rebuilds this page and summary.json from "
+         "plan.json and the committed `<sweep>/points.json` files.", "",
+         f"Frozen set: `{frozen['path']}`, frozen in commit `{frozen['commit']}` "
+         f"(the last commit that changed it): `{json.dumps(frozen['parameters'])}`"
+         + (f"; provenance {json.dumps(frozen['provenance'])}" if frozen["provenance"] else ""),
+         "",
+         f"Plan (written before the first run): seeds {plan['seeds'] if plan else '-'}, "
+         f"{plan['cycles'] if plan else '-'} cycles after settling"
+         + (f", runs capped at {plan['max_steps']} steps (SMOKE, not a prediction)"
+            if plan and plan.get("max_steps") else "") + f".  CPU time so far: {cpu:.0f} s.", "",
+         "Amplification of ds (thesis Section 4.2.5), median (10 % - 90 %) over the realisations "
+         "that survived; inside / outside: the per-realisation means over the sweep frequencies "
+         "inside / outside the thesis' effective range.  The characteristic frequency is the peak "
+         "of the median curve by postprocess.sweep.effective_range, null when the peak is at an "
+         "edge of the sweep or not clear.  The acceleration is NOT low-passed (postprocess.shake "
+         "does not offer it).", "",
+         "## Per sweep", "",
+         "| sweep | done | thesis f_c (Hz) | DEM f_c (Hz) | per-seed f_c | DEM range (Hz) | "
+         "ds inside (thesis range) | ds outside | lag inside (s) | excited bricks | courses | "
+         "survival (lowest f) | CPU s |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for n in ORDER:
+        s, th = summary[n], THESIS.get(n, {})
+        if s.get("status") == "pending" and not s.get("n_run"):
+            L.append(f"| {n} | 0 | {th.get('fc') or th.get('fc_note', '-')} | not run | | | | | "
+                     f"| | | | |")
+            continue
+        io = (s.get("inside_outside") or {}).get("thesis_range") or {}
+        fc = s.get("characteristic_frequency_hz")
+        fc_txt = _f(fc, "g") if fc is not None else \
+            f"none: {s.get('characteristic_frequency_note')}"
+        sv = (s.get("survival") or {}).get("min_rate")
+        L.append(f"| {n} | {s['n_run']}/{s['n_expected']} | "
+                 f"{th.get('fc') if th.get('fc') is not None else th.get('fc_note', '-')} | "
+                 f"{fc_txt} | {_band(s.get('characteristic_frequency_band'), 'g')} | "
+                 f"{s.get('effective_range_hz') or '-'} | "
+                 f"{_band(io.get('amplification_ds_inside'))} | "
+                 f"{_band(io.get('amplification_ds_outside'))} | "
+                 f"{_band(io.get('lag_ds_inside_s'))} | {_band(s.get('excited_bricks'), 'g')} | "
+                 f"{_band(s.get('excited_courses'), 'g')} | "
+                 f"{f'{sv:.0%}' if sv is not None else '-'} | {_f(s.get('cpu_seconds'), '.0f')} |")
+    L += ["", "## Success criteria (issue 13 step 4)", "",
+          "Each criterion passes only when the median agrees within the tolerance AND the thesis "
+          "value lies inside the 10-90 % band of the realisations.", "",
+          "| sweep | quantity | thesis | status | detail |", "|---|---|---|---|---|"]
+    for r in crit:
+        L.append(f"| {r['sweep']} | {r['quantity']} | {r['thesis']} | **{r['status']}** | "
+                 f"{r.get('why', '')} |")
+    L += ["", "## False successes rejected (issue 13 step 5)", "",
+          "| check | status | detail |", "|---|---|---|"]
+    for r in checks:
+        L.append(f"| {r['check']} | **{r['status']}** | {r['why']} |")
+    L += ["", "## Figures", ""]
+    for n in ORDER:
+        s = summary[n]
+        if not s.get("n_run"):
+            continue
+        if plot_sweep(out / n / "amplification.png", n, s):
+            L.append(f"![{n}]({n}/amplification.png)")
+        exc = copy_excited(out, n, s, runs)
+        if exc:
+            L.append(f"![{n} excited portion]({exc})")
+        L.append("")
+    (out / "README.md").write_text("\n".join(L) + "\n")
+    return data
+
+
+def plot_sweep(path: Path, name: str, sw: dict) -> bool:
+    """Amplification of ds, da and dsr against frequency: median with the 10-90 % band over the
+    surviving realisations; the thesis' characteristic frequency, effective range and
+    amplifications (REFERENCE.md, Chapter 4) drawn over them."""
+    curves = sw.get("amplification_curves") or {}
+    ds = curves.get("ds") or {}
+    fs = sorted(float(f) for f, st in ds.items() if st.get("n"))
+    if not fs:
+        return False
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from dem.output.atomic import savefig
+
+    th = THESIS.get(name, {})
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for q, c in (("ds", "C0"), ("da", "C1"), ("dsr", "C2")):
+        st = [(curves.get(q) or {}).get(f"{f:g}") or {} for f in fs]
+        ok = [i for i, x in enumerate(st) if x.get("n")]
+        if not ok:
+            continue
+        f_ok = [fs[i] for i in ok]
+        ax.fill_between(f_ok, [st[i]["q10"] for i in ok], [st[i]["q90"] for i in ok], color=c,
+                        alpha=0.2)
+        ax.plot(f_ok, [st[i]["median"] for i in ok], "o-", color=c,
+                label=f"{q}: median, 10-90 % band")
+    if th.get("range"):
+        ax.axvspan(th["range"][0], th["range"][1], color="0.5", alpha=0.15,
+                   label="thesis effective range")
+    if th.get("fc"):
+        ax.axvline(th["fc"], color="k", ls="--", lw=1, label=f"thesis f_c {th['fc']:g} Hz")
+    if th.get("amp_in") is not None and th.get("range"):
+        ax.plot(th["range"], [th["amp_in"]] * 2, "k-", lw=3, label="thesis ds inside")
+    if sw.get("characteristic_frequency_hz") is not None:
+        ax.axvline(sw["characteristic_frequency_hz"], color="C3", lw=1,
+                   label=f"DEM f_c {sw['characteristic_frequency_hz']:g} Hz")
+    ax.set_xlabel("frequency (Hz)")
+    ax.set_ylabel("amplification")
+    ax.set_title(f"{name}: {len(sw.get('seeds') or [])} realisations"
+                 + (" (SMOKE: capped steps)" if sw.get("smoke") else ""))
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    savefig(fig, path, dpi=100)
+    plt.close(fig)
+    return True
+
+
+def copy_excited(out: Path, name: str, sw: dict, runs: Path | None = None) -> str | None:
+    """Copy the excited-portion drawing (postprocess.excited_output, excited.png) of the
+    realisation whose excited-brick count is nearest the median, at the frequency of
+    ``excited_at_hz``, from the raw runs to ``<out>/<sweep>/``; its path relative to out."""
+    import shutil
+
+    f, med = sw.get("excited_at_hz"), (sw.get("excited_bricks") or {}).get("median")
+    data = _read(points_path(out, name)) or {}
+    rows = [r for r in data.get("rows") or [] if f is not None
+            and abs(r["frequency_hz"] - f) < 1e-9 and survived(r)
+            and _finite((r.get("excited") or {}).get("n_excited"))]
+    if not rows or med is None:
+        return None
+    r = min(rows, key=lambda r: (abs(r["excited"]["n_excited"] - med), r["seed"]))
+    from dem.run.sweep import point_name
+
+    src = (runs or Path(out) / "runs") / name / f"seed-{r['seed']}" / point_name(f) / "excited.png"
+    if not src.is_file():
+        return None
+    dst = Path(out) / name / f"excited-{f:g}Hz-seed{r['seed']}.png"
+    shutil.copyfile(src, dst)
+    return str(dst.relative_to(out))
+
+
+def _command(args) -> str:
+    cmd = ["python -m postprocess.prediction_study", "--frozen", _rel(Path(args.frozen)),
+           "--out", _rel(Path(args.out))]
+    if args.realisations != DEFAULT_REALISATIONS:
+        cmd += ["--realisations", str(args.realisations)]
+    if args.cycles != DEFAULT_CYCLES:
+        cmd += ["--cycles", f"{args.cycles:g}"]
+    if args.max_steps is not None:
+        cmd += ["--max-steps", str(args.max_steps)]
+    return " ".join(cmd)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+    ap.add_argument("--frozen", type=Path, default=DEFAULT_FROZEN)
+    ap.add_argument("--out", type=Path, default=ROOT / "results" / "prediction")
+    ap.add_argument("--runs", type=Path, default=None, help="raw runs (default <out>/runs, "
+                                                            "git-ignored)")
+    ap.add_argument("--only", default=None, help=f"comma-separated sweeps of {list(ORDER)}")
+    ap.add_argument("--realisations", type=int, default=DEFAULT_REALISATIONS)
+    ap.add_argument("--cycles", type=float, default=DEFAULT_CYCLES)
+    ap.add_argument("--workers", type=int, default=None)
+    ap.add_argument("--max-steps", type=int, default=None, help="cap every run (smoke tests)")
+    ap.add_argument("--report", action="store_true", help="only rebuild the report")
+    args = ap.parse_args(argv)
+    try:
+        frozen = load_frozen(args.frozen)
+        names = sweep_names(args.only)
+        if not args.report:
+            plan = write_plan(args.out, make_plan(frozen, names, args.realisations, args.cycles,
+                                                  args.max_steps))
+        else:
+            plan = _read(Path(args.out) / "plan.json")
+            if plan is not None and plan["frozen"]["commit"] != frozen["commit"]:
+                raise PredictionInputError(
+                    f"{args.out}/plan.json: made with frozen commit {plan['frozen']['commit']}, "
+                    f"{args.frozen} is now at {frozen['commit']}")
+    except PredictionInputError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    states = []
+    if not args.report:
+        runs = args.runs or Path(args.out) / "runs"
+        signal.signal(signal.SIGTERM, _on_signal)
+        signal.signal(signal.SIGINT, _on_signal)
+        for n in names:
+            if _STOP[0]:
+                break
+            states.append(run_sweep_point(args.out, runs, n, plan, args.workers))
+    report(args.out, frozen, _command(args), args.runs)
+    print(f"{args.out}/summary.json, {args.out}/README.md", file=sys.stderr)
+    return 0 if all(s in ("skipped", "finished") for s in states) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
