@@ -1,0 +1,354 @@
+"""The blind-prediction harness of issue 13 steps 3-5 (postprocess/prediction_study.py): it refuses
+a frozen set that is missing, malformed or not committed; it writes the seeds before any run; its
+criteria give the known answers on hand-made inputs (an edge peak is no characteristic frequency,
+a thesis value outside the 10-90 % band fails even with a close median, survival below 80 %
+fails, collapses and drift are not a match); a finished sweep starts nothing; and one smoke sweep
+(one frequency, 2 realisations, 50 steps) runs end to end and resumes without rerunning."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+
+import pytest
+import yaml
+
+from postprocess import prediction_study as ps
+
+FROZEN = {"imperfections": {"bed_unevenness": 1.0e-4, "face_shape": "planar",
+                            "size_scatter": [0.0, 0.0, 0.0], "arris": 0.0},
+          "derived_in": "test: not a freeze"}
+
+
+def _git(repo, *args):
+    return subprocess.run(["git", "-C", str(repo), "-c", "user.name=t", "-c", "user.email=t@t",
+                           *args], capture_output=True, text=True, check=True).stdout.strip()
+
+
+def _repo(tmp_path, data=FROZEN, commit=True, rel="cases/calibration/frozen.yaml"):
+    """A temporary git repository holding the frozen file at ``rel`` (committed or not)."""
+    repo = tmp_path / "repo"
+    path = repo / rel
+    path.parent.mkdir(parents=True)
+    _git(tmp_path, "init", "-q", str(repo))
+    (repo / "README").write_text("x\n")
+    _git(repo, "add", "README")
+    _git(repo, "commit", "-qm", "start")
+    path.write_text(yaml.safe_dump(data) if not isinstance(data, str) else data)
+    if commit:
+        _git(repo, "add", rel)
+        _git(repo, "commit", "-qm", "freeze")
+    return repo, path
+
+
+# ---- refusals -----------------------------------------------------------------------------------
+def test_missing_frozen_file_exits_2_and_runs_nothing(tmp_path, capsys):
+    out = tmp_path / "out"
+    assert ps.main(["--frozen", str(tmp_path / "frozen.yaml"), "--out", str(out)]) == 2
+    assert "missing" in capsys.readouterr().err
+    assert not (out / "plan.json").exists()
+
+
+def test_untracked_then_modified_frozen_file_is_refused_committed_one_is_read(tmp_path, capsys):
+    repo, path = _repo(tmp_path, commit=False)
+    with pytest.raises(ps.PredictionInputError, match="not committed"):
+        ps.load_frozen(path)
+    assert ps.main(["--frozen", str(path), "--out", str(tmp_path / "out")]) == 2
+    assert "not committed" in capsys.readouterr().err
+    _git(repo, "add", str(path.relative_to(repo)))
+    with pytest.raises(ps.PredictionInputError, match="not committed"):  # staged, no commit
+        ps.load_frozen(path)
+    _git(repo, "commit", "-qm", "freeze")
+    fr = ps.load_frozen(path)
+    assert fr["commit"] == _git(repo, "log", "-1", "--format=%H", "--", str(path))
+    assert fr["parameters"] == FROZEN["imperfections"]
+    assert fr["provenance"] == {"derived_in": "test: not a freeze"}
+    path.write_text(path.read_text().replace("0.0001", "0.0002"))
+    with pytest.raises(ps.PredictionInputError, match="uncommitted changes"):
+        ps.load_frozen(path)
+    # a later commit of another file does not change "the commit that froze it"
+    (repo / "other").write_text("y\n")
+    _git(repo, "add", "other")
+    path.write_text(yaml.safe_dump(FROZEN))
+    _git(repo, "commit", "-qm", "other")
+    assert ps.load_frozen(path)["commit"] == fr["commit"]
+
+
+def test_frozen_file_outside_cases_is_refused(tmp_path):
+    _, path = _repo(tmp_path, rel="frozen.yaml")
+    with pytest.raises(ps.PredictionInputError, match="under cases/"):
+        ps.load_frozen(path)
+
+
+def test_frozen_file_outside_git_is_refused(tmp_path):
+    path = tmp_path / "cases" / "frozen.yaml"
+    path.parent.mkdir()
+    path.write_text(yaml.safe_dump(FROZEN))
+    with pytest.raises(ps.PredictionInputError, match="git"):
+        ps.load_frozen(path)
+
+
+@pytest.mark.parametrize("data, match", [
+    ("- a\n- b\n", "not a YAML mapping"),
+    ({"derived_in": "x"}, "no 'imperfections:'"),
+    ({"imperfections": {**FROZEN["imperfections"], "seed": 3}}, "seed"),
+    ({"imperfections": {**FROZEN["imperfections"], "friction": 0.7}}, "unknown imperfections"),
+    ({**FROZEN, "material": {"friction": 0.7}}, "unknown top-level"),
+    ({**FROZEN, "model-ii-y": {"arris": 1e-3}}, "unknown top-level"),
+    ({"imperfections": {"bed_unevenness": 1e-4}}, "lacks"),
+    ({"imperfections": {**FROZEN["imperfections"], "arris": -1e-4}}, "imperfections"),
+    ("imperfections: [unclosed\n", "not valid YAML"),
+])
+def test_malformed_frozen_file_is_refused_naming_the_problem(tmp_path, data, match):
+    _, path = _repo(tmp_path, data=data)
+    with pytest.raises(ps.PredictionInputError, match=match):
+        ps.load_frozen(path)
+
+
+# ---- plan: seeds before runs --------------------------------------------------------------------
+def test_seeds_are_written_before_the_first_run_model_ii_y_first(tmp_path, monkeypatch):
+    _, path = _repo(tmp_path)
+    out = tmp_path / "out"
+    calls = []
+
+    def fake_run(out_, runs, name, plan, workers=None, log=print):
+        on_disk = json.loads((out_ / "plan.json").read_text())
+        calls.append((name, on_disk["seeds"], on_disk["frozen"]["commit"]))
+        return "finished"
+
+    monkeypatch.setattr(ps, "run_sweep_point", fake_run)
+    assert ps.main(["--frozen", str(path), "--out", str(out), "--realisations", "3",
+                    "--only", "model-iii-y,model-ii-y"]) == 0
+    commit = ps.load_frozen(path)["commit"]
+    assert calls == [("model-ii-y", [0, 1, 2], commit), ("model-iii-y", [0, 1, 2], commit)]
+    plan = json.loads((out / "plan.json").read_text())
+    assert plan["cycles"] == 50 and plan["max_steps"] is None
+    assert plan["sweeps"]["model-ii-y"]["frequencies_hz"] == \
+        [1.8, 1.9, 2.0, 2.1, 2.2, 2.4, 2.5, 2.8, 3.2, 3.6]  # shake_study.SWEEPS
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["freezing_commit"] == commit
+    assert summary["frozen"]["parameters"] == FROZEN["imperfections"]
+    # a later call with other seeds or cycles refuses instead of mixing
+    assert ps.main(["--frozen", str(path), "--out", str(out), "--realisations", "4",
+                    "--only", "model-ii-y"]) == 2
+    assert ps.main(["--frozen", str(path), "--out", str(out), "--realisations", "3",
+                    "--cycles", "10", "--only", "model-ii-y"]) == 2
+    assert json.loads((out / "plan.json").read_text())["seeds"] == [0, 1, 2]
+
+
+def test_sweeps_are_shake_studys_without_the_amplified_one():
+    assert ps.ORDER[0] == "model-ii-y"
+    assert "model-ii-y-amplified" not in ps.ORDER
+    assert set(ps.ORDER) < set(ps.SWEEPS)
+    case = ps.sweep_case("model-ii-x", FROZEN["imperfections"])
+    assert case.imperfections.bed_unevenness == 1e-4 and case.imperfections.seed == 0
+    assert case.material.friction == 0.81 and case.loading.peak_acceleration == 1.71
+    with pytest.raises(ps.PredictionInputError, match="unknown sweep"):
+        ps.sweep_names("model-ii-y-amplified")
+    # nothing but the imperfections, the name and the VTK output differs from the case file
+    from dem.case import load_case
+
+    for name in ps.ORDER:
+        mine = ps.sweep_case(name, FROZEN["imperfections"]).model_dump()
+        base = load_case(ps.case_path(name)).model_dump()
+        assert mine["run"].pop("vtk") is False
+        base["run"].pop("vtk")
+        for d in (mine, base):
+            d.pop("imperfections"), d.pop("name")
+        assert mine == base, name
+
+
+# ---- criteria on hand-made inputs ---------------------------------------------------------------
+def test_a_peak_at_the_edge_of_the_sweep_is_no_characteristic_frequency():
+    freqs = [1.8, 2.0, 2.4, 2.8, 3.2, 3.6]
+    edge = ps.characteristic(freqs, dict(zip(freqs, [0.1, 0.2, 0.3, 0.5, 0.8, 1.2])))
+    assert edge["characteristic_frequency_hz"] is None and edge["peak_at_edge"]
+    assert "no resonance found in the range" in edge["characteristic_frequency_note"]
+    inner = ps.characteristic(freqs, dict(zip(freqs, [0.2, 0.3, 1.5, 2.0, 1.6, 0.3])))
+    assert inner["characteristic_frequency_hz"] == 2.8
+    assert inner["effective_range_hz"] == [2.4, 3.2]
+
+
+def test_thesis_value_outside_the_band_fails_even_with_a_close_median():
+    close_narrow = {"n": 10, "median": 2.75, "q10": 2.70, "q90": 2.78}
+    v = ps.band_verdict(close_narrow, 2.8, tol_abs=0.3)
+    assert v["by_median"] and not v["in_band"] and v["status"] == "fail"
+    v = ps.band_verdict({"n": 10, "median": 2.8, "q10": 2.6, "q90": 3.0}, 2.8, tol_abs=0.3)
+    assert v["status"] == "pass"
+    v = ps.band_verdict({"n": 10, "median": 3.3, "q10": 2.6, "q90": 3.6}, 2.8, tol_abs=0.3)
+    assert not v["by_median"] and v["in_band"] and v["status"] == "fail"
+    # the x 1.5 factor of the amplification: 2 / 1.5 = 1.33 .. 3
+    assert ps.band_verdict({"n": 5, "median": 1.4, "q10": 1.0, "q90": 2.1}, 2.0,
+                           factor=1.5)["status"] == "pass"
+    assert ps.band_verdict({"n": 5, "median": 1.3, "q10": 1.0, "q90": 2.1}, 2.0,
+                           factor=1.5)["status"] == "fail"
+    assert ps.band_verdict({"n": 0}, 2.0, factor=1.5)["status"] == "pending"
+
+
+def _row(seed, f, ds, collapse=False, da=None, dsr=None, h1=None, fd=None, lag=0.13, n_exc=46,
+         courses=8):
+    return {"seed": seed, "frequency_hz": f, "run_status": "ok", "analysis_status": "ok",
+            "amplification": {"ds": ds, "da": da if da is not None else 1 + ds,
+                              "dsr": dsr if dsr is not None else 0.5 * ds, "a": 3.0},
+            "h1_ds": h1 if h1 is not None else ds, "dominant_frequency_hz": fd or f,
+            "lag_s": {"ds": lag, "dsr": lag}, "collapse_suspected": collapse,
+            "excited": {"n_excited": n_exc, "excited_courses_from_top": courses},
+            "mechanism": {"response": "global rocking dominated"}}
+
+
+FREQS = [1.8, 2.0, 2.4, 2.8, 3.2, 3.6]
+CURVE = {1.8: 0.3, 2.0: 0.35, 2.4: 1.8, 2.8: 2.1, 3.2: 1.9, 3.6: 0.4}
+
+
+def _points(rows, seeds=(0, 1, 2, 3, 4), freqs=FREQS, max_steps=None):
+    return {"prediction": {"seeds": list(seeds), "frequencies_hz": freqs, "cycles": 50,
+                           "max_steps": max_steps, "fingerprint": "x", "friction": 0.81,
+                           "peak_acceleration_m_s2": 1.53, "cpu_seconds": 10.0,
+                           "frozen": {"commit": "abc"}}, "rows": rows}
+
+
+def test_analyse_sweep_on_a_hand_made_ensemble_gives_the_known_numbers():
+    rows = [_row(s, f, CURVE[f] * (1 + 0.02 * s), lag=0.13 if 2.4 <= f <= 3.2 else 0.03)
+            for s in range(5) for f in FREQS]
+    sw = ps.analyse_sweep("model-ii-y", _points(rows))
+    assert sw["status"] == "finished" and sw["n_run"] == 30
+    assert sw["characteristic_frequency_hz"] == 2.8
+    assert sw["effective_range_hz"] == [2.4, 3.2]
+    assert sw["characteristic_frequency_per_seed_hz"] == [2.8] * 5
+    io = sw["inside_outside"]["thesis_range"]
+    assert io["inside_hz"] == [2.4, 2.8, 3.2]
+    assert io["amplification_ds_inside"]["median"] == pytest.approx(
+        (1.8 + 2.1 + 1.9) / 3 * 1.04)
+    assert io["lag_ds_inside_s"]["median"] == pytest.approx(0.13)
+    assert sw["survival"]["min_rate"] == 1.0
+    assert sw["excited_bricks"]["median"] == 46 and sw["excited_at_hz"] == 2.8
+    crit = {r["quantity"]: r for r in ps.criteria({"model-ii-y": sw}) if r["sweep"] ==
+            "model-ii-y"}
+    assert crit["characteristic frequency (Hz)"]["status"] == "pass"
+    assert crit["ds amplification inside / outside"]["status"] == "pass"  # ~1.9 / ~0.35
+    assert crit["lag inside the thesis range (s)"]["status"] == "pass"
+    assert crit["excited bricks at 2.8 Hz"]["status"] == "pass"
+    assert crit["survival (no overturning in the cycles)"]["status"] == "pass"
+
+
+def test_survival_below_80_percent_fails_and_a_collapsing_match_is_rejected():
+    # 2 of 5 realisations collapse at 2.8 Hz: 60 % survive there
+    rows = [_row(s, f, CURVE[f], collapse=(f == 2.8 and s < 2)) for s in range(5)
+            for f in FREQS]
+    sw = ps.analyse_sweep("model-ii-y", _points(rows))
+    assert sw["survival"]["per_frequency"]["2.8"] == {"n": 5, "survived": 3, "rate": 0.6}
+    assert ps.survival_verdict(sw)["status"] == "fail"
+    assert ps.survival_verdict({"status": "finished", "survival": {"min_rate": 0.8}})[
+        "status"] == "pass"
+    plan = {"seeds": [0, 1, 2, 3, 4], "cycles": 50, "max_steps": None,
+            "frozen": {"commit": "abc", "path": "cases/x.yaml"},
+            "sweeps": {"model-ii-y": {"friction": 0.81, "peak_acceleration_m_s2": 1.53}}}
+    checks = {c["check"]: c for c in ps.false_success_checks(plan, {"model-ii-y": sw})}
+    assert checks["a match by collapsing facades is not a match"]["status"] == "fail"
+    assert checks["no per-model or per-frequency parameters or seeds"]["status"] == "pass"
+    assert checks["friction unchanged (measured 0.81)"]["status"] == "pass"
+    assert checks["excitation as in the thesis (Appendix I peak accelerations, 50 cycles)"][
+        "status"] == "pass"
+
+
+def test_false_success_checks_catch_lowered_friction_raised_excitation_and_drift():
+    rows = [_row(s, f, CURVE[f], h1=0.2 * CURVE[f] if f == 2.8 else None) for s in range(5)
+            for f in FREQS]  # at 2.8 Hz the ds "amplification" is mostly drift
+    sw = ps.analyse_sweep("model-ii-y", _points(rows))
+    assert ps.is_rocking(rows[3])["rocking"] is False
+    assert ps.is_rocking(rows[2])["rocking"] is True
+    assert ps.is_rocking(_row(0, 2.8, 2.0, da=1.0))["rocking"] is False   # moves with the table
+    assert ps.is_rocking(_row(0, 2.8, 2.0, dsr=0.01))["rocking"] is False  # rigid slide
+    plan = {"seeds": [0, 1, 2, 3, 4], "cycles": 50, "max_steps": None,
+            "frozen": {"commit": "abc", "path": "cases/x.yaml"},
+            "sweeps": {"model-ii-y": {"friction": 0.7, "peak_acceleration_m_s2": 4.0}}}
+    checks = {c["check"]: c for c in ps.false_success_checks(plan, {"model-ii-y": sw})}
+    assert checks["friction unchanged (measured 0.81)"]["status"] == "fail"
+    assert checks["excitation as in the thesis (Appendix I peak accelerations, 50 cycles)"][
+        "status"] == "fail"
+    assert checks["amplification is rocking, not drift or a sliding ratchet (da, dsr)"][
+        "status"] == "fail"
+    sw2 = dict(sw, frozen_commit="other")
+    checks = {c["check"]: c for c in ps.false_success_checks(plan, {"model-ii-y": sw2})}
+    assert checks["no per-model or per-frequency parameters or seeds"]["status"] == "fail"
+
+
+def test_an_edge_peak_fails_the_characteristic_frequency_criterion():
+    rising = {f: 0.1 * f ** 2 for f in FREQS}  # the elastic f^2 rise of results/shake
+    rows = [_row(s, f, rising[f]) for s in range(5) for f in FREQS]
+    sw = ps.analyse_sweep("model-ii-y", _points(rows))
+    assert sw["characteristic_frequency_hz"] is None and sw["peak_at_edge"]
+    crit = {r["quantity"]: r for r in ps.criteria({"model-ii-y": sw})
+            if r["sweep"] == "model-ii-y"}
+    assert crit["characteristic frequency (Hz)"]["status"] == "fail"
+    assert "no resonance found in the range" in crit["characteristic frequency (Hz)"]["why"]
+    # the diagonal's thesis answer is exactly that: the response grows up to 3.6 Hz
+    sw_xy = ps.analyse_sweep("model-ii-xy", _points(rows))
+    crit = {r["quantity"]: r for r in ps.criteria({"model-ii-xy": sw_xy})
+            if r["sweep"] == "model-ii-xy"}
+    assert crit["response grows up to 3.6 Hz"]["status"] == "pass"
+
+
+# ---- resume and the smoke run -------------------------------------------------------------------
+def test_a_finished_sweep_starts_nothing(tmp_path, monkeypatch):
+    _, path = _repo(tmp_path)
+    fr = ps.load_frozen(path)
+    out = tmp_path / "out"
+    plan = ps.write_plan(out, ps.make_plan(fr, ["model-ii-y"], 2, 50, None))
+    freqs = plan["sweeps"]["model-ii-y"]["frequencies_hz"]
+    case = ps.sweep_case("model-ii-y", fr["parameters"])
+    fp = ps.fingerprint(case, freqs, [0, 1], 50, None)
+    rows = [_row(s, f, 1.0) for s in (0, 1) for f in freqs]
+    data = _points(rows, seeds=(0, 1), freqs=freqs)
+    data["prediction"]["fingerprint"] = fp
+    (out / "model-ii-y").mkdir()
+    (out / "model-ii-y" / "points.json").write_text(json.dumps(data))
+
+    def no_run(*a, **k):
+        raise AssertionError("a finished sweep was started again")
+
+    monkeypatch.setattr(ps.subprocess, "Popen", no_run)
+    assert ps.run_sweep_point(out, out / "runs", "model-ii-y", plan) == "skipped"
+    # one row not finished: it runs again
+    rows[-1]["run_status"] = "pending"
+    (out / "model-ii-y" / "points.json").write_text(json.dumps(data))
+    with pytest.raises(AssertionError, match="started again"):
+        ps.run_sweep_point(out, out / "runs", "model-ii-y", plan)
+
+
+def test_smoke_one_frequency_two_realisations_then_resume(tmp_path, monkeypatch):
+    monkeypatch.setenv("DEM_THREADS", "1")
+    _, path = _repo(tmp_path)
+    fr = ps.load_frozen(path)
+    out = tmp_path / "out"
+    plan = ps.make_plan(fr, ["model-ii-y"], 2, 50, 50)
+    plan["sweeps"]["model-ii-y"]["frequencies_hz"] = [2.8]
+    plan = ps.write_plan(out, plan)
+    assert ps.run_sweep_point(out, out / "runs", "model-ii-y", plan, workers=1,
+                              log=lambda s: None) == "finished"
+    data = json.loads((out / "model-ii-y" / "points.json").read_text())
+    pred = data["prediction"]
+    assert pred["seeds"] == [0, 1] and pred["max_steps"] == 50 and pred["finished"]
+    assert pred["frozen"]["commit"] == fr["commit"] and pred["cpu_seconds"] > 0
+    assert [(r["seed"], r["frequency_hz"], r["run_status"]) for r in data["rows"]] == \
+        [(0, 2.8, "ok"), (1, 2.8, "ok")]
+    run_case = yaml.safe_load((out / "runs" / "model-ii-y.yaml").read_text())
+    assert run_case["imperfections"]["bed_unevenness"] == 1e-4
+    for s in (0, 1):  # each realisation ran its own seed
+        case = json.loads((out / "runs" / "model-ii-y" / f"seed-{s}" / "f2.800Hz" /
+                           "case.json").read_text())
+        assert case["imperfections"]["seed"] == s
+    # resume: nothing starts again
+    monkeypatch.setattr(ps.subprocess, "Popen", lambda *a, **k: (_ for _ in ()).throw(
+        AssertionError("rerun")))
+    assert ps.run_sweep_point(out, out / "runs", "model-ii-y", plan) == "skipped"
+    summ = ps.report(out, fr, "smoke")
+    assert summ["freezing_commit"] == fr["commit"]
+    sw = summ["sweeps"]["model-ii-y"]
+    assert sw["smoke"] and sw["n_run"] == 2
+    # 50 steps do not reach the shaking: no analysable response, never a number
+    assert sw["characteristic_frequency_hz"] is None
+    checks = {c["check"]: c for c in summ["false_success_checks"]}
+    assert checks["excitation as in the thesis (Appendix I peak accelerations, 50 cycles)"][
+        "status"] == "fail"  # capped runs are not the thesis' excitation
+    assert "SMOKE" in (out / "README.md").read_text()
