@@ -7,7 +7,9 @@ fails, collapses and drift are not a match); a finished sweep starts nothing; an
 
 from __future__ import annotations
 
+import cmath
 import json
+import math
 import subprocess
 
 import pytest
@@ -187,10 +189,12 @@ def test_thesis_value_outside_the_band_fails_even_with_a_close_median():
 
 def _row(seed, f, ds, collapse=False, da=None, dsr=None, h1=None, fd=None, lag=0.13, n_exc=46,
          courses=8):
+    h1 = h1 if h1 is not None else ds
+    da_ok = abs(1 + h1 * cmath.exp(-2j * math.pi * f * lag))  # table + ds at f
     return {"seed": seed, "frequency_hz": f, "run_status": "ok", "analysis_status": "ok",
-            "amplification": {"ds": ds, "da": da if da is not None else 1 + ds,
+            "amplification": {"ds": ds, "da": da if da is not None else da_ok,
                               "dsr": dsr if dsr is not None else 0.5 * ds, "a": 3.0},
-            "h1_ds": h1 if h1 is not None else ds, "dominant_frequency_hz": fd or f,
+            "h1_ds": h1, "dominant_frequency_hz": fd or f,
             "lag_s": {"ds": lag, "dsr": lag}, "collapse_suspected": collapse,
             "excited": {"n_excited": n_exc, "excited_courses_from_top": courses},
             "mechanism": {"response": "global rocking dominated"}}
@@ -238,6 +242,9 @@ def test_survival_below_80_percent_fails_and_a_collapsing_match_is_rejected():
     sw = ps.analyse_sweep("model-ii-y", _points(rows))
     assert sw["survival"]["per_frequency"]["2.8"] == {"n": 5, "survived": 3, "rate": 0.6}
     assert ps.survival_verdict(sw)["status"] == "fail"
+    assert ps.survived(dict(rows[0], collapse_suspected=None)) is False  # standing not checked
+    assert ps.survived(dict(rows[0], analysis_status="failed")) is False
+    assert ps.survived(dict(rows[0], run_status="pending")) is None
     assert ps.survival_verdict({"status": "finished", "survival": {"min_rate": 0.8}})[
         "status"] == "pass"
     plan = {"seeds": [0, 1, 2, 3, 4], "cycles": 50, "max_steps": None,
@@ -257,7 +264,12 @@ def test_false_success_checks_catch_lowered_friction_raised_excitation_and_drift
     sw = ps.analyse_sweep("model-ii-y", _points(rows))
     assert ps.is_rocking(rows[3])["rocking"] is False
     assert ps.is_rocking(rows[2])["rocking"] is True
-    assert ps.is_rocking(_row(0, 2.8, 2.0, da=1.0))["rocking"] is False   # moves with the table
+    assert ps.is_rocking(_row(0, 2.8, 2.0, da=2.9))["rocking"] is False   # da disagrees with ds
+    # rocking with a large lag reads da < 1 (results/shake at 4.0 m/s2, 2.8 Hz): still rocking
+    m2 = _row(0, 2.8, 1.59, da=0.910, dsr=0.770, h1=1.5625, lag=0.1458)
+    assert ps.da_expected(m2) == pytest.approx(0.906, abs=0.002)
+    assert ps.is_rocking(m2)["rocking"] is True
+    assert ps.is_rocking(dict(m2, dominant_frequency_hz=0.225))["rocking"] is False  # drift
     assert ps.is_rocking(_row(0, 2.8, 2.0, dsr=0.01))["rocking"] is False  # rigid slide
     plan = {"seeds": [0, 1, 2, 3, 4], "cycles": 50, "max_steps": None,
             "frozen": {"commit": "abc", "path": "cases/x.yaml"},
@@ -352,3 +364,16 @@ def test_smoke_one_frequency_two_realisations_then_resume(tmp_path, monkeypatch)
     assert checks["excitation as in the thesis (Appendix I peak accelerations, 50 cycles)"][
         "status"] == "fail"  # capped runs are not the thesis' excitation
     assert "SMOKE" in (out / "README.md").read_text()
+
+
+def test_rocking_check_on_the_committed_perfect_model_sweep_at_4_m_s2():
+    """results/shake/model-ii-y-amplified (perfect geometry, 4.0 m/s2, context only): the points
+    that rock (2.4-3.6 Hz, da < 1 at a 150 deg lag) pass, the collapsed 1.8 / 2.0 Hz points,
+    whose ds is a slow drift, do not."""
+    path = ps.ROOT / "results" / "shake" / "model-ii-y-amplified" / "sweep.json"
+    if not path.is_file():
+        pytest.skip(f"{path} not in this checkout")
+    rows = {p["frequency_hz"]: ps.row_from_point(0, p)
+            for p in json.loads(path.read_text())["points"]}
+    verdict = {f: ps.is_rocking(r)["rocking"] for f, r in rows.items()}
+    assert verdict == {1.8: False, 2.0: False, 2.4: True, 2.8: True, 3.2: True, 3.6: True}
