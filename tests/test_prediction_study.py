@@ -211,7 +211,7 @@ def _points(rows, seeds=(0, 1, 2, 3, 4), freqs=FREQS, max_steps=None):
                            "frozen": {"commit": "abc"}}, "rows": rows}
 
 
-def test_analyse_sweep_on_a_hand_made_ensemble_gives_the_known_numbers():
+def test_analyse_sweep_on_a_hand_made_ensemble_gives_the_known_numbers(tmp_path):
     rows = [_row(s, f, CURVE[f] * (1 + 0.02 * s), lag=0.13 if 2.4 <= f <= 3.2 else 0.03)
             for s in range(5) for f in FREQS]
     sw = ps.analyse_sweep("model-ii-y", _points(rows))
@@ -233,6 +233,8 @@ def test_analyse_sweep_on_a_hand_made_ensemble_gives_the_known_numbers():
     assert crit["lag inside the thesis range (s)"]["status"] == "pass"
     assert crit["excited bricks at 2.8 Hz"]["status"] == "pass"
     assert crit["survival (no overturning in the cycles)"]["status"] == "pass"
+    assert ps.plot_sweep(tmp_path / "amplification.png", "model-ii-y", sw)
+    assert (tmp_path / "amplification.png").stat().st_size > 1000
 
 
 def test_survival_below_80_percent_fails_and_a_collapsing_match_is_rejected():
