@@ -675,6 +675,9 @@ def analyse_sweep(name: str, data: dict | None) -> dict:
                                        for r in ex_rows)
     out["excited_courses"] = statistics((r.get("excited") or {}).get("excited_courses_from_top")
                                         for r in ex_rows)
+    for part in ("upper", "lower"):
+        out[f"excited_{part}"] = statistics((r.get("excited") or {}).get(f"n_{part}")
+                                            for r in ex_rows)
     # rocking, not drift (step 5), at the frequencies inside the thesis' / DEM's range
     chk = [{"seed": r["seed"], "frequency_hz": r["frequency_hz"], **is_rocking(r)}
            for r in rows if survived(r)]
@@ -795,6 +798,16 @@ def criteria(summary: dict) -> list[dict]:
             add(name, f"excited bricks at {th['fc']:g} Hz", f"{th['excited']} +-20 %",
                 pend or band_verdict(sw.get("excited_bricks"), th["excited"],
                                      tol_abs=EXCITED_REL_TOL * th["excited"]))
+        if th.get("excited") is not None:
+            up, lo = sw.get("excited_upper") or {}, sw.get("excited_lower") or {}
+            if pend or not up.get("n"):
+                v = pend or {"status": "pending", "why": "no realisation finished"}
+            else:
+                ok = up["median"] > 0 and lo["median"] > 0
+                v = {"status": "pass" if ok else "fail",
+                     "why": f"median upper {up['median']:g} + lower {lo['median']:g} bricks"}
+            add(name, f"excited portion in two parts at {th['fc']:g} Hz",
+                "upper part + stepped lower part", v)
         if th.get("courses") is not None:
             add(name, f"excited courses from the top at {th['fc']:g} Hz", f"{th['courses']} +-1",
                 pend or band_verdict(sw.get("excited_courses"), th["courses"],

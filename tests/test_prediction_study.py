@@ -196,7 +196,8 @@ def _row(seed, f, ds, collapse=False, da=None, dsr=None, h1=None, fd=None, lag=0
                               "dsr": dsr if dsr is not None else 0.5 * ds, "a": 3.0},
             "h1_ds": h1, "dominant_frequency_hz": fd or f,
             "lag_s": {"ds": lag, "dsr": lag}, "collapse_suspected": collapse,
-            "excited": {"n_excited": n_exc, "excited_courses_from_top": courses},
+            "excited": {"n_excited": n_exc, "excited_courses_from_top": courses,
+                        "n_upper": 28 if n_exc else 0, "n_lower": n_exc - 28 if n_exc else 0},
             "mechanism": {"response": "global rocking dominated"}}
 
 
@@ -232,6 +233,7 @@ def test_analyse_sweep_on_a_hand_made_ensemble_gives_the_known_numbers(tmp_path)
     assert crit["ds amplification inside / outside"]["status"] == "pass"  # ~1.9 / ~0.35
     assert crit["lag inside the thesis range (s)"]["status"] == "pass"
     assert crit["excited bricks at 2.8 Hz"]["status"] == "pass"
+    assert crit["excited portion in two parts at 2.8 Hz"]["status"] == "pass"
     assert crit["survival (no overturning in the cycles)"]["status"] == "pass"
     assert ps.plot_sweep(tmp_path / "amplification.png", "model-ii-y", sw)
     assert (tmp_path / "amplification.png").stat().st_size > 1000
