@@ -708,8 +708,9 @@ def band_verdict(stats: dict | None, thesis: float | None, tol_abs: float | None
     in_band = q10 - 1e-12 <= thesis <= q90 + 1e-12
     ok = by_median and in_band
     return {"status": "pass" if ok else "fail", "by_median": by_median, "in_band": in_band,
-            "thesis": thesis, "median": med, "band": [q10, q90], "tolerance": tol,
-            "why": ("median and band agree with the thesis" if ok else "; ".join(
+            "thesis_value": thesis, "median": med, "band": [q10, q90], "tolerance": tol,
+            "why": f"median {med:.3g}, 10-90 % [{q10:.3g}, {q90:.3g}]: " + (
+                "both agree with the thesis" if ok else "; ".join(
                 w for w, bad in ((f"median {med:.3g} outside thesis {thesis:g} {tol}",
                                   not by_median),
                                  (f"thesis {thesis:g} outside the 10-90 % band "
@@ -759,7 +760,7 @@ def criteria(summary: dict) -> list[dict]:
     rows = []
 
     def add(sweep, quantity, thesis_text, v):
-        rows.append({"sweep": sweep, "quantity": quantity, "thesis": thesis_text, **v})
+        rows.append({"sweep": sweep, "quantity": quantity, **v, "thesis": thesis_text})
 
     for name in ORDER:
         sw, th = summary.get(name) or {"status": "pending"}, THESIS.get(name, {})

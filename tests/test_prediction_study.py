@@ -230,6 +230,8 @@ def test_analyse_sweep_on_a_hand_made_ensemble_gives_the_known_numbers(tmp_path)
     crit = {r["quantity"]: r for r in ps.criteria({"model-ii-y": sw}) if r["sweep"] ==
             "model-ii-y"}
     assert crit["characteristic frequency (Hz)"]["status"] == "pass"
+    assert crit["characteristic frequency (Hz)"]["thesis"] == "2.8 +-0.3"
+    assert crit["characteristic frequency (Hz)"]["thesis_value"] == 2.8
     assert crit["ds amplification inside / outside"]["status"] == "pass"  # ~1.9 / ~0.35
     assert crit["lag inside the thesis range (s)"]["status"] == "pass"
     assert crit["excited bricks at 2.8 Hz"]["status"] == "pass"
