@@ -113,3 +113,29 @@ def test_bad_ensemble_options_exit_2_naming_the_option(tmp_path, args, message):
                                    str(tmp_path / "o"), *args])
     assert res.exit_code == 2
     assert message in res.output
+
+
+def test_a_smoke_run_capped_by_max_steps_is_never_taken_for_a_finished_one(tmp_path):
+    """summary.json records the step cap (--max-steps) as step_limit; resuming an ensemble or a
+    sweep takes a realisation or a point as finished only if it ran with the same cap, so a
+    capped smoke run left in the output directory is rerun by the full study.  A run directory
+    from before the field existed (no step_limit) counts as uncapped."""
+    from dem.case import load_case
+    from dem.commands.ensemble import finished_realisation
+    from dem.commands.sweep import finished_point
+
+    case = load_case(_case(tmp_path))
+    run = tmp_path / "seed-0"
+    run.mkdir()
+    (run / "case.json").write_text(case.model_dump_json())
+    (run / "analysis.json").write_text("{}")
+    summary = {"status": "ok", "steps": 50, "step_limit": 50}
+    (run / "summary.json").write_text(json.dumps(summary))
+    assert finished_realisation(case, run, shake=False) is None
+    assert finished_realisation(case, run, shake=False, max_steps=50) is not None
+    assert finished_point(case, run) is None
+    assert finished_point(case, run, max_steps=50) is not None
+    del summary["step_limit"]
+    (run / "summary.json").write_text(json.dumps(summary))
+    assert finished_realisation(case, run, shake=False) is not None
+    assert finished_point(case, run) is not None

@@ -32,15 +32,17 @@ from dem.run.sweep import EnsembleInputError, realisation_cases
 from postprocess.ensemble import aggregate, plot_lambda, realisation_scalars
 
 
-def finished_realisation(case, out_dir: Path, shake: bool) -> dict | None:
-    """The record of a realisation whose directory holds a finished run of ``case``."""
+def finished_realisation(case, out_dir: Path, shake: bool,
+                         max_steps: int | None = None) -> dict | None:
+    """The record of a realisation whose directory holds a finished run of ``case`` with the
+    same step cap ``max_steps`` (a smoke run is never taken for a full one)."""
     try:
         summ = json.loads((out_dir / "summary.json").read_text())
         same = json.loads((out_dir / "case.json").read_text()) == \
             json.loads(case.model_dump_json())
     except (OSError, ValueError):
         return None
-    if not same or summ.get("status") != "ok":
+    if not same or summ.get("status") != "ok" or summ.get("step_limit") != max_steps:
         return None
     rec = {"name": out_dir.name, "status": "ok", "out_dir": str(out_dir), "summary": summ,
            "reused": True}
@@ -119,7 +121,7 @@ def run_ensemble(case_path, out, realisations: int, seed: int | None = None,
             "seeds": [c.imperfections.seed for _, c in cases]}
     records: dict = {}
     for n, c in cases:
-        rec = finished_realisation(c, out / n, shake)
+        rec = finished_realisation(c, out / n, shake, max_steps)
         if rec is not None:
             records[n] = rec
     if records:

@@ -39,16 +39,17 @@ def say(msg: str) -> None:
     print(msg, file=sys.stderr, flush=True)
 
 
-def finished_point(case, out_dir: Path) -> dict | None:
+def finished_point(case, out_dir: Path, max_steps: int | None = None) -> dict | None:
     """The record of a point whose directory already holds a finished run of ``case`` (same
-    case.json, summary.json status ok), else None."""
+    case.json, summary.json status ok, run with the same step cap ``max_steps``: a smoke run
+    is never taken for a full one), else None."""
     try:
         summ = json.loads((out_dir / "summary.json").read_text())
         same = json.loads((out_dir / "case.json").read_text()) == \
             json.loads(case.model_dump_json())
     except (OSError, ValueError):
         return None
-    if not same or summ.get("status") != "ok":
+    if not same or summ.get("status") != "ok" or summ.get("step_limit") != max_steps:
         return None
     try:
         post = compact(json.loads((out_dir / "analysis.json").read_text()))
@@ -111,7 +112,7 @@ def run_sweep(case_path, out, frequencies: str | None = None, rng: str | None = 
               for n, (f, c) in by_name.items()}
     reused = {}
     for n, (f, c) in by_name.items():
-        rec = finished_point(c, out / n)
+        rec = finished_point(c, out / n, max_steps)
         if rec is not None:
             reused[n] = rec
             points[n] = point_record(f, c, rec, out)

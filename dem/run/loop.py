@@ -71,6 +71,7 @@ def run_case(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
         out.mkdir(parents=True, exist_ok=True)
         write_case(out, case)
     summary = initial_summary(case, scene, loading, sim)
+    summary["step_limit"] = max_steps  # a smoke run capped by --max-steps is not a finished run
     summary["joints"] = joint_summary(case, scene, sim.joints)
     if case.imperfections.any():
         summary["imperfections"] = imperfection_record(out, case, scene)
