@@ -120,7 +120,12 @@ def load_run(run_dir: Path):
 
 def _uniform(t, arrays):
     """Resample arrays (first axis = time) linearly onto a uniform grid if t is not uniform
-    (frames are taken at the first step past each output time: jitter of one time step)."""
+    (frames are taken at the first step past each output time: jitter of one time step).
+    A record of fewer than two samples (a run stopped in its settle phase) has no time grid:
+    ShakeAnalysisError."""
+    if len(t) < 2:
+        raise ShakeAnalysisError(f"{len(t)} sample(s) recorded: nothing to analyse (a run stopped "
+                                 "before its loading started?)")
     dt = np.diff(t)
     if len(dt) and np.allclose(dt, np.median(dt), rtol=1e-3, atol=0):
         return t, arrays
