@@ -97,10 +97,11 @@ def point_record(f: float, case, rec: dict, out_root: Path) -> dict:
             p[k] = summ[k]
     post = rec.get("post")
     if post is not None:
+        # the analysis' own error must not replace the marked one below (or the run's)
+        p.update({k: v for k, v in post.items() if k not in ("traceback", "error")})
         if post.get("analysis_status") == "failed":
             p["status"] = "failed"
-            p["error"] = "analysis: " + post.get("error", "")
-        p.update({k: v for k, v in post.items() if k != "traceback"})
+            p["error"] = "analysis: " + (post.get("error") or "")
     return p
 
 

@@ -524,3 +524,24 @@ def test_a_record_of_one_sample_is_a_shake_analysis_error():
     t = np.array([0.0, 0.01, 0.02])
     tu, (a,) = _uniform(t, [np.ones((3, 2))])
     assert np.array_equal(tu, t) and a.shape == (3, 2)
+
+
+def test_a_point_whose_analysis_failed_is_marked_so():
+    """A run that finished but whose analysis failed is a failed point whose error says
+    "analysis: ..." (the analysis' own error field used to overwrite the marked one, so it read
+    like a failed run)."""
+    from postprocess.sweep import point_record
+
+    case = parse_case({"name": "t", "scene": {"blocks": [{"size": [0.1, 0.1, 0.1],
+                                                          "position": [0, 0, 0.05],
+                                                          "density": 2000.0}]},
+                       "material": {"friction": 0.8},
+                       "loading": {"type": "shake", "direction": [1, 0, 0], "frequency": 2.0,
+                                   "amplitude": 0.001, "cycles": 2},
+                       "run": {"duration": 1.0}})
+    rec = {"status": "ok", "summary": {"steps": 10},
+           "post": {"analysis_status": "failed", "error": "no instruments.npz"}}
+    p = point_record(2.0, case, rec, Path("."))
+    assert p["status"] == "failed" and p["error"] == "analysis: no instruments.npz"
+    ok = point_record(2.0, case, {"status": "ok", "post": {"analysis_status": "ok"}}, Path("."))
+    assert ok["status"] == "ok" and "error" not in ok
