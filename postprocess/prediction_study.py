@@ -66,9 +66,6 @@ import argparse
 import hashlib
 import json
 import math
-import os
-import resource
-import signal
 import subprocess
 import sys
 import time
@@ -77,6 +74,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from postprocess import dem_child
 from postprocess.ensemble import statistics
 from postprocess.shake_study import CASES, SWEEPS
 from postprocess.sweep import effective_range
@@ -331,23 +329,6 @@ def write_plan(out: Path, plan: dict) -> dict:
 
 
 # ---- running one sweep --------------------------------------------------------------------------
-_CHILD: list[subprocess.Popen] = []
-_STOP = [False]
-
-
-def _on_signal(signum, _frame):
-    _STOP[0] = True
-    for p in _CHILD:
-        if p.poll() is None:
-            p.send_signal(signal.SIGTERM)  # dem sweep stops like Ctrl-C, keeping what finished
-
-
-def _child_cpu() -> float:
-    """CPU seconds (user + system) of the terminated, waited-for descendants of this process."""
-    r = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return r.ru_utime + r.ru_stime
-
-
 def points_path(out: Path, name: str) -> Path:
     return Path(out) / name / "points.json"
 
@@ -438,30 +419,16 @@ def run_sweep_point(out: Path, runs: Path, name: str, plan: dict, workers: int |
     case_file = Path(runs) / f"{name}.yaml"
     case_file.parent.mkdir(parents=True, exist_ok=True)
     case_file.write_text(yaml.safe_dump(case.model_dump(mode="json"), sort_keys=False))
-    cmd = [sys.executable, "-c", "import sys; sys.argv[0] = 'dem'; from dem.cli import app; app()",
-           "sweep", str(case_file), "--out", str(sweep_dir),
-           "--frequencies", ",".join(f"{f:g}" for f in freqs), "--cycles", f"{plan['cycles']:g}",
-           "--realisations", str(len(seeds)), "--seed", str(seeds[0])]
+    args = ["sweep", str(case_file), "--out", str(sweep_dir),
+            "--frequencies", ",".join(f"{f:g}" for f in freqs), "--cycles", f"{plan['cycles']:g}",
+            "--realisations", str(len(seeds)), "--seed", str(seeds[0])]
     if workers is not None:
-        cmd += ["--workers", str(workers)]
+        args += ["--workers", str(workers)]
     if plan["max_steps"] is not None:
-        cmd += ["--max-steps", str(plan["max_steps"])]
-    env = {**os.environ, "DEM_THREADS": "1",
-           "PYTHONPATH": os.pathsep.join([str(ROOT), *filter(None, [os.environ.get(
-               "PYTHONPATH")])])}
-    cpu0, t0 = _child_cpu(), time.perf_counter()
+        args += ["--max-steps", str(plan["max_steps"])]
     log(f"[{time.strftime('%H:%M:%S', time.gmtime())} UTC] {name}: {len(freqs)} frequencies x "
         f"{len(seeds)} realisations, {plan['cycles']:g} cycles ...")
-    proc = subprocess.Popen(cmd, env=env, cwd=ROOT, stdout=subprocess.PIPE,
-                            stderr=subprocess.STDOUT, text=True)
-    _CHILD.append(proc)
-    try:
-        for line in proc.stdout:
-            log("    " + line.rstrip())
-        rc = proc.wait()
-    finally:
-        _CHILD.remove(proc)
-    cpu, wall = _child_cpu() - cpu0, time.perf_counter() - t0
+    rc, cpu, wall = dem_child.run_dem(args, log)
     rows = collect_rows(sweep_dir, seeds, freqs)
     if not any(r["run_status"] != "pending" for r in rows) and rc == 2:
         log(f"    dem sweep exit {rc}: refused the case")
@@ -1124,10 +1091,9 @@ def main(argv=None) -> int:
     states = []
     if not args.report:
         runs = args.runs or Path(args.out) / "runs"
-        signal.signal(signal.SIGTERM, _on_signal)
-        signal.signal(signal.SIGINT, _on_signal)
+        dem_child.install_signal_handlers()
         for n in names:
-            if _STOP[0]:
+            if dem_child.stopped():
                 break
             states.append(run_sweep_point(args.out, runs, n, plan, args.workers))
     report(args.out, frozen, _command(args), args.runs)

@@ -15,6 +15,7 @@ import subprocess
 import pytest
 import yaml
 
+from postprocess import dem_child
 from postprocess import prediction_study as ps
 
 FROZEN = {"imperfections": {"bed_unevenness": 1.0e-4, "face_shape": "planar",
@@ -325,7 +326,7 @@ def test_a_finished_sweep_starts_nothing(tmp_path, monkeypatch):
     def no_run(*a, **k):
         raise AssertionError("a finished sweep was started again")
 
-    monkeypatch.setattr(ps.subprocess, "Popen", no_run)
+    monkeypatch.setattr(dem_child.subprocess, "Popen", no_run)
     assert ps.run_sweep_point(out, out / "runs", "model-ii-y", plan) == "skipped"
     # one row not finished: it runs again
     rows[-1]["run_status"] = "pending"
@@ -357,7 +358,7 @@ def test_smoke_one_frequency_two_realisations_then_resume(tmp_path, monkeypatch)
                            "case.json").read_text())
         assert case["imperfections"]["seed"] == s
     # resume: nothing starts again
-    monkeypatch.setattr(ps.subprocess, "Popen", lambda *a, **k: (_ for _ in ()).throw(
+    monkeypatch.setattr(dem_child.subprocess, "Popen", lambda *a, **k: (_ for _ in ()).throw(
         AssertionError("rerun")))
     assert ps.run_sweep_point(out, out / "runs", "model-ii-y", plan) == "skipped"
     summ = ps.report(out, fr, "smoke")
