@@ -211,3 +211,29 @@ def test_score_candidate_fails_on_one_broken_invariant_and_waits_on_a_pending_on
     fam = {r["l_over_h"]: r for r in cs.score_candidate(pts)["famive"]}
     assert fam[3.0]["status"] == "pending"
     assert fam[1.0]["famive"] == 0.65 and fam[1.0]["median"] == pytest.approx(0.6)
+
+
+def test_grid_estimate_scales_the_perfect_cpu_by_the_measured_ratio():
+    def point(cpu, n):
+        return {"status": "finished", "cpu_seconds": cpu, "n_realisations": n}
+
+    cands = {"perfect": {}, "bed": {"bed_unevenness": 1e-4}}
+    specs = {"a": {}, "b": {}}
+    pts = {"perfect": {"a": point(10.0, 1), "b": point(30.0, 1)},
+           "bed": {"a": point(400.0, 20), "b": {"status": "pending"}}}
+    est = cs._estimate(pts, specs, cands, 20)
+    assert est["imperfect_over_perfect"] == pytest.approx(2.0)  # 20 s against 10 s
+    assert est["cpu_seconds_per_realisation"] == pytest.approx({"a": 20.0, "b": 60.0})
+    assert est["how"]["b"].startswith("perfect x 2.00")
+    # 20 realisations of each specimen for "bed", one perfect run each
+    assert est["grid_cpu_seconds"] == pytest.approx(20 * 20 + 20 * 60 + 10 + 30)
+    assert est["finished_cpu_seconds"] == pytest.approx(10 + 30 + 400)
+
+
+def test_a_collapse_of_one_block_alone_is_flagged():
+    data = _ensemble([0.80, 0.034, 0.79], ["mixed", "sliding", "mixed"], lh=2.14)
+    data["calibration"]["extras"]["seed-1"]["n_moving"] = 1
+    data["calibration"]["extras"]["seed-0"]["n_moving"] = 18
+    p = cs.point_summary(data)
+    assert p["lone_block"] == [["seed-1", 0.034]]
+    assert p["lambda_median"] == pytest.approx(0.79)  # still counted
