@@ -39,9 +39,6 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
-import os
-import resource
-import signal
 import subprocess
 import sys
 import time
@@ -52,6 +49,7 @@ import yaml
 
 from dem.builders.bricks import brick
 from dem.case import Case, load_case
+from postprocess import dem_child
 from postprocess.tilt_study import _quasi_static, _study_settings
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -191,23 +189,6 @@ def fingerprint(case: Case, n: int, max_steps: int | None) -> str:
 
 
 # ---- running one point --------------------------------------------------------------------------
-_CHILD: list[subprocess.Popen] = []  # the running dem ensemble, for the signal handler
-_STOP = [False]
-
-
-def _on_signal(signum, _frame):
-    _STOP[0] = True
-    for p in _CHILD:
-        if p.poll() is None:
-            p.send_signal(signal.SIGTERM)  # dem ensemble stops like Ctrl-C, keeping what finished
-
-
-def _child_cpu() -> float:
-    """CPU seconds (user + system) of the terminated, waited-for descendants of this process."""
-    r = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return r.ru_utime + r.ru_stime
-
-
 def _realisation_extras(run_dir: Path) -> dict:
     """Per-realisation numbers the ensemble's scalars leave out, from its summary.json."""
     try:
@@ -287,27 +268,12 @@ def run_point(out: Path, runs: Path, candidate: str, params: dict, specimen: str
     case_file = Path(runs) / candidate / f"{specimen}.yaml"
     case_file.parent.mkdir(parents=True, exist_ok=True)
     case_file.write_text(yaml.safe_dump(case.model_dump(mode="json"), sort_keys=False))
-    cmd = [sys.executable, "-c", "import sys; sys.argv[0] = 'dem'; from dem.cli import app; app()",
-           "ensemble", str(case_file), "--out", str(ens_dir), "--realisations", str(n),
+    cmd = ["ensemble", str(case_file), "--out", str(ens_dir), "--realisations", str(n),
            "--seed", "0", "--workers", "1"]
     if max_steps is not None:
         cmd += ["--max-steps", str(max_steps)]
-    # the child imports this checkout's dem (not another one an editable install points at)
-    env = {**os.environ, "DEM_THREADS": "1",
-           "PYTHONPATH": os.pathsep.join([str(ROOT), *filter(None, [os.environ.get(
-               "PYTHONPATH")])])}
-    cpu0, t0 = _child_cpu(), time.perf_counter()
     log(f"[{time.strftime('%H:%M:%S', time.gmtime())} UTC] {candidate} / {specimen}: {n} realisation(s) ...")
-    proc = subprocess.Popen(cmd, env=env, cwd=ROOT, stdout=subprocess.PIPE,
-                            stderr=subprocess.STDOUT, text=True)
-    _CHILD.append(proc)
-    try:
-        for line in proc.stdout:
-            log("    " + line.rstrip())
-        rc = proc.wait()
-    finally:
-        _CHILD.remove(proc)
-    cpu, wall = _child_cpu() - cpu0, time.perf_counter() - t0
+    rc, cpu, wall = dem_child.run_dem(cmd, log)
     data = _read(ens_dir / "ensemble.json")
     if data is None:
         log(f"    dem ensemble exit {rc}: no ensemble.json")
@@ -807,16 +773,15 @@ def main(argv=None) -> int:
     runs = args.runs or out / "runs"
     out.mkdir(parents=True, exist_ok=True)
     command = _command(args)
-    signal.signal(signal.SIGTERM, _on_signal)
-    signal.signal(signal.SIGINT, _on_signal)
+    dem_child.install_signal_handlers()
     if not args.report:
         for c, params in cands.items():
             for s, spec in specs.items():
-                if _STOP[0]:
+                if dem_child.stopped():
                     break
                 if args.stop_at and time.strftime("%H:%M", time.gmtime()) >= args.stop_at:
                     print(f"--stop-at {args.stop_at} UTC reached: no new point", flush=True)
-                    _STOP[0] = True
+                    dem_child.request_stop()
                     break
                 state = run_point(out, runs, c, params, s, spec, args.realisations,
                                   args.max_steps, log=lambda m: print(m, flush=True))

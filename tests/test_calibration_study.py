@@ -12,6 +12,7 @@ import yaml
 
 from dem.case import load_case
 from postprocess import calibration_study as cs
+from postprocess import dem_child
 
 CAND = {"bed_unevenness": 1.0e-4, "face_shape": "planar", "size_scatter": [3e-4, 2e-4, 1e-4],
         "arris": 5e-4}
@@ -99,7 +100,7 @@ def test_smoke_point_runs_then_resumes_without_rerunning(tmp_path, monkeypatch):
 
     mtime = point.stat().st_mtime_ns
     seed_mtime = (runs / "seed-0" / "summary.json").stat().st_mtime_ns
-    monkeypatch.setattr(cs.subprocess, "Popen", no_launch)
+    monkeypatch.setattr(dem_child.subprocess, "Popen", no_launch)
     assert cs.main(argv) == 0
     assert launches == [] and point.stat().st_mtime_ns == mtime
     monkeypatch.undo()
