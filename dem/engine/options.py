@@ -58,4 +58,4 @@ class StepOptions:
     mode: Literal["auto", "serial", "parallel"]
     threads: int | None
     precision: Literal["f64", "f32"]
-    patch_reuse: float = 0.0
+    patch_reuse: float
