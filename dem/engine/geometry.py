@@ -77,6 +77,12 @@ def point_buffer():
 
 NO_CONTACT = -1
 
+TWIST_FLOOR = 1e-12  # m: a face pair whose twists |o_0 - o_1 - o_2 + o_3| / 4 add up to no more
+                     # than this is planar (module docstring, 5).  `face_shape: planar` removes
+                     # the twist in floating point, which leaves ~1e-20 m on 71 % of the faces; a
+                     # test `> 0` sent those pairs down the twisted (vertex) path.  A twist of
+                     # 1e-12 m changes the gap by 1e-12 m, 1e-6 of a micrometre-deep joint.
+
 
 @ti.func
 def sat_overlaps(pA, RA, hA, pB, RB, hB):
@@ -497,7 +503,7 @@ def warped_patch(c, n, u1, u2, hR1, hR2, oR, ci, RI, hI, m, oI, d0, gx, gy, npol
     npts = 0
     shrink = 1.0
     centroid = c
-    if tw > 0.0:
+    if tw > TWIST_FLOOR:
         # twisted faces: the points are the vertices of the two faces' overlap, with their
         # tributary areas; each bears kn A max(d, 0) with d the bilinear gap there (module
         # docstring, 5)
