@@ -49,6 +49,7 @@ import yaml
 
 from dem.builders.bricks import brick
 from dem.case import Case, load_case
+from dem.engine import RESULTS_REVISION
 from postprocess import dem_child
 from postprocess.tilt_study import _quasi_static, _study_settings
 
@@ -182,9 +183,10 @@ def realisations_for(params: dict, requested: int) -> int:
 
 
 def fingerprint(case: Case, n: int, max_steps: int | None) -> str:
-    """What a finished point must match to be reused: the case, N, the step cap."""
+    """What a finished point must match to be reused: the case, N, the step cap, the engine's
+    results revision (dem.engine.RESULTS_REVISION)."""
     h = hashlib.sha256(case.model_dump_json().encode())
-    h.update(f"|{n}|{max_steps}".encode())
+    h.update(f"|{n}|{max_steps}|{RESULTS_REVISION}".encode())
     return h.hexdigest()[:16]
 
 

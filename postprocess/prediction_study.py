@@ -74,6 +74,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from dem.engine import RESULTS_REVISION
 from postprocess import dem_child
 from postprocess.ensemble import statistics
 from postprocess.shake_study import CASES, SWEEPS
@@ -256,9 +257,11 @@ def sweep_case(name: str, params: dict):
 
 
 def fingerprint(case, freqs, seeds, cycles, max_steps) -> str:
-    """What a finished sweep must match to be skipped."""
+    """What a finished sweep must match to be skipped (the engine's results revision included,
+    dem.engine.RESULTS_REVISION)."""
     h = hashlib.sha256(case.model_dump_json().encode())
-    h.update(json.dumps([list(freqs), list(seeds), cycles, max_steps]).encode())
+    h.update(json.dumps([list(freqs), list(seeds), cycles, max_steps,
+                         RESULTS_REVISION]).encode())
     return h.hexdigest()[:16]
 
 

@@ -238,3 +238,14 @@ def test_a_collapse_of_one_block_alone_is_flagged():
     p = cs.point_summary(data)
     assert p["lone_block"] == [["seed-1", 0.034]]
     assert p["lambda_median"] == pytest.approx(0.79)  # still counted
+
+
+def test_a_point_from_an_older_engine_is_not_reused(monkeypatch):
+    """The resume fingerprint includes dem.engine.RESULTS_REVISION: after a change that moves
+    results (e.g. the planar-warp path fix) a finished point is run again, not mixed in."""
+    spec = cs.specimens()["ip-small-5x5"]
+    case = cs.specimen_case(spec["path"], CAND, "x")
+    now = cs.fingerprint(case, 20, None)
+    assert cs.fingerprint(case, 20, None) == now
+    monkeypatch.setattr(cs, "RESULTS_REVISION", cs.RESULTS_REVISION - 1)
+    assert cs.fingerprint(case, 20, None) != now

@@ -328,6 +328,9 @@ def test_a_finished_sweep_starts_nothing(tmp_path, monkeypatch):
 
     monkeypatch.setattr(dem_child.subprocess, "Popen", no_run)
     assert ps.run_sweep_point(out, out / "runs", "model-ii-y", plan) == "skipped"
+    # an engine whose results moved (dem.engine.RESULTS_REVISION) does not reuse the sweep
+    monkeypatch.setattr(ps, "RESULTS_REVISION", ps.RESULTS_REVISION + 1)
+    assert ps.fingerprint(case, freqs, [0, 1], 50, None) != fp
     # one row not finished: it runs again
     rows[-1]["run_status"] = "pending"
     (out / "model-ii-y" / "points.json").write_text(json.dumps(data))

@@ -13,7 +13,15 @@ which ``dem check`` and the options / errors must not pay for.
 from dem.engine.errors import CapacityError, InputError, InstabilityError, SimulationError
 from dem.engine.options import JointLaw, StepOptions
 
-__all__ = ["Simulation", "JointLaw", "StepOptions", "InputError", "SimulationError",
+# Bumped by every change that moves a simulation's results (a fixed contact law, a new default),
+# not by refactors that keep them bit for bit.  The studies' resume fingerprints include it
+# (postprocess.calibration_study, postprocess.prediction_study), so a point an older engine
+# finished is run again instead of being mixed with the new engine's points.
+#   1: up to 8a0d44a
+#   2: planar warps take the planar path (dem.engine.geometry.TWIST_FLOOR)
+RESULTS_REVISION = 2
+
+__all__ = ["RESULTS_REVISION", "Simulation", "JointLaw", "StepOptions", "InputError", "SimulationError",
            "InstabilityError", "CapacityError"]
 
 
