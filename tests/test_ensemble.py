@@ -123,13 +123,14 @@ def test_a_smoke_run_capped_by_max_steps_is_never_taken_for_a_finished_one(tmp_p
     from dem.case import load_case
     from dem.commands.ensemble import finished_realisation
     from dem.commands.sweep import finished_point
+    from dem.engine import RESULTS_REVISION
 
     case = load_case(_case(tmp_path))
     run = tmp_path / "seed-0"
     run.mkdir()
     (run / "case.json").write_text(case.model_dump_json())
     (run / "analysis.json").write_text("{}")
-    summary = {"status": "ok", "steps": 50, "step_limit": 50}
+    summary = {"status": "ok", "steps": 50, "step_limit": 50, "results_revision": RESULTS_REVISION}
     (run / "summary.json").write_text(json.dumps(summary))
     assert finished_realisation(case, run, shake=False) is None
     assert finished_realisation(case, run, shake=False, max_steps=50) is not None
@@ -139,3 +140,25 @@ def test_a_smoke_run_capped_by_max_steps_is_never_taken_for_a_finished_one(tmp_p
     (run / "summary.json").write_text(json.dumps(summary))
     assert finished_realisation(case, run, shake=False) is not None
     assert finished_point(case, run) is not None
+
+
+def test_a_run_of_an_engine_whose_results_moved_is_not_resumed(tmp_path):
+    """summary.json records dem.engine.RESULTS_REVISION; a realisation or a point finished by an
+    engine of another revision (or before the field existed) is run again, not mixed in."""
+    from dem.case import load_case
+    from dem.commands.ensemble import finished_realisation
+    from dem.commands.sweep import finished_point
+    from dem.engine import RESULTS_REVISION
+
+    case = load_case(_case(tmp_path))
+    run = tmp_path / "seed-0"
+    run.mkdir()
+    (run / "case.json").write_text(case.model_dump_json())
+    (run / "analysis.json").write_text("{}")
+    for rev, reused in [(RESULTS_REVISION, True), (RESULTS_REVISION - 1, False), (None, False)]:
+        summary = {"status": "ok", "steps": 50, "step_limit": None}
+        if rev is not None:
+            summary["results_revision"] = rev
+        (run / "summary.json").write_text(json.dumps(summary))
+        assert (finished_realisation(case, run, shake=False) is not None) is reused
+        assert (finished_point(case, run) is not None) is reused

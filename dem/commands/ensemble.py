@@ -27,22 +27,17 @@ import os
 from pathlib import Path
 
 from dem.commands.exit_codes import ExitCode, exit_code_for
-from dem.commands.sweep import say
+from dem.commands.sweep import finished_run, say
 from dem.run.sweep import EnsembleInputError, realisation_cases
 from postprocess.ensemble import aggregate, plot_lambda, realisation_scalars
 
 
 def finished_realisation(case, out_dir: Path, shake: bool,
                          max_steps: int | None = None) -> dict | None:
-    """The record of a realisation whose directory holds a finished run of ``case`` with the
-    same step cap ``max_steps`` (a smoke run is never taken for a full one)."""
-    try:
-        summ = json.loads((out_dir / "summary.json").read_text())
-        same = json.loads((out_dir / "case.json").read_text()) == \
-            json.loads(case.model_dump_json())
-    except (OSError, ValueError):
-        return None
-    if not same or summ.get("status") != "ok" or summ.get("step_limit") != max_steps:
+    """The record of a realisation whose directory holds a finished run of ``case``
+    (dem.commands.sweep.finished_run), else None."""
+    summ = finished_run(case, out_dir, max_steps)
+    if summ is None:
         return None
     rec = {"name": out_dir.name, "status": "ok", "out_dir": str(out_dir), "summary": summ,
            "reused": True}

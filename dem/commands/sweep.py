@@ -29,6 +29,7 @@ import sys
 from pathlib import Path
 
 from dem.commands.exit_codes import ExitCode, exit_code_for
+from dem.engine import RESULTS_REVISION
 from dem.run.sweep import DEFAULT_MARGIN, SweepInputError, parse_frequencies, sweep_cases
 from postprocess.sweep import (MAIN_QUANTITY, analyze_point, characteristic_text, compact,
                                finite, point_record, sweep_meta, write_sweep)
@@ -39,17 +40,28 @@ def say(msg: str) -> None:
     print(msg, file=sys.stderr, flush=True)
 
 
-def finished_point(case, out_dir: Path, max_steps: int | None = None) -> dict | None:
-    """The record of a point whose directory already holds a finished run of ``case`` (same
-    case.json, summary.json status ok, run with the same step cap ``max_steps``: a smoke run
-    is never taken for a full one), else None."""
+def finished_run(case, out_dir: Path, max_steps: int | None = None) -> dict | None:
+    """summary.json of ``out_dir`` if it holds a finished run that a rerun of ``case`` would
+    repeat: the same case.json, status ok, the same step cap ``max_steps`` (a smoke run is never
+    taken for a full one) and the same engine results revision (dem.engine.RESULTS_REVISION: a
+    run an engine with different physics finished is not mixed in); else None."""
     try:
         summ = json.loads((out_dir / "summary.json").read_text())
         same = json.loads((out_dir / "case.json").read_text()) == \
             json.loads(case.model_dump_json())
     except (OSError, ValueError):
         return None
-    if not same or summ.get("status") != "ok" or summ.get("step_limit") != max_steps:
+    if not same or summ.get("status") != "ok" or summ.get("step_limit") != max_steps \
+            or summ.get("results_revision") != RESULTS_REVISION:
+        return None
+    return summ
+
+
+def finished_point(case, out_dir: Path, max_steps: int | None = None) -> dict | None:
+    """The record of a point whose directory already holds a finished run of ``case``
+    (:func:`finished_run`), else None."""
+    summ = finished_run(case, out_dir, max_steps)
+    if summ is None:
         return None
     try:
         post = compact(json.loads((out_dir / "analysis.json").read_text()))

@@ -21,8 +21,8 @@ from dem.engine.options import JointLaw, StepOptions
 #   2: planar warps take the planar path (dem.engine.geometry.TWIST_FLOOR)
 RESULTS_REVISION = 2
 
-__all__ = ["RESULTS_REVISION", "Simulation", "JointLaw", "StepOptions", "InputError", "SimulationError",
-           "InstabilityError", "CapacityError"]
+__all__ = ["RESULTS_REVISION", "Simulation", "JointLaw", "StepOptions", "InputError",
+           "SimulationError", "InstabilityError", "CapacityError"]
 
 
 def __getattr__(name: str):

@@ -33,6 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from dem.case import Case
+from dem.engine import RESULTS_REVISION
 from dem.output import atomic
 from dem.run.record import Recording
 from dem.scene import Scene
@@ -71,6 +72,7 @@ def initial_summary(case: Case, scene: Scene, loading, sim) -> dict:
         "loading": loading.describe(),
         "material": case.material.model_dump(),
         "output_interval": case.run.output_interval,
+        "results_revision": RESULTS_REVISION,
     }
 
 
