@@ -620,7 +620,11 @@ def report(out: Path, candidates: dict, specs: dict, n: int, command: str) -> di
          "angle at collapse), the median and 10-90 % band over the realisations; mechanisms: "
          "counts over the realisations (postprocess/mechanisms.py).  A point not finished shows "
          "as pending.  CPU: user + system seconds of the point's `dem ensemble` process tree "
-         "(one worker, one Taichi thread), summed over the sessions that ran it.", ""]
+         "(one worker, one Taichi thread), summed over the sessions that ran it.  Every point "
+         f"ran on the engine's results revision {RESULTS_REVISION} (dem.engine.RESULTS_REVISION, "
+         "part of the resume fingerprint: a point of another revision is run again).", "",
+         "How the frozen set will be chosen from these points was fixed before the grid "
+         "finished: [SELECTION.md](SELECTION.md).", ""]
     L += ["## Targets (../shared/REFERENCE.md) and their strength", "",
           "| target | kind | strength | what |", "|---|---|---|---|"]
     for t in TARGETS:
