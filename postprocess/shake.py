@@ -14,7 +14,10 @@ one measuring axis.  Units: SI (m, s, m/s, m/s2, kg, J); phases in degrees.  The
     postprocess.excited_output     excited.png and excited.vtu
 
 Per measuring axis, in order (one function each below):
-  1. the quantities' amplification, lag and spectrum over the steady window (analyze_signals);
+  1. the quantities' amplification, lag and spectrum over the steady window (analyze_signals),
+     the low-passed accelerations a_lp, a_front_lp among them (an assumed instrument,
+     postprocess.shake_signals) and a's amplification at several cutoffs
+     (a_lowpass_sensitivity);
   2. the standing check: a centre that moved by more than the brick's own thickness along e has
      tipped past a rigid block's overturning point (collapse, not a steady response: a warning);
   3. the excited portion (needs frames.npz) and its mass m_e (the reference block's mass without
@@ -42,8 +45,10 @@ from postprocess.excited import ExcitedPortion, corner_twist, excited_portion, m
 from postprocess.excited_output import plot_elevation, write_vtu
 from postprocess.shake_plots import (plot_energy, plot_hysteresis, plot_spectrum,
                                      plot_time_histories)
-from postprocess.shake_signals import (KIND_OF, ShakeAnalysisError, ShakeSignals,
-                                       derived_quantities, load_run, read_signals)
+from postprocess.shake_signals import (KIND_OF, LOWPASS_HZ, LOWPASS_ORDER,
+                                       LOWPASS_SENSITIVITY_HZ, ShakeAnalysisError, ShakeSignals,
+                                       derived_quantities, load_run, lowpass, lowpass_resolved,
+                                       read_signals)
 from postprocess.signal_analysis import (STEADY_TOL, SteadyWindow, amplification, cycle_peak_mean,
                                          kinetic_energy_eq44, loop_energy, n_complete_cycles,
                                          phase_lag, spectral_peaks, spectrum, steady_window)
@@ -80,7 +85,23 @@ def analyze_signals(sig: ShakeSignals, m_e: float | None = None) -> tuple[dict, 
         amp[name] = a["amplification"]
         lag[name] = {"s": p["lag_s"], "deg": p["lag_deg"]}
     res["quantities"], res["amplification"], res["lag"] = quantities, amp, lag
+    if "a" in q:
+        res["a_lowpass_sensitivity"] = a_lowpass_sensitivity(sig, q["a"], win)
     return res, {"q": q, "window": win}
+
+
+def a_lowpass_sensitivity(sig: ShakeSignals, a: np.ndarray, win: SteadyWindow) -> dict:
+    """The amplification of the centre accelerometer a [K] (m/s2) unfiltered ("raw") and through
+    the assumed instrument low-pass (postprocess.shake_signals.lowpass) at each cutoff of
+    LOWPASS_SENSITIVITY_HZ (keys "10", "20", "50": Hz); None where the record's sampling does
+    not resolve the cutoff.  The answer depends on the cutoff, which the thesis does not give."""
+    exc = sig.excitation["acceleration"]
+    out = {"raw": amplification(sig.t, a, exc, win)["amplification"]}
+    for c in LOWPASS_SENSITIVITY_HZ:
+        out[f"{c:g}"] = (amplification(sig.t, lowpass(a, sig.t, c), exc, win)["amplification"]
+                         if lowpass_resolved(sig.t, c) else None)
+    return {"cutoffs_hz": list(LOWPASS_SENSITIVITY_HZ), "order": LOWPASS_ORDER,
+            "amplification": out}
 
 
 
@@ -127,6 +148,12 @@ def _run_header(run_dir: Path, case) -> dict:
                              "absolute",
             "lag": "fitted phase at f (c0 + c1 t + R sin(2 pi f t + phi)) over the steady window; "
                    "lag_deg = phi_in - phi_out, lag_s = lag_deg / (360 f)",
+            "a_lp": f"a (a_front_lp: a_front) through an ASSUMED instrument low-pass, not a "
+                    f"thesis value (the thesis gives no sampling rate or filter): Butterworth "
+                    f"order {LOWPASS_ORDER} at {LOWPASS_HZ:g} Hz run forward and backward "
+                    f"(scipy.signal.sosfiltfilt; zero phase, |H|^2, -6 dB at {LOWPASS_HZ:g} Hz); "
+                    f"compared with the unfiltered table acceleration; a_lowpass_sensitivity: "
+                    f"a's amplification raw and at {list(LOWPASS_SENSITIVITY_HZ)} Hz",
             "da": "cumulative trapezoid twice; polynomial c0 + c1 t + c2 t^2 removed (fitted "
                   "jointly with 3 harmonics of f over the shaking); one-period running mean "
                   "removed",

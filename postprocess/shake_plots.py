@@ -26,7 +26,7 @@ def plot_time_histories(path, sig: ShakeSignals, q: dict, win: SteadyWindow | No
     t = sig.t
     rows = [("displacement (mm)", 1e3, "displacement", ["da", "da_front"], ["ds", "dsr", "dar"]),
             ("velocity (mm/s)", 1e3, "velocity", ["va"], ["vs", "vsr", "var"]),
-            ("acceleration (m/s2)", 1.0, "acceleration", ["a", "a_front"], ["ar"])]
+            ("acceleration (m/s2)", 1.0, "acceleration", ["a", "a_lp", "a_front"], ["ar"])]
     for (label, s, kind, absolute, relative), (ax_a, ax_r) in zip(rows, axs):
         ax_a.plot(t, s * sig.excitation[kind], color="0.6", lw=1.2, label="table (input)")
         for ax, names in ((ax_a, absolute), (ax_r, relative)):

@@ -66,6 +66,7 @@ def compact(analysis: dict) -> dict:
         "kinetic_energy": ax.get("kinetic_energy"),
         "other_axes": {k: v.get("amplification") for k, v in analysis.get("axes", {}).items()
                        if k != analysis.get("primary_axis")},
+        "a_lowpass": (ax.get("a_lowpass_sensitivity") or {}).get("amplification"),
     }
 
 
