@@ -29,7 +29,9 @@ Per measuring axis, in order (one function each below):
      observations: :func:`postprocess.excited.mechanism_labels`);
   5. the plots and excited.vtu.
 The first axis is the primary one: its amplification, lag, steady state, unit drift, mechanism
-and error are repeated at the top of analysis.json.
+and error are repeated at the top of analysis.json.  ``analyze_run(..., cycles=N)`` analyses the
+first N cycles of a longer record as an N-cycle run (nothing written; the prediction study's
+cycles check).
 """
 
 from __future__ import annotations
@@ -48,7 +50,7 @@ from postprocess.shake_plots import (plot_energy, plot_hysteresis, plot_spectrum
 from postprocess.shake_signals import (KIND_OF, LOWPASS_HZ, LOWPASS_ORDER,
                                        LOWPASS_SENSITIVITY_HZ, ShakeAnalysisError, ShakeSignals,
                                        derived_quantities, load_run, lowpass, lowpass_resolved,
-                                       read_signals)
+                                       read_signals, truncate, truncate_frames)
 from postprocess.signal_analysis import (STEADY_TOL, SteadyWindow, amplification, cycle_peak_mean,
                                          kinetic_energy_eq44, loop_energy, n_complete_cycles,
                                          phase_lag, spectral_peaks, spectrum, steady_window)
@@ -105,10 +107,16 @@ def a_lowpass_sensitivity(sig: ShakeSignals, a: np.ndarray, win: SteadyWindow) -
 
 
 
-def analyze_run(run_dir, plots: bool = True, write: bool = True) -> dict:
+def analyze_run(run_dir, plots: bool = True, write: bool = True,
+                cycles: float | None = None) -> dict:
     """Analyse a shaking run directory; writes analysis.json, PNGs and excited.vtu into it.
 
-    Raises ShakeAnalysisError (naming the file) when the directory cannot be analysed.
+    ``cycles``: analyse only the first ``cycles`` excitation cycles of the record, as if the run
+    had shaken that many (postprocess.shake_signals.truncate; the header's excitation says so
+    and keeps the recorded cycles); nothing is written then (plots and write are ignored: the
+    run directory's files stay the full record's).
+    Raises ShakeAnalysisError (naming the file or ``cycles``) when the directory cannot be
+    analysed.
     """
     from dem.case import ShakeLoading
 
@@ -119,6 +127,14 @@ def analyze_run(run_dir, plots: bool = True, write: bool = True) -> dict:
                                  f"'{case.loading.type}', not 'shake'")
     sigs, frames = read_signals(run_dir, case, scene)
     out = _run_header(run_dir, case)
+    if cycles is not None:
+        plots = write = False
+        sigs = [truncate(s, cycles) for s in sigs]
+        frames = truncate_frames(frames, sigs[0].t_end)
+        out["excitation"].update({"recorded_cycles": case.loading.cycles, "cycles": cycles,
+                                  "t_end_s": sigs[0].t_end,
+                                  "truncated": "the first cycles of a longer record "
+                                               "(postprocess.shake_signals.truncate)"})
     for sig in sigs:
         sfx = "" if len(sigs) == 1 else f"_{sig.axis}"
         out["axes"][sig.axis] = _analyze_axis(sig, case, scene, frames, out, run_dir, sfx,

@@ -40,7 +40,7 @@ quantities).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -152,6 +152,36 @@ def derived_quantities(sig: ShakeSignals) -> dict:
             if name in q:
                 q[f"{name}_lp"] = lowpass(q[name], t)
     return q
+
+
+def truncate(sig: ShakeSignals, cycles: float) -> ShakeSignals:
+    """The signals of the first ``cycles`` excitation cycles: the samples up to t_end = cycles / f
+    (s; and half a sample beyond, so the last cycle is complete) and t_end set there, as if the
+    run had shaken ``cycles`` cycles.  The run's first cycles do not depend on how many follow
+    (dem.table_motion: no ramp or taper; the settle phase ends before the clock starts).
+    ShakeAnalysisError naming ``cycles`` when it is not in (0, the recorded cycles]."""
+    recorded = sig.t_end * sig.f
+    if not 0.0 < cycles <= recorded + 1e-9:
+        raise ShakeAnalysisError(f"cycles = {cycles:g}: must lie in (0, {recorded:g}], the "
+                                 f"cycles the run shook")
+    t_end = cycles / sig.f
+    m = sig.t <= t_end + 0.5 * float(np.median(np.diff(sig.t)))
+    cut = {k: (None if v is None else v[m]) for k, v in
+           (("ds_centre", sig.ds_centre), ("ds_corner", sig.ds_corner),
+            ("ds_corner_b", sig.ds_corner_b), ("a_centre", sig.a_centre),
+            ("a_corner", sig.a_corner), ("a_front", sig.a_front))}
+    return replace(sig, t=sig.t[m], t_end=t_end,
+                   excitation={k: v[m] for k, v in sig.excitation.items()}, **cut)
+
+
+def truncate_frames(frames: dict | None, t_end: float) -> dict | None:
+    """frames.npz arrays (time first, as many rows as ``t``) up to t_end (s) and the first frame
+    past it (frames are taken at the first step past each output time)."""
+    if frames is None:
+        return None
+    t = np.asarray(frames["t"], float)
+    n = min(len(t), int(np.searchsorted(t, t_end, side="right")) + 1)
+    return {k: (v[:n] if np.ndim(v) and len(v) == len(t) else v) for k, v in frames.items()}
 
 
 # ---------------------------------------------------------------------------------------------
