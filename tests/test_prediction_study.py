@@ -387,3 +387,60 @@ def test_rocking_check_on_the_committed_perfect_model_sweep_at_4_m_s2():
             for p in json.loads(path.read_text())["points"]}
     verdict = {f: ps.is_rocking(r)["rocking"] for f, r in rows.items()}
     assert verdict == {1.8: False, 2.0: False, 2.4: True, 2.8: True, 3.2: True, 3.6: True}
+
+
+# ---- the low-passed acceleration, the front / back facades, the cycles check -------------------
+def _row_fb(seed, f, ds, front=0.4, **kw):
+    """_row with the accelerometer quantities: the front facade at ``front`` x the back one,
+    a_lp = 2.5, a raw 6.5, and a's amplification at each cutoff (raw 6.5, 50 / 20 / 10 Hz:
+    4.5 / 2.5 / 2.0)."""
+    r = _row(seed, f, ds, **kw)
+    amp = r["amplification"]
+    amp.update({"a": 6.5, "a_lp": 2.5, "a_front": front * 6.5, "a_front_lp": front * 2.5,
+                "da_front": front * amp["da"]})
+    r["a_lowpass"] = {"raw": 6.5, "50": 4.5, "20": 2.5, "10": 2.0}
+    return r
+
+
+def test_row_from_point_keeps_the_low_passed_and_front_accelerations():
+    """From an analysis.json (postprocess.shake) through sweep.compact to the committed row."""
+    from postprocess.sweep import compact
+
+    amp = {"ds": 2.0, "dsr": 1.0, "da": 2.1, "a": 6.3, "a_lp": 3.1, "a_front": 5.4,
+           "a_front_lp": 2.7, "da_front": 2.0}
+    analysis = {"primary_axis": "y", "amplification": amp, "lag": {}, "axes": {"y": {
+        "quantities": {q: {"h1_amplitude_ratio": 1.0} for q in amp}, "collapse_suspected": False,
+        "a_lowpass_sensitivity": {"cutoffs_hz": [10, 20, 50], "amplification":
+                                  {"raw": 6.3, "10": 2.6, "20": 3.1, "50": 4.6}}}}}
+    row = ps.row_from_point(0, {"frequency_hz": 2.8, "status": "ok", **compact(analysis)})
+    assert row["amplification"] == amp
+    assert row["a_lowpass"] == {"raw": 6.3, "10": 2.6, "20": 3.1, "50": 4.6}
+
+
+def test_front_back_ratio_and_acceleration_cutoffs_are_reported_not_scored():
+    rows = [_row_fb(s, f, CURVE[f] * (1 + 0.02 * s), front=0.3 + 0.05 * s) for s in range(5)
+            for f in FREQS]
+    sw = ps.analyse_sweep("model-ii-y", _points(rows))
+    io = sw["inside_outside"]["thesis_range"]
+    fb = io["front_back_inside"]
+    # per seed the ratio is 0.3 + 0.05 s at every frequency: median 0.4, 10-90 % 0.32 - 0.48
+    assert fb["da"]["ratio"]["median"] == pytest.approx(0.4)
+    assert [fb["da"]["ratio"]["q10"], fb["da"]["ratio"]["q90"]] == pytest.approx([0.32, 0.48])
+    assert fb["a_lp"]["ratio"]["median"] == pytest.approx(0.4)
+    assert fb["da"]["front"]["median"] == pytest.approx(0.4 * fb["da"]["back"]["median"],
+                                                        rel=0.05)
+    assert all(st["median"] == pytest.approx(0.4) for st in sw["front_back_curves"]["da"].values())
+    acc = io["acceleration_inside"]
+    assert acc["a"]["median"] == 6.5 and acc["a_lp"]["median"] == 2.5
+    assert {k: v["median"] for k, v in acc["cutoff_sensitivity"].items()} == \
+        {"raw": 6.5, "10": 2.0, "20": 2.5, "50": 4.5}
+    assert sw["amplification_curves"]["a_lp"]["2.8"]["median"] == 2.5
+    # not criteria: no criterion row names them
+    assert not [r for r in ps.criteria({"model-ii-y": sw})
+                if any(w in r["quantity"] for w in ("front", "a_lp", "acceleration"))]
+    acc_md = "\n".join(ps.acceleration_table({"model-ii-y": sw}))
+    assert "| model-ii-y | ~2 | 6.5 (6.5 - 6.5) | 2.5 (2.5 - 2.5) | 4.5 | 2.5 | 2 | 6.5 |" in acc_md
+    assert "ASSUMED" in acc_md
+    fb_md = "\n".join(ps.front_back_table({"model-ii-y": sw}))
+    assert "| model-ii-y | 0.359 |" in fb_md and "0.4 (0.32 - 0.48)" in fb_md
+    assert "symmetric" in fb_md
