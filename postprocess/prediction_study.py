@@ -7,6 +7,8 @@
         --out results/prediction --only model-ii-y --realisations 10 --cycles 50
     python -m postprocess.prediction_study --frozen cases/calibration/frozen.yaml \\
         --out results/prediction --report             # report from the committed points.json
+    python -m postprocess.prediction_study --frozen cases/calibration/frozen.yaml \\
+        --out results/prediction --only model-ii-y --cycles-check 10   # 10 against 50 cycles
 
 The protocol (issue 13: calibrate -> freeze -> predict, in this order in the git history).
 
@@ -50,7 +52,7 @@ The protocol (issue 13: calibrate -> freeze -> predict, in this order in the git
   10-90 % over the realisations), lag inside, excited bricks, survival rate, CPU time; the
   criteria of issue 13 step 4 (:func:`criteria`) and the false-success checks of step 5
   (:func:`false_success_checks`), each pass / fail / pending; beside them, not criteria, the
-  acceleration table and the front / back table (below).
+  acceleration table, the front / back table and the cycles checks (below).
 
 Thesis numbers: ../shared/REFERENCE.md, "Shaking-table tests (Chapter 4)" (characteristic
 frequencies, effective ranges, amplifications, lags, excited portions; Appendix I groups and
@@ -76,6 +78,21 @@ Shown, not scored (none is one of issue 13's criteria):
   cutoff) and a_front_lp / a_lp per row, then per-seed means inside the range
   (:func:`front_back_inside`) and the median ratio per frequency.  The DEM's box model is
   symmetric front to back but for the imperfections' draws and the excitation's sign.
+* Fewer cycles (issue 13 step 3: "show that the cut does not change the answer").  The table's
+  sine (dem.table_motion) has no ramp-in or taper, the settle phase of an imperfect scene ends
+  before the clock starts and does not depend on the duration, and the run loop's steps differ
+  only at the run's end: an N-cycle run is the first N cycles of a longer one.  Measured: the
+  frames and instruments of Model II y (0.2 mm planar beds, seed 0, 2.8 Hz) for 2 and 4 cycles
+  equal, bit for bit, the first 2 and 4 cycles of a 4- and a 10-cycle run (separate launches;
+  tests/test_shake_truncation.py on a small settling wall).  So ``--cycles-check N``
+  re-analyses the finished runs of a sweep over their first N cycles
+  (postprocess.shake.analyze_run(cycles=N): no simulation) and compares with the full cycles
+  (:func:`cycles_verdict`, rule CYCLES_RULE): characteristic frequency, ds amplification inside
+  and outside, survival.  The analysis of the first N cycles matches that of an N-cycle run to
+  2e-5 in ds (the jittered samples' resampling grid spans the record), a_lp to 3e-4, da to 2-3 %
+  at 2-4 cycles (the drift-free integral's fit and running mean at the record's end) and raw a
+  to ~5 % (the spikes' peaks move with the grid).  ``<out>/<sweep>/cycles-check-<N>.json``
+  (committed) holds the rows and the verdict.
 """
 
 from __future__ import annotations
@@ -127,7 +144,15 @@ ROW_QUANTITIES = ("ds", "dsr", "da", "a", "a_lp", "a_front", "a_front_lp", "da_f
 #: front / back amplification ratios: (front, back) quantities; da first (the headline: the
 #: accelerometer-derived displacement, free of impact spikes and of the assumed cutoff)
 FRONT_BACK = {"da": ("da_front", "da"), "a_lp": ("a_front_lp", "a_lp")}
-
+CYCLES_REL_FLOOR = 0.1   # cycles check: medians agree within max(band width, 10 % of median)
+CYCLES_RULE = (
+    "the answer at N cycles is unchanged from the full cycles when (1) the characteristic "
+    "frequency is the same within one frequency step (both null, or at most one position apart "
+    "in the sweep's sorted frequencies), (2) the medians of the ds amplification inside and "
+    "outside the thesis' range agree within max(10-90 % band width at the full cycles, "
+    f"{CYCLES_REL_FLOOR:g} x its median), and (3) the survival verdict (lowest survival rate "
+    f">= {SURVIVAL_MIN:g}) is the same; the same runs, their first N cycles analysed as an "
+    "N-cycle run (no new simulation)")
 
 #: thesis numbers per sweep (../shared/REFERENCE.md, Chapter 4; issue 13 step 4).  peak_acc:
 #: Appendix I constant peak accelerations (m/s2; the diagonal: 1.08 per axis); fc (Hz); range
@@ -737,6 +762,117 @@ def analyse_sweep(name: str, data: dict | None) -> dict:
     return out
 
 
+# ---- the cycles check (issue 13 step 3: fewer cycles must not change the answer) -----------------
+def truncated_row(seed: int, f: float, run_dir: Path, cycles: float) -> dict:
+    """The row (:func:`row_from_point`) of one finished run analysed over its first ``cycles``
+    cycles only (postprocess.shake.analyze_run(cycles=...): as if it had shaken that many; the
+    run's first cycles do not depend on how many follow, module docstring); an analysis that
+    fails gives a failed row naming the error."""
+    from postprocess.shake import analyze_run
+    from postprocess.sweep import compact
+
+    try:
+        p = {"frequency_hz": f, "status": "ok", **compact(analyze_run(run_dir, cycles=cycles))}
+    except Exception as err:  # noqa: BLE001 - reported in the row, like dem sweep's post hook
+        p = {"frequency_hz": f, "status": "failed", "analysis_status": "failed",
+             "error": f"analysis: {type(err).__name__}: {err}"}
+    return row_from_point(seed, p)
+
+
+def truncated_points(data: dict, sweep_dir: Path, cycles: float) -> dict:
+    """A points.json-like record of the sweep ``data`` (its committed points.json) with every
+    finished run re-analysed over its first ``cycles`` cycles from the raw runs in
+    ``sweep_dir`` (``seed-<k>/<point>/``); unfinished rows stay as they are."""
+    from dem.run.sweep import point_name
+
+    rows = []
+    for r in data.get("rows") or []:
+        d = Path(sweep_dir) / f"seed-{r['seed']}" / point_name(r["frequency_hz"])
+        rows.append(truncated_row(r["seed"], r["frequency_hz"], d, cycles)
+                    if r.get("run_status") == "ok" else dict(r))
+    return {"prediction": {**data["prediction"], "cycles": cycles}, "rows": rows}
+
+
+def _median_agrees(full: dict | None, short: dict | None) -> dict:
+    """Medians of two statistics agree when |short - full| <= max(q90 - q10 of full,
+    CYCLES_REL_FLOOR x |full median|) (the floor: a band of zero width, one realisation)."""
+    if not (full and full.get("n") and short and short.get("n")):
+        return {"same": None, "full": (full or {}).get("median"),
+                "short": (short or {}).get("median"), "why": "no data"}
+    tol = max(full["q90"] - full["q10"], CYCLES_REL_FLOOR * abs(full["median"]))
+    d = short["median"] - full["median"]
+    return {"same": abs(d) <= tol + 1e-12, "full": full["median"], "short": short["median"],
+            "full_band": [full["q10"], full["q90"]], "short_band": [short["q10"], short["q90"]],
+            "difference": d, "tolerance": tol}
+
+
+def cycles_verdict(full: dict, short: dict, freqs) -> dict:
+    """Does analysing fewer cycles change the answer?  ``full`` / ``short``: analyse_sweep of the
+    same runs over all / the first N cycles; freqs: the sweep's frequencies (Hz).  The rule:
+    CYCLES_RULE ((2): :func:`_median_agrees`).  Returns the three comparisons, ``changed`` (the
+    names of those that differ) and ``unchanged`` (None when one could not be judged)."""
+    fs = sorted(freqs)
+    a, b = full.get("characteristic_frequency_hz"), short.get("characteristic_frequency_hz")
+    if a is None or b is None:
+        same_fc = a is None and b is None
+    else:
+        same_fc = abs(fs.index(a) - fs.index(b)) <= 1
+    out = {"characteristic_frequency": {"full": a, "short": b, "same": same_fc,
+                                        "full_note": full.get("characteristic_frequency_note"),
+                                        "short_note": short.get("characteristic_frequency_note")}}
+    io_f = (full.get("inside_outside") or {}).get("thesis_range") or {}
+    io_s = (short.get("inside_outside") or {}).get("thesis_range") or {}
+    for key in ("amplification_ds_inside", "amplification_ds_outside"):
+        out[key] = _median_agrees(io_f.get(key), io_s.get(key))
+    rf = (full.get("survival") or {}).get("min_rate")
+    rs = (short.get("survival") or {}).get("min_rate")
+    ok_f = None if rf is None else rf >= SURVIVAL_MIN - 1e-12
+    ok_s = None if rs is None else rs >= SURVIVAL_MIN - 1e-12
+    out["survival"] = {"full": rf, "short": rs, "full_pass": ok_f, "short_pass": ok_s,
+                       "same": ok_f == ok_s if None not in (ok_f, ok_s) else None}
+    items = {k: v["same"] for k, v in out.items()}
+    changed = [k for k, v in items.items() if v is False]
+    out["changed"] = changed
+    out["unchanged"] = None if not changed and None in items.values() else not changed
+    return out
+
+
+def cycles_check(out: Path, runs: Path, name: str, cycles: float) -> dict:
+    """Re-analyse the finished runs of a sweep over their first ``cycles`` cycles (no
+    simulation), compare with the full cycles (:func:`cycles_verdict`) and write
+    ``<out>/<sweep>/cycles-check-<N>.json`` (committed, like points.json); returns it.
+    PredictionInputError without the sweep's points.json or with ``cycles`` not in
+    [2, the sweep's cycles)."""
+    from dem.output.atomic import write_json
+
+    data = _read(points_path(out, name))
+    if not data or "prediction" not in data:
+        raise PredictionInputError(f"{points_path(out, name)}: missing: run the sweep first")
+    full_cycles = data["prediction"]["cycles"]
+    if not 2 <= cycles < full_cycles:
+        raise PredictionInputError(f"--cycles-check {cycles:g}: must lie in [2, {full_cycles:g}) "
+                                   f"(the sweep ran {full_cycles:g} cycles; cycle 1 is dropped)")
+    short = truncated_points(data, Path(runs) / name, cycles)
+    full_sw, short_sw = analyse_sweep(name, data), analyse_sweep(name, short)
+    res = {"kind": "prediction-cycles-check", "sweep": name, "cycles": cycles,
+           "full_cycles": full_cycles, "rows": short["rows"],
+           "verdict": cycles_verdict(full_sw, short_sw, data["prediction"]["frequencies_hz"]),
+           "rule": CYCLES_RULE,
+           "source": source_state()}
+    write_json(cycles_check_path(out, name, cycles), res, indent=1)
+    return res
+
+
+def verdict_text(v: dict) -> str:
+    """One line for a :func:`cycles_verdict`."""
+    return {True: "unchanged", False: "CHANGED: " + ", ".join(v["changed"]),
+            None: "not judged (no data)"}[v["unchanged"]]
+
+
+def cycles_check_path(out: Path, name: str, cycles: float) -> Path:
+    return Path(out) / name / f"cycles-check-{cycles:g}.json"
+
+
 # ---- criteria (issue 13 step 4) and false-success checks (step 5) --------------------------------
 def band_verdict(stats: dict | None, thesis: float | None, tol_abs: float | None = None,
                  factor: float | None = None) -> dict:
@@ -973,6 +1109,18 @@ def _band(st: dict | None, spec=".3g") -> str:
     return f"{_f(st['median'], spec)} ({_f(st['q10'], spec)} - {_f(st['q90'], spec)})"
 
 
+def read_cycles_checks(out: Path) -> dict:
+    """sweep -> [{cycles, full_cycles, verdict}] from the committed cycles-check-<N>.json files."""
+    res = {}
+    for n in ORDER:
+        for path in sorted((Path(out) / n).glob("cycles-check-*.json")):
+            d = _read(path)
+            if d and d.get("kind") == "prediction-cycles-check":
+                res.setdefault(n, []).append({k: d.get(k) for k in ("cycles", "full_cycles",
+                                                                    "verdict")})
+    return res
+
+
 def _io(sw: dict) -> dict:
     return (sw.get("inside_outside") or {}).get("thesis_range") or {}
 
@@ -1038,6 +1186,33 @@ def front_back_table(summary: dict) -> list[str]:
     return L + [""]
 
 
+def cycles_table(checks: dict) -> list[str]:
+    """README lines: the cycles check of each sweep that has one (:func:`cycles_check`)."""
+    L = ["## Fewer cycles: does the cut change the answer? (issue 13 step 3)", "",
+         "The finished runs re-analysed over their first N cycles (no new simulation: a run's "
+         "first cycles do not depend on how many follow; module docstring).  Rule: "
+         + CYCLES_RULE + ".", ""]
+    if not checks:
+        return L + ["No cycles check yet (`--cycles-check N`).", ""]
+
+    def med(v):
+        return f"{_f(v.get('short'))} / {_f(v.get('full'))}"
+    L += ["| sweep | N / full cycles | f_c (Hz) | ds inside | ds outside | lowest survival | "
+          "answer |", "|---|---|---|---|---|---|---|"]
+    for n, lst in checks.items():
+        for c in lst:
+            v = c["verdict"]
+            fc, sv = v["characteristic_frequency"], v["survival"]
+            ans = verdict_text(v)
+            L.append(f"| {n} | {c['cycles']:g} / {c['full_cycles']:g} | "
+                     f"{fc['short'] if fc['short'] is not None else 'none'} / "
+                     f"{fc['full'] if fc['full'] is not None else 'none'} | "
+                     f"{med(v['amplification_ds_inside'])} | "
+                     f"{med(v['amplification_ds_outside'])} | "
+                     f"{_f(sv['short'], '.0%')} / {_f(sv['full'], '.0%')} | {ans} |")
+    return L + [""]
+
+
 def report(out: Path, frozen: dict, command: str, runs: Path | None = None) -> dict:
     """summary.json and README.md of ``out`` from plan.json and the sweeps' points.json."""
     from dem.output.atomic import write_json
@@ -1047,6 +1222,7 @@ def report(out: Path, frozen: dict, command: str, runs: Path | None = None) -> d
     summary = {n: analyse_sweep(n, _read(points_path(out, n))) for n in ORDER}
     crit = criteria(summary)
     checks = false_success_checks(plan, summary)
+    cycles = read_cycles_checks(out)
     cpu = sum((s.get("cpu_seconds") or 0.0) for s in summary.values())
     data = {"kind": "prediction-summary", "command": command,
             "frozen": {k: frozen[k] for k in ("path", "parameters", "provenance", "sha256",
@@ -1057,7 +1233,8 @@ def report(out: Path, frozen: dict, command: str, runs: Path | None = None) -> d
                          "sensitivity_cutoffs_hz": list(LOWPASS_SENSITIVITY_HZ),
                          "note": "an ASSUMED instrument (the thesis gives no sampling rate or "
                                  "filter); not a criterion; the unfiltered 'a' is kept"},
-            "sweeps": summary, "criteria": crit, "false_success_checks": checks}
+            "sweeps": summary, "criteria": crit, "false_success_checks": checks,
+            "cycles_checks": cycles}
     write_json(out / "summary.json", data, indent=1)
     L = ["# Blind prediction of Chapter 4 (issue 13, steps 3-5)", "",
          f"Generated by `{command}`; `--report` rebuilds this page and summary.json from "
@@ -1100,7 +1277,7 @@ def report(out: Path, frozen: dict, command: str, runs: Path | None = None) -> d
                  f"{_band(io.get('lag_ds_inside_s'))} | {_band(s.get('excited_bricks'), 'g')} | "
                  f"{_band(s.get('excited_courses'), 'g')} | "
                  f"{f'{sv:.0%}' if sv is not None else '-'} | {_f(s.get('cpu_seconds'), '.0f')} |")
-    L += [""] + acceleration_table(summary) + front_back_table(summary)
+    L += [""] + acceleration_table(summary) + front_back_table(summary) + cycles_table(cycles)
     L += ["## Success criteria (issue 13 step 4)", "",
           "Each criterion passes only when the median agrees within the tolerance AND the thesis "
           "value lies inside the 10-90 % band of the realisations.", "",
@@ -1209,6 +1386,8 @@ def _command(args) -> str:
         cmd += ["--cycles", f"{args.cycles:g}"]
     if args.max_steps is not None:
         cmd += ["--max-steps", str(args.max_steps)]
+    if args.cycles_check is not None:
+        cmd += ["--cycles-check", f"{args.cycles_check:g}"]
     return " ".join(cmd)
 
 
@@ -1224,11 +1403,14 @@ def main(argv=None) -> int:
     ap.add_argument("--workers", type=int, default=None)
     ap.add_argument("--max-steps", type=int, default=None, help="cap every run (smoke tests)")
     ap.add_argument("--report", action="store_true", help="only rebuild the report")
+    ap.add_argument("--cycles-check", type=float, default=None, metavar="N",
+                    help="no runs: re-analyse the finished runs of the sweeps (--only) over "
+                         "their first N cycles, compare with the full cycles, then report")
     args = ap.parse_args(argv)
     try:
         frozen = load_frozen(args.frozen)
         names = sweep_names(args.only)
-        if not args.report:
+        if not args.report and args.cycles_check is None:
             plan = write_plan(args.out, make_plan(frozen, names, args.realisations, args.cycles,
                                                   args.max_steps))
         else:
@@ -1237,11 +1419,18 @@ def main(argv=None) -> int:
                 raise PredictionInputError(
                     f"{args.out}/plan.json: made with frozen commit {plan['frozen']['commit']}, "
                     f"{args.frozen} is now at {frozen['commit']}")
+        if args.cycles_check is not None:
+            runs = args.runs or Path(args.out) / "runs"
+            for n in names:
+                if points_path(args.out, n).is_file():
+                    v = cycles_check(args.out, runs, n, args.cycles_check)["verdict"]
+                    print(f"{n}: {args.cycles_check:g} cycles: {verdict_text(v)}",
+                          file=sys.stderr)
     except PredictionInputError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
     states = []
-    if not args.report:
+    if not args.report and args.cycles_check is None:
         runs = args.runs or Path(args.out) / "runs"
         dem_child.install_signal_handlers()
         for n in names:

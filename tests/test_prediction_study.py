@@ -444,3 +444,90 @@ def test_front_back_ratio_and_acceleration_cutoffs_are_reported_not_scored():
     fb_md = "\n".join(ps.front_back_table({"model-ii-y": sw}))
     assert "| model-ii-y | 0.359 |" in fb_md and "0.4 (0.32 - 0.48)" in fb_md
     assert "symmetric" in fb_md
+
+
+def _shifted(rows, factor=1.0, move=None, collapse_at=None):
+    """Copies of rows with ds x factor, ds of frequency move[0] swapped with move[1], and
+    collapse at the frequency collapse_at for seeds 0 and 1."""
+    out = []
+    by = {(r["seed"], r["frequency_hz"]): r for r in rows}
+    for r in rows:
+        f = r["frequency_hz"]
+        if move and f in move:
+            src = by[(r["seed"], move[1] if f == move[0] else move[0])]
+            ds = src["amplification"]["ds"]
+        else:
+            ds = r["amplification"]["ds"]
+        out.append(_row(r["seed"], f, ds * factor,
+                        collapse=collapse_at == f and r["seed"] < 2))
+    return out
+
+
+def test_cycles_verdict_unchanged_and_each_way_it_can_change():
+    rows = [_row(s, f, CURVE[f] * (1 + 0.05 * s)) for s in range(5) for f in FREQS]
+    full = ps.analyse_sweep("model-ii-y", _points(rows))
+
+    def verdict(short_rows):
+        return ps.cycles_verdict(full, ps.analyse_sweep("model-ii-y", _points(short_rows)),
+                                 FREQS)
+
+    v = verdict(_shifted(rows, 1.05))    # 5 % higher: inside the band width (~20 %)
+    assert v["unchanged"] is True and v["changed"] == []
+    assert v["characteristic_frequency"] == {**v["characteristic_frequency"], "full": 2.8,
+                                             "short": 2.8, "same": True}
+    # the peak one step away (2.8 -> 3.2 Hz) is the same within the frequency step ...
+    assert verdict(_shifted(rows, move=(2.8, 3.2)))["characteristic_frequency"]["same"]
+    # ... two steps away (2.8 -> 2.0 Hz: 2.0 made the peak) is not
+    far = [_row(r["seed"], r["frequency_hz"], 3.0 if r["frequency_hz"] == 2.0 else
+                r["amplification"]["ds"]) for r in rows]
+    v = verdict(far)
+    assert v["characteristic_frequency"]["same"] is False
+    assert "characteristic_frequency" in v["changed"] and v["unchanged"] is False
+    v = verdict(_shifted(rows, 0.5))     # half the amplification
+    assert set(v["changed"]) == {"amplification_ds_inside", "amplification_ds_outside"}
+    assert v["amplification_ds_inside"]["tolerance"] == pytest.approx(
+        full["inside_outside"]["thesis_range"]["amplification_ds_inside"]["q90"]
+        - full["inside_outside"]["thesis_range"]["amplification_ds_inside"]["q10"])
+    # the full cycles lose 2 of 5 at 2.8 Hz (60 %), the short record has them standing
+    full_c = ps.analyse_sweep("model-ii-y", _points(_shifted(rows, collapse_at=2.8)))
+    v = ps.cycles_verdict(full_c, full, FREQS)
+    assert v["survival"] == {**v["survival"], "full": 0.6, "short": 1.0, "same": False}
+    assert "survival" in v["changed"]
+    assert ps.verdict_text(v).startswith("CHANGED: ")
+
+
+def test_cycles_check_reanalyses_the_finished_runs_and_reports(tmp_path, monkeypatch, capsys):
+    """--cycles-check N: no simulation; every finished row re-analysed (here a stand-in for
+    postprocess.shake's analysis of the first N cycles), the verdict written next to
+    points.json and shown in the README; N outside [2, the sweep's cycles) is refused."""
+    _, path = _repo(tmp_path)
+    fr = ps.load_frozen(path)
+    out = tmp_path / "out"
+    ps.write_plan(out, ps.make_plan(fr, ["model-ii-y"], 5, 50, None))
+    rows = [_row(s, f, CURVE[f]) for s in range(5) for f in FREQS]
+    rows[-1] = {"seed": 4, "frequency_hz": 3.6, "run_status": "pending", "analysis_status": None}
+    (out / "model-ii-y").mkdir()
+    (out / "model-ii-y" / "points.json").write_text(json.dumps(_points(rows)))
+    seen = []
+
+    def fake_row(seed, f, run_dir, cycles):
+        seen.append((seed, f, run_dir.name, run_dir.parent.name, cycles))
+        return _row(seed, f, CURVE[f] * 1.02)
+
+    monkeypatch.setattr(ps, "truncated_row", fake_row)
+    assert ps.main(["--frozen", str(path), "--out", str(out), "--only", "model-ii-y",
+                    "--cycles-check", "10"]) == 0
+    assert len(seen) == 29 and seen[0] == (0, 1.8, "f1.800Hz", "seed-0", 10.0)
+    assert "model-ii-y: 10 cycles: unchanged" in capsys.readouterr().err
+    chk = json.loads((out / "model-ii-y" / "cycles-check-10.json").read_text())
+    assert chk["cycles"] == 10 and chk["full_cycles"] == 50 and chk["verdict"]["unchanged"]
+    assert chk["rows"][-1]["run_status"] == "pending" and chk["rule"] == ps.CYCLES_RULE
+    readme = (out / "README.md").read_text()
+    assert "| model-ii-y | 10 / 50 | 2.8 / 2.8 |" in readme and "| unchanged |" in readme
+    summ = json.loads((out / "summary.json").read_text())
+    assert summ["cycles_checks"]["model-ii-y"][0]["cycles"] == 10
+    assert summ["low_pass"]["cutoff_hz"] == 20.0
+    for bad in ("50", "1"):
+        assert ps.main(["--frozen", str(path), "--out", str(out), "--only", "model-ii-y",
+                        "--cycles-check", bad]) == 2
+        assert "--cycles-check" in capsys.readouterr().err
