@@ -72,6 +72,12 @@ THESIS_IN_PLANE_MECHANISM = {3.0: "pure sliding", 2.14: "sliding, leeward first 
 FAMIVE = {3.0: 0.67, 2.14: 0.67, 1.0: 0.65, 0.75: 0.56}
 #: out-of-plane mechanisms by corner connection (Fig 3.14 text): test observations
 THESIS_OOP_MECHANISM = {"strong-strong": ("B2", "G")}
+#: the held-out walls (issue 13 step 1): the thesis' L/H = 2.5 large-brick walls, whose test
+#: lambdas are the only ones its text gives (Section 3.3.3; REFERENCE.md), specimen -> lambda.
+#: Never used to choose the set; run with the frozen set after the freeze (``--held-out``).
+HELD_OUT = {"ip-large-stretcher-flat-5x6": 0.48, "ip-large-english-5x6": 0.45,
+            "ip-large-stretcher-on-edge-5x4": 0.36}
+HELD_OUT_DIR = "held-out"  # <out>/held-out/<specimen>/ensemble.json
 TARGETS = [
     {"id": "sliding-invariant", "kind": "invariant", "strength": "strong",
      "text": "the L/H = 3 wall (ip-small-5x5) slides at lambda = mu = 0.81 within 3 % (median, "
@@ -142,6 +148,14 @@ def specimens() -> dict[str, dict]:
     order = sorted(found, key=lambda n: (not n.startswith("ip-small-5x"),
                                          cost.get(n, float("inf")), n))
     return {n: found[n] for n in order}
+
+
+def held_out_specimens() -> dict[str, dict]:
+    """The held-out large-brick walls (:data:`HELD_OUT`) as :func:`specimens` gives the others,
+    plus ``thesis_lambda``; ``l_over_h`` is the thesis' 2.5 (the case files' walls are 2.53)."""
+    return {name: {"path": TILT / "in-plane" / (name.removeprefix("ip-") + ".yaml"),
+                   "kind": "in-plane", "l_over_h": 2.5, "thesis_lambda": lam}
+            for name, lam in HELD_OUT.items()}
 
 
 def load_candidates(path: Path = CANDIDATES_FILE) -> dict[str, dict]:
@@ -255,9 +269,11 @@ def point_finished(data: dict | None, fp: str | None = None) -> bool:
 
 def run_point(out: Path, runs: Path, candidate: str, params: dict, specimen: str,
               spec: dict, realisations: int, max_steps: int | None = None,
-              log=print) -> str:
+              log=print, record: dict | None = None) -> str:
     """Run (or skip) one point; returns "skipped" (already finished), "finished", "pending"
-    (interrupted or a realisation failed) or "failed" (dem ensemble refused the case)."""
+    (interrupted or a realisation failed) or "failed" (dem ensemble refused the case).
+    ``record``: more fields for the point's ``calibration`` block (the held-out points: the
+    frozen set's file and commit)."""
     name = f"cal-{candidate}-{specimen}"
     case = specimen_case(spec["path"], params, name)
     n = realisations_for(params, realisations)
@@ -297,7 +313,7 @@ def run_point(out: Path, runs: Path, candidate: str, params: dict, specimen: str
         "cpu_seconds": (prev.get("cpu_seconds", 0.0) if same else 0.0) + cpu,
         "wall_seconds": (prev.get("wall_seconds", 0.0) if same else 0.0) + wall,
         "sessions": (prev.get("sessions", 0) if same else 0) + 1,
-        "exit_code": rc, "source": source_state(), "extras": extras}
+        "exit_code": rc, "source": source_state(), "extras": extras, **(record or {})}
     from dem.output.atomic import write_json
 
     dest.parent.mkdir(parents=True, exist_ok=True)
@@ -545,6 +561,52 @@ def collect(out: Path, candidates: dict, specs: dict) -> dict:
                 for s in specs} for c in candidates}
 
 
+def held_out_summary(out: Path) -> dict:
+    """specimen -> the held-out point's point_summary with the thesis' lambda, the frozen set it
+    ran with (file, commit), the median's relative difference from the thesis and whether the
+    thesis value lies in the 10-90 % band (pending points: no numbers)."""
+    res = {}
+    for s, spec in held_out_specimens().items():
+        data = _read(point_path(out, HELD_OUT_DIR, s))
+        p = {**point_summary(data), "l_over_h": spec["l_over_h"],
+             "thesis_lambda": spec["thesis_lambda"],
+             "frozen": ((data or {}).get("calibration") or {}).get("frozen")}
+        if _finished(p) and p.get("lambda_median") is not None:
+            lam = spec["thesis_lambda"]
+            p["relative_difference"] = p["lambda_median"] / lam - 1.0
+            p["thesis_in_band"] = bool(p["lambda_q10"] <= lam <= p["lambda_q90"])
+        res[s] = p
+    return res
+
+
+def held_out_lines(held: dict) -> list[str]:
+    """The report's section on the held-out large-brick walls."""
+    L = ["## Held out: the large-brick walls (L/H = 2.5)", ""]
+    if not any(p.get("n_ok") for p in held.values()):
+        return L + ["Their test lambdas (0.48 stretcher flat, 0.45 English, 0.36 stretcher on "
+                    "edge; Section 3.3.3) are the only ones the text gives; they are not used "
+                    "to choose the set.  After the freeze they are predicted with the frozen set "
+                    "unchanged: `python -m postprocess.calibration_study --out "
+                    "results/calibration --held-out` (not run yet).", ""]
+    frozen = {json.dumps(p["frozen"], sort_keys=True) for p in held.values() if p.get("frozen")}
+    L += ["Predicted with the frozen set unchanged (its lengths in metres, not scaled to the "
+          "larger brick): " + "; ".join(f"`{f}`" for f in sorted(frozen)) + ".", "",
+          "| specimen | L/H | thesis lambda | done | median lambda | 10-90 % | thesis in band | "
+          "median vs thesis | mechanisms |", "|---|---|---|---|---|---|---|---|---|"]
+    for s, p in held.items():
+        done = f"{p.get('n_ok', 0)}/{p.get('n_realisations') or '-'}"
+        if _finished(p) and p.get("lambda_median") is not None:
+            mech = ", ".join(f"{k} {v}" for k, v in (p.get("mechanisms") or {}).items()) or "-"
+            L.append(f"| {s} | {_fmt(p['l_over_h'], 2)} | {p['thesis_lambda']} | {done} | "
+                     f"{_fmt(p['lambda_median'], 4)} | {_fmt(p['lambda_q10'], 4)} - "
+                     f"{_fmt(p['lambda_q90'], 4)} | {'yes' if p['thesis_in_band'] else 'no'} | "
+                     f"{100 * p['relative_difference']:+.0f} % | {mech} |")
+        else:
+            L.append(f"| {s} | {_fmt(p['l_over_h'], 2)} | {p['thesis_lambda']} | {done} | "
+                     "pending | pending | - | - | pending |")
+    return L + [""]
+
+
 def _estimate(points: dict, specs: dict, candidates: dict, n: int) -> dict:
     """CPU seconds per realisation of each specimen and the whole grid's estimate (n
     realisations per imperfect point, one per perfect one).
@@ -598,13 +660,14 @@ def report(out: Path, candidates: dict, specs: dict, n: int, command: str) -> di
     scores = {c: score_candidate(points[c]) for c in candidates}
     cpu = sum(p.get("cpu_seconds") or 0.0 for c in points for p in points[c].values())
     est = _estimate(points, specs, candidates, n)
+    held = held_out_summary(out)
     summary = {"kind": "calibration", "issue": 13, "step": 1, "command": command,
                "realisations": n, "seeds": f"0..{n - 1} (perfect: 0 only, deterministic)",
                "candidates": candidates, "specimens": {s: {"case": _rel(v["path"]),
                    "kind": v["kind"], "l_over_h": v["l_over_h"]}
                    for s, v in specs.items()},
                "targets": TARGETS, "points": points, "scores": scores,
-               "cpu_seconds_so_far": cpu, "estimate": est}
+               "cpu_seconds_so_far": cpu, "estimate": est, "held_out": held}
     write_json(out / "summary.json", summary, indent=1)
 
     L = ["# Calibration on the Chapter 3 tilting tests (issue 13, step 1)", "",
@@ -629,8 +692,7 @@ def report(out: Path, candidates: dict, specs: dict, n: int, command: str) -> di
           "| target | kind | strength | what |", "|---|---|---|---|"]
     for t in TARGETS:
         L.append(f"| {t['id']} | {t['kind']} | {t['strength']} | {t['text']} |")
-    L += ["", "The large-brick walls (L/H = 2.5: 0.48 / 0.45 / 0.36, the only lambda values of "
-          "tests the text gives) are held out and not run here.", ""]
+    L += [""] + held_out_lines(held)
     for c, params in candidates.items():
         pts, sc = points[c], scores[c]
         L += [f"## {c}", "", "`" + json.dumps(params) + "`", "",
@@ -764,9 +826,16 @@ def main(argv=None) -> int:
     ap.add_argument("--stop-at", default=None,
                     help="UTC time HH:MM after which no new point is started")
     ap.add_argument("--report", action="store_true", help="only rebuild the report")
+    ap.add_argument("--held-out", action="store_true",
+                    help="after the freeze: run the held-out large-brick walls (HELD_OUT) with "
+                         "the committed frozen set (--frozen) into <out>/held-out/")
+    ap.add_argument("--frozen", type=Path, default=ROOT / "cases" / "calibration" / "frozen.yaml",
+                    help="the frozen set for --held-out (must be committed under cases/)")
     args = ap.parse_args(argv)
     if args.realisations < 1:
         ap.error("--realisations must be >= 1")
+    if args.held_out:
+        return _main_held_out(ap, args)
     all_c, all_s = load_candidates(args.candidates_file), specimens()
     for what, chosen, known in (("candidate", args.candidates, all_c),
                                 ("specimen", args.specimens, all_s)):
@@ -794,6 +863,41 @@ def main(argv=None) -> int:
                 if state != "skipped":
                     report(out, all_c, all_s, args.realisations, command)
     report(out, all_c, all_s, args.realisations, command)
+    return 0
+
+
+def _main_held_out(ap, args) -> int:
+    """--held-out: the large-brick walls with the frozen set (refused, exit 2, before the
+    freeze: postprocess.prediction_study.load_frozen)."""
+    from postprocess.prediction_study import PredictionInputError, load_frozen
+
+    if args.candidates:
+        ap.error("--held-out runs the frozen set, not --candidates")
+    try:
+        frozen = load_frozen(args.frozen)
+    except PredictionInputError as err:
+        ap.error(str(err))
+    all_s = held_out_specimens()
+    bad = [x for x in args.specimens or [] if x not in all_s]
+    if bad:
+        ap.error(f"unknown held-out specimen(s) {bad}; known: {list(all_s)}")
+    record = {"frozen": {"file": frozen["path"], "commit": frozen["commit"],
+                         "sha256": frozen["sha256"]}}
+    out, runs = args.out, args.runs or args.out / "runs"
+    out.mkdir(parents=True, exist_ok=True)
+    dem_child.install_signal_handlers()
+    for s, spec in all_s.items():
+        if args.specimens and s not in args.specimens:
+            continue
+        if dem_child.stopped():
+            break
+        if args.stop_at and time.strftime("%H:%M", time.gmtime()) >= args.stop_at:
+            print(f"--stop-at {args.stop_at} UTC reached: no new point", flush=True)
+            break
+        run_point(out, runs, HELD_OUT_DIR, frozen["parameters"], s, spec, args.realisations,
+                  args.max_steps, log=lambda m: print(m, flush=True), record=record)
+    report(out, load_candidates(args.candidates_file), specimens(), args.realisations,
+           _command(args))
     return 0
 
 

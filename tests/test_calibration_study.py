@@ -249,3 +249,70 @@ def test_a_point_from_an_older_engine_is_not_reused(monkeypatch):
     assert cs.fingerprint(case, 20, None) == now
     monkeypatch.setattr(cs, "RESULTS_REVISION", cs.RESULTS_REVISION - 1)
     assert cs.fingerprint(case, 20, None) != now
+
+
+# ---- the held-out large-brick walls --------------------------------------------------------------
+def test_held_out_walls_are_the_three_large_brick_l_over_h_2_5_walls():
+    held = cs.held_out_specimens()
+    assert {s: v["thesis_lambda"] for s, v in held.items()} == {
+        "ip-large-stretcher-flat-5x6": 0.48, "ip-large-english-5x6": 0.45,
+        "ip-large-stretcher-on-edge-5x4": 0.36}
+    assert all(v["path"].is_file() and v["l_over_h"] == 2.5 for v in held.values())
+    assert not set(held) & set(cs.specimens())  # never among the calibration specimens
+
+
+def test_held_out_refused_before_the_freeze(tmp_path, capsys):
+    """No committed frozen set: exit 2 naming the file, nothing run or written."""
+    out = tmp_path / "cal"
+    with pytest.raises(SystemExit) as exc:
+        cs.main(["--out", str(out), "--held-out", "--frozen", str(tmp_path / "frozen.yaml")])
+    assert exc.value.code == 2
+    assert "frozen.yaml" in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_held_out_summary_band_and_difference(tmp_path):
+    """A finished held-out point: median vs the thesis lambda and whether the thesis value lies
+    in the 10-90 % band; the others pending, shown without numbers."""
+    data = _ensemble([0.50, 0.52, 0.54, 0.56, 0.58], ["sliding"] * 5, lh=2.53)
+    data["calibration"]["frozen"] = {"file": "cases/calibration/frozen.yaml", "commit": "abc"}
+    dest = cs.point_path(tmp_path, cs.HELD_OUT_DIR, "ip-large-stretcher-flat-5x6")
+    dest.parent.mkdir(parents=True)
+    dest.write_text(json.dumps(data))
+    held = cs.held_out_summary(tmp_path)
+    p = held["ip-large-stretcher-flat-5x6"]
+    assert p["relative_difference"] == pytest.approx(0.54 / 0.48 - 1)
+    assert p["thesis_in_band"] is False  # 0.48 below the band's 10 % point
+    assert p["frozen"]["commit"] == "abc"
+    assert held["ip-large-english-5x6"]["status"] == "pending"
+    assert "relative_difference" not in held["ip-large-english-5x6"]
+    text = "\n".join(cs.held_out_lines(held))
+    assert ("| ip-large-stretcher-flat-5x6 | 2.50 | 0.48 | 5/5 | 0.5400 | 0.5080 - 0.5720 | no "
+            "| +13 % |") in text
+    assert "| ip-large-english-5x6 | 2.50 | 0.45 | 0/- | pending |" in text
+
+
+def test_held_out_smoke_run_records_the_frozen_commit(tmp_path):
+    """With a committed frozen set (a temporary repository), --held-out runs the wall with that
+    set and records the freezing commit in the point and the report."""
+    import subprocess
+
+    repo = tmp_path / "repo"
+    frozen = repo / "cases" / "calibration" / "frozen.yaml"
+    frozen.parent.mkdir(parents=True)
+    frozen.write_text(yaml.safe_dump({"imperfections": CAND, "candidate": "x"}))
+    for args in (["init", "-q"], ["add", "."], ["-c", "user.name=t", "-c", "user.email=t@t",
+                                                "commit", "-qm", "freeze"]):
+        subprocess.run(["git", "-C", str(repo), *args], check=True, capture_output=True)
+    commit = subprocess.run(["git", "-C", str(repo), "rev-parse", "HEAD"], check=True,
+                            capture_output=True, text=True).stdout.strip()
+    out = tmp_path / "cal"
+    assert cs.main(["--out", str(out), "--held-out", "--frozen", str(frozen),
+                    "--specimens", "ip-large-stretcher-on-edge-5x4", "--realisations", "1",
+                    "--max-steps", "200"]) == 0
+    data = json.loads(cs.point_path(out, cs.HELD_OUT_DIR,
+                                    "ip-large-stretcher-on-edge-5x4").read_text())
+    assert data["calibration"]["frozen"]["commit"] == commit
+    assert data["calibration"]["parameters"] == CAND
+    assert data["imperfections"]["arris"] == CAND["arris"]
+    assert "Held out" in (out / "README.md").read_text()
