@@ -477,3 +477,35 @@ def test_characteristic_frequency_needs_a_clear_interior_peak():
     data = json.loads((ROOT / "results/shake/model-ii-y/sweep.json").read_text())
     assert data["aggregate"]["characteristic_frequency_hz"] is None
     assert data["aggregate"]["characteristic_frequency_note"]
+
+
+def test_an_atomic_write_interrupted_anywhere_leaves_no_temporary_file(tmp_path, monkeypatch):
+    """A stop signal (Interrupted, raised between any two bytecodes) inside the write, or at the
+    creation of the temporary file itself, leaves the directory as it was; a temporary name that
+    clashes with another writer's file raises and leaves that file alone."""
+    import dem.output.atomic as atomic
+    from dem.signals import Interrupted
+
+    atomic.write_text(tmp_path / "a.txt", "old")
+    with pytest.raises(Interrupted):
+        with atomic.atomic_path(tmp_path / "a.txt") as tmp:
+            tmp.write_text("new")
+            raise Interrupted("SIGTERM")
+    real_close = atomic.os.close
+
+    def close_then_stop(fd):  # the signal lands right after the file was created
+        real_close(fd)
+        raise Interrupted("SIGTERM")
+
+    monkeypatch.setattr(atomic.os, "close", close_then_stop)
+    with pytest.raises(Interrupted):
+        atomic.write_text(tmp_path / "b.txt", "x")
+    monkeypatch.setattr(atomic.os, "close", real_close)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.txt"]
+    assert (tmp_path / "a.txt").read_text() == "old"
+    monkeypatch.setattr(atomic.secrets, "token_hex", lambda n: "clash")
+    other = tmp_path / ".c.clash.tmp.txt"
+    other.write_text("another writer's")
+    with pytest.raises(FileExistsError):
+        atomic.write_text(tmp_path / "c.txt", "x")
+    assert other.read_text() == "another writer's" and not (tmp_path / "c.txt").exists()

@@ -22,7 +22,7 @@ import contextlib
 import json
 import math
 import os
-import tempfile
+import secrets
 from pathlib import Path
 from typing import Iterator
 
@@ -32,20 +32,30 @@ import numpy as np
 @contextlib.contextmanager
 def atomic_path(path: str | Path) -> Iterator[Path]:
     """Yield a temporary path next to ``path``; on a clean exit fsync it and move it onto
-    ``path``; on any exception remove it and re-raise."""
+    ``path``; on any exception remove it and re-raise.
+
+    The temporary name is chosen before the ``try`` and the file created inside it, so an
+    exception at any point after its creation (a stop signal, dem.signals, raises between any
+    two bytecodes) removes it: with ``tempfile.mkstemp`` the file existed before its name was
+    returned, and a SIGTERM landing there left a stray ``.tmp`` file (seen once under load in
+    tests/test_reliability.py).  The name carries 48 random bits and is created with O_EXCL:
+    a clash raises FileExistsError and leaves the other file alone."""
     path = Path(path)
-    fd, name = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=f".tmp{path.suffix}",
-                                dir=path.parent)
-    os.close(fd)
-    tmp = Path(name)
+    tmp: Path | None = path.parent / f".{path.stem}.{secrets.token_hex(6)}.tmp{path.suffix}"
     try:
+        try:
+            os.close(os.open(tmp, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644))
+        except FileExistsError:
+            tmp = None  # another writer's file: not ours to remove
+            raise
         yield tmp
         with open(tmp, "rb+") as fh:
             os.fsync(fh.fileno())
         os.replace(tmp, path)
     except BaseException:
-        with contextlib.suppress(OSError):
-            tmp.unlink()
+        if tmp is not None:
+            with contextlib.suppress(OSError):
+                tmp.unlink()
         raise
     _fsync_dir(path.parent)
 
