@@ -46,20 +46,25 @@ def signal_name(err: BaseException) -> str:
 # the stop signals received inside stop_on_signals (its one writer is the handler)
 _received: list[int] = []
 _holding = False  # inside deferred(): the handler records the signal and does not raise
+_held = False  # a signal arrived inside deferred() and is raised when the block exits
 
 
 @contextlib.contextmanager
 def stop_on_signals():
     """Install the handlers (main thread only; elsewhere a no-op) and restore the old ones."""
+    global _held
     if threading.current_thread() is not threading.main_thread():
         yield
         return
 
     def handler(signum, frame):
+        global _held
         if _received:
             return  # already stopping: let the final writes finish
         _received.append(signum)
-        if not _holding:
+        if _holding:
+            _held = True
+        else:
             raise Interrupted(signal.Signals(signum).name)
 
     _received.clear()
@@ -70,6 +75,7 @@ def stop_on_signals():
         for s, h in old.items():
             signal.signal(s, h)
         _received.clear()
+        _held = False
 
 
 def raise_if_stopped() -> None:
@@ -86,11 +92,14 @@ def raise_if_stopped() -> None:
 def deferred():
     """Hold the stop signals while the block runs: one that arrives is recorded, and
     :class:`Interrupted` is raised when the block exits, not inside it.  For code that must not be
-    interrupted half way: importing Taichi and defining the kernels, ``ti.init``.  (Blocking the
+    interrupted half way: importing Taichi and defining the kernels, ``ti.init``, recording one
+    frame (dem.run.record: a frame cut between its time and its positions left frames.npz with
+    one more time than positions).  A signal that came before the block (the stop already under
+    way, e.g. the last frame written after Ctrl-C) is not raised again at its exit.  (Blocking the
     signals with ``pthread_sigmask`` would not do: a process-directed signal goes to any thread
     that does not block it, e.g. a BLAS thread, and Python still runs the handler in the main
     thread.)  Nested blocks hold until the outermost exits.  A no-op outside the main thread."""
-    global _holding
+    global _holding, _held
     if threading.current_thread() is not threading.main_thread():
         yield
         return
@@ -101,5 +110,6 @@ def deferred():
     finally:
         if outer:
             _holding = False
-    if outer:
+    if outer and _held:
+        _held = False
         raise_if_stopped()

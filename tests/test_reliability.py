@@ -227,6 +227,44 @@ def test_stop_signals_are_held_inside_deferred_and_delivered_after():
                 reached_end = True
     assert reached_end
 
+
+
+def test_a_stop_signal_inside_a_frame_is_raised_after_the_frame_is_whole():
+    """CI once left frames.npz with 14 times and 13 positions after a SIGTERM: the signal's
+    Interrupted came out of FrameRecorder.add between its time and its positions.  A frame is now
+    recorded whole and the stop raised after it.  Here the signal arrives while the positions are
+    being copied (np.array calls __array__ of the engine's array)."""
+    from types import SimpleNamespace
+
+    from dem.run.record import FrameRecorder, Recording
+    from dem.signals import Interrupted, stop_on_signals
+
+    class SignalsWhenCopied:
+        def __getitem__(self, index):
+            return self
+
+        def __array__(self, dtype=None, copy=None):
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(0.2)  # the handler runs at the next bytecode, here
+            return np.zeros((1, 3))
+
+    z = np.zeros((1, 3))
+    rec = object.__new__(Recording)
+    rec.sim = SimpleNamespace(t=0.1, state=SimpleNamespace(
+        pos=SignalsWhenCopied(), quat=np.zeros((1, 4)), vel=z, omega=z))
+    rec.n, rec.vtk, rec.listeners = 1, None, []
+    rec.loading = SimpleNamespace(base_disp=lambda t: np.zeros((1, 3)))
+    rec.frames = FrameRecorder(None)
+    with stop_on_signals():
+        with pytest.raises(Interrupted):
+            rec.frame()
+        # the stop path records the last frame with the signal already received: not raised again
+        rec.sim.state.pos = z
+        rec.sim.t = 0.2
+        rec.frame()
+    lengths = {k: len(v) for k, v in rec.frames.cols.items()}
+    assert lengths == {k: 2 for k in lengths}, lengths
+
 # ------------------------------------------------------------------------------------------
 # run directories
 # ------------------------------------------------------------------------------------------

@@ -20,6 +20,7 @@ from dem.instruments import InstrumentRecorder, thesis_instruments
 from dem.loading import Loading, Record, Shake, Tilt
 from dem.output import atomic
 from dem.scene import Scene
+from dem.signals import deferred
 
 FRAME_KEYS = ("t", "pos", "quat", "vel", "omega", "base_disp")
 
@@ -123,6 +124,12 @@ class Recording:
             self.sample()
 
     def frame(self) -> None:
+        """Record one frame, whole: a stop signal that arrives meanwhile is raised after it
+        (dem.signals.deferred), so frames.npz, the VTK series and the listeners stay in step."""
+        with deferred():
+            self._frame()
+
+    def _frame(self) -> None:
         sim, n, loading = self.sim, self.n, self.loading
         st, t = sim.state, sim.t
         extra = {}
@@ -139,6 +146,10 @@ class Recording:
                    st.omega[:n])
 
     def sample(self) -> None:
+        with deferred():  # one sample, whole (see frame)
+            self._sample()
+
+    def _sample(self) -> None:
         sim, loading = self.sim, self.loading
         st = sim.state
         tt = np.array([sim.t])
