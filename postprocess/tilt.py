@@ -147,19 +147,37 @@ def classify(case, scene, pos0, quat0, pos, quat, load_dir) -> dict:
     return out
 
 
+def reference_frame(frames: dict, collapse: dict) -> int:
+    """Index of the frame the collapse motion is measured from: for a quasi-static tilt the
+    last frame at or before the dynamic continuation's start (``dynamic_from_s``: the state of
+    the last angle in equilibrium, dem.run.quasi_static), else the first frame.  The motion a
+    wall made while it was still in equilibrium (elastic lean, joints seating, creep of warped
+    beds: up to 1 cm at the top of the calibration's L/H = 0.6 wall with 0.1 mm beds) is not
+    its collapse mechanism."""
+    t0 = collapse.get("dynamic_from_s") if collapse.get("method") == "quasi_static" else None
+    if t0 is None:
+        return 0
+    t = np.asarray(frames["t"])
+    return max(0, int(np.searchsorted(t, t0 + 1e-12, side="right")) - 1)
+
+
 def tilt_mechanism(case, scene, frames: dict, summary: dict) -> dict:
     """``{"mechanism": ...}`` of a tilt run whose summary says a collapse was detected (else
-    ``{}``): the mechanism read at the classification frame (see classification_frame).
+    ``{}``): the mechanism of the motion from the reference frame (:func:`reference_frame`) to
+    the classification frame (:func:`classification_frame`, counted from the reference).
     ``frames``: the arrays of frames.npz (t, pos, quat)."""
-    if not (summary.get("collapse") or {}).get("detected"):
+    collapse = summary.get("collapse") or {}
+    if not collapse.get("detected"):
         return {}
     from dem.loading import loading_from_case
 
-    pos, quat = frames["pos"], frames["quat"]
+    j = reference_frame(frames, collapse)
+    pos, quat = frames["pos"][j:], frames["quat"][j:]
     k = classification_frame(scene, pos, quat)
     mech = classify(case, scene, pos[0], quat[0], pos[k], quat[k],
                     loading_from_case(case).load_direction)
-    mech["frame_time_s"] = float(frames["t"][k])
+    mech["reference_time_s"] = float(frames["t"][j])
+    mech["frame_time_s"] = float(frames["t"][j + k])
     return {"mechanism": mech}
 
 

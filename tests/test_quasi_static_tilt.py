@@ -21,14 +21,15 @@ from dem.run import run_case
 from dem.run.build import joint_law, step_options
 
 
-def _block_case(size, mu, start, **qs):
+def _block_case(size, mu, start, collapse=None, **qs):
     return parse_case({
         "name": "qs-block",
         "scene": {"blocks": [{"size": size, "position": [0, 0, size[2] / 2],
                               "density": 2000.0}]},
         "material": {"friction": mu, "normal_stiffness": "rigid"},
         "loading": {"type": "tilt", "axis": "x", "method": "quasi_static", "start_angle": start,
-                    "quasi_static": {"max_relax_time": 0.3, **qs}},
+                    "quasi_static": {"max_relax_time": 0.3, **qs},
+                    **({"collapse": collapse} if collapse else {})},
         "run": {"duration": 20.0, "vtk": False, "snapshot": False},
     })
 
@@ -41,6 +42,25 @@ def test_a_block_slides_at_atan_mu():
     assert col["failed_angle_deg"] - col["angle_deg"] <= 0.05 + 1e-12
     # the dynamic continuation (1 s at the first failing increment, 27 deg) moved it
     assert col["n_moved"] == 1 and col["dynamic_max_motion_m"] >= 0.005
+    assert col["dynamic_turns"] == 0  # 4 cm in that second: no further turn
+
+
+def test_a_collapse_that_creeps_keeps_the_table_turning_until_the_mechanism_shows():
+    """A block whose sliding limit atan(mu) = 26.5 deg lies just below the first failing
+    increment (27 deg): there it accelerates at g (sin 27 - mu cos 27) = 0.096 m/s2 and slides
+    about 1.2 cm in the continuation's first 0.5 s (collapse.after), less than collapse.stop
+    (3 cm): too little to show a mechanism.  The table then turns on by the increment (28 deg:
+    0.29 m/s2) until the block has slid collapse.stop.  lambda is the search's, unchanged."""
+    mu = math.tan(math.radians(26.5))
+    res = run_case(_block_case([0.2, 0.2, 0.1], mu, 26.0, collapse={"after": 0.5}))
+    col = res.summary["collapse"]
+    assert col["detected"]
+    # the search's bracket lies below the first failing increment (with max_relax_time 0.3 s
+    # the REST_MOTION rule passes a creep of < 0.5 mm: here 26.75 deg)
+    assert 26.5 - 0.05 <= col["angle_deg"] < 27.0
+    assert col["dynamic_angle_deg"] == 27.0
+    assert col["dynamic_turns"] == 1 and col["dynamic_end_angle_deg"] == 28.0
+    assert col["dynamic_max_motion_m"] >= 0.03
 
 
 def test_a_block_tips_at_atan_b_over_h_with_rigid_joints():

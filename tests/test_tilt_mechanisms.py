@@ -81,9 +81,9 @@ def test_stack_geometry_courses_without_stagger():
 
 # --- planted motions: explicit blocks read like the builder's wall -------------------------------
 
-def _planted(scene, kind):
+def _planted(scene, kind, angle=0.08):
     """Poses after the portion above a stepped crack at the bond angle (from the leeward bottom
-    brick, rising windward) slid 20 mm, or overturned 0.08 rad about the leeward toe."""
+    brick, rising windward) slid 20 mm, or overturned ``angle`` rad about the leeward toe."""
     pos0, quat0 = scene.position.copy(), scene.quat.copy()
     x_lee = (pos0[:, 0] + 0.5 * scene.size[:, 0]).max()
     course = np.round((pos0[:, 2] - 0.0175) / 0.035)
@@ -92,7 +92,7 @@ def _planted(scene, kind):
     if kind == "sliding":
         pos[moving, 0] += 0.02
     else:
-        rot = Rotation.from_rotvec([0.0, 0.08, 0.0])
+        rot = Rotation.from_rotvec([0.0, angle, 0.0])
         toe = np.array([x_lee, 0.0, 0.0])
         pos[moving] = toe + rot.apply(pos0[moving] - toe)
         quat[moving] = quaternion.from_rotation(rot * quaternion.rotation(quat0[moving]))
@@ -318,3 +318,43 @@ def test_explicit_block_wall_overturns_at_l_over_h_0_6(tmp_path):
     assert 0.5 < mech["collapsed"]["mass_fraction"] < 1.0
     saved = json.loads((tmp_path / "summary.json").read_text())["mechanism"]
     assert saved["crack_angle_definition"] == CRACK_ANGLE_DEFINITION
+
+
+def test_a_quasi_static_mechanism_is_read_from_the_last_equilibrium_not_from_the_start():
+    """The warped-bed walls of the calibration crept up to 1 cm while still in equilibrium
+    (joints seating and slipping as the load turned); read from the first frame, that creep was
+    counted as part of the collapse and could turn an overturning wall 'mixed'.  Here a planted
+    creep (the portion above the crack slips 8 mm leeward, no rotation) comes before the
+    planted overturning of that portion (0.04 rad: its top moves about 1 cm, the level the
+    mechanism is read at): read from the frame at the dynamic continuation's start
+    (dynamic_from_s), the mechanism is exactly the planted overturning."""
+    from dem.case import load_case
+    from dem.run.build import scene_from_case
+    from postprocess.tilt import reference_frame, tilt_mechanism
+
+    case = load_case("cases/tilt/in-plane/small-5x7.yaml")
+    sc = scene_from_case(case)
+    pos0, quat0, pos_o, quat_o, moving = _planted(sc, "overturning", angle=0.04)
+    lean = np.zeros_like(pos0)
+    lean[moving, 0] = 0.008
+    t = np.array([0.0, 1.0, 2.0, 2.5, 2.52])
+    pos = np.stack([pos0, pos0 + 0.5 * lean, pos0 + lean, pos0 + lean,
+                    pos_o + lean])  # frame 3: the continuation's first (no motion yet)
+    quat = np.stack([quat0, quat0, quat0, quat0, quat_o])
+    frames = {"t": t, "pos": pos, "quat": quat}
+    collapse = {"detected": True, "method": "quasi_static", "dynamic_from_s": 2.2}
+    assert reference_frame(frames, collapse) == 2
+    assert reference_frame(frames, {**collapse, "method": "constant_rate"}) == 0
+    got = tilt_mechanism(case, sc, frames, {"collapse": collapse})["mechanism"]
+    planted = classify(case, sc, pos0, quat0, pos_o, quat_o, [1.0, 0.0, 0.0])
+    assert planted["mechanism"] == "overturning"
+    assert got["mechanism"] == "overturning"
+    assert got["overturning_mass_fraction"] == pytest.approx(
+        planted["overturning_mass_fraction"], abs=1e-9)
+    assert got["n_moving"] == planted["n_moving"]
+    assert got["reference_time_s"] == 2.0 and got["frame_time_s"] == 2.52
+    # the same frames read from the start: the lean is taken for sliding (what was wrong)
+    from_start = tilt_mechanism(case, sc, frames, {"collapse": {**collapse,
+                                                                "dynamic_from_s": None}})
+    assert from_start["mechanism"]["overturning_mass_fraction"] < \
+        planted["overturning_mass_fraction"] - 0.1

@@ -43,7 +43,8 @@ class QuasiStaticSpec(_Strict):
     ``collapse.confirm`` (less: in equilibrium).  The first failing increment is bisected down to
     ``resolution``; lambda = tan(last angle in equilibrium).  Then the run goes on dynamically
     (no local damping) at the first failing increment's angle for ``collapse.after`` s or until
-    a block moved ``collapse.stop``, to show the mechanism.
+    a block moved ``collapse.stop``, to show the mechanism; if no block has moved that much
+    by then, the table turns on by ``increment`` every ``collapse.after`` s until one has.
     """
 
     increment: float = Field(default=1.0, gt=0.0, le=10.0, description="degrees per advance")

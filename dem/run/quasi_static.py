@@ -30,7 +30,11 @@ analysis predicts), as 3DEC / UDEC find static solutions:
 4. from the state at theta_eq the table turns to the first failing increment's angle and the
    run goes on
    dynamically (no local damping, true masses) for ``collapse.after`` s or until a block moved
-   ``collapse.stop``, so that the mechanism shows in the frames.
+   ``collapse.stop``, so that the mechanism shows in the frames; where no block has moved
+   ``collapse.stop`` by then, the table turns on by ``increment`` every ``collapse.after`` s
+   until one has (a wall that creeps past its limit).  The mechanism is read from the motion
+   after theta_eq (postprocess.tilt.tilt_mechanism), not from the start: the joints' seating
+   and creep while the wall was in equilibrium are not the collapse.
 
 Density scaling is not used: the relaxation runs at the true masses and the critical step.
 Frames: one at the start, one at every angle found in equilibrium, then every
@@ -178,7 +182,14 @@ class QuasiStaticTilt:
     def _continue_dynamically(self, eq: float, fail: float, eq_ratio: float,
                               to_angle: float) -> dict:
         """From the state at ``eq``, the table turns to ``to_angle`` (the first increment that
-        failed, so that the mechanism develops in a short time) and the run goes on."""
+        failed, so that the mechanism develops in a short time) and the run goes on for
+        ``collapse.after`` s or until a block moved ``collapse.stop``.  Where no block has moved
+        ``collapse.stop`` by then (a wall that creeps just past its limit: the warped-bed walls
+        of the calibration moved 0.3-4 mm in that second, too little to show a mechanism), the
+        table keeps turning by ``increment`` every ``collapse.after`` s, as the test's table kept
+        turning, until a block moved ``collapse.stop``, ``max_angle`` is reached or run.duration
+        runs out.  ``dynamic_turns`` counts those extra turns and ``dynamic_end_angle_deg`` is
+        the angle the run ended at."""
         sim, rec, col = self.sim, self.recording, self.collapse
         sim.set_local_damping(0.0)
         self.loading.turn(sim.t, to_angle, self.spec.ramp_time)
@@ -187,14 +198,25 @@ class QuasiStaticTilt:
         t0 = sim.t
         first_moving = None
         rec.frames_from(t0)
-        while sim.t < t0 + col.after and not self._out_of_time():
-            sim.advance(self._chunk(rec.steps_to_next(t0 + col.after)), self.loading)
-            rec.after_advance(last=sim.t >= t0 + col.after)
-            m = motion_measure(pos0, quat0, st.pos[: self.n], st.quat[: self.n], self.radius)
-            if first_moving is None and m.max() >= col.confirm:
-                first_moving = np.flatnonzero(m >= 0.5 * col.confirm)
-            if m.max() >= col.stop:
+        angle, turns, window_end = to_angle, 0, t0 + col.after
+        m = np.zeros(self.n)
+        while True:
+            while sim.t < window_end and not self._out_of_time():
+                sim.advance(self._chunk(rec.steps_to_next(window_end)), self.loading)
+                rec.after_advance(last=sim.t >= window_end)
+                m = motion_measure(pos0, quat0, st.pos[: self.n], st.quat[: self.n],
+                                   self.radius)
+                if first_moving is None and m.max() >= col.confirm:
+                    first_moving = np.flatnonzero(m >= 0.5 * col.confirm)
+                if m.max() >= col.stop:
+                    break
+            if m.max() >= col.stop or col.after <= 0.0 or angle >= self.max_angle \
+                    or self._out_of_time():
                 break
+            angle = min(angle + self.spec.increment, self.max_angle)  # keep turning
+            self.loading.turn(sim.t, angle, self.spec.ramp_time)
+            turns += 1
+            window_end = sim.t + col.after
         rec.frame_at_stop()
         m = motion_measure(pos0, quat0, st.pos[: self.n], st.quat[: self.n], self.radius)
         moved = np.flatnonzero(m >= 0.5 * col.confirm)
@@ -202,6 +224,7 @@ class QuasiStaticTilt:
         out.update({"first_moving_blocks": [] if first_moving is None else first_moving.tolist(),
                     "moved_blocks": moved.tolist(), "n_moved": int(len(moved)),
                     "dynamic_from_s": t0, "dynamic_angle_deg": to_angle,
+                    "dynamic_turns": turns, "dynamic_end_angle_deg": angle,
                     "dynamic_max_motion_m": float(m.max())})
         return out
 
