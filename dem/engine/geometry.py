@@ -37,9 +37,10 @@ Why this design (see ../shared/DESIGN.md, "Contact geometry: what goes wrong wit
    a point of the patch is
        d(x, y) = d0 + gx x + gy y + o_R(x / e1, y / e2) + o_I(xi_I, eta_I)
    (o_R over the reference face, o_I over the incident face at the point's coordinates in that
-   face).  Without twist (o_0 - o_1 - o_2 + o_3 = 0 on both faces: planar warps) d is affine and
-   the patch is found as for flat faces, by clipping with its values at the vertices
-   (:func:`clip_values`), with the same exact quadrature.  With twist d is not affine, and a
+   face).  Without twist (o_0 - o_1 - o_2 + o_3 = 0 on both faces: planar warps) d is affine,
+   d = a + bx x + by y with three coefficients found once per pair (:func:`planar_gap`), and
+   the patch is found as for flat faces (:func:`clip_halfplane`, :func:`patch_points`), with
+   the same exact quadrature.  With twist d is not affine, and a
    quadrature of a pressure that is nonlinear and zero on part of the patch creates energy
    (measured: half of the table's work on a shaken wall), mostly because the weights of the
    points near a bearing corner grow with the depth.  So a twisted patch is sampled at the
@@ -200,8 +201,9 @@ def clip_values(xs: ti.template(), ys: ti.template(), fs: ti.template(), n, ox: 
                 oy: ti.template()):
     """Sutherland-Hodgman pass against a function given by its values fs at the vertices: keep
     where f <= 0, cutting each edge where f changes sign at the linear interpolation of f.  Used
-    for the gap of warped faces (module docstring, 5); :func:`clip_halfplane` is the affine
-    case, with f computed from the line."""
+    for the gap of warped faces before :func:`planar_gap` (2026-11-24); now unused by the engine,
+    kept for benchmarks/engine_speed.py's copy of that code; :func:`clip_halfplane` is the
+    affine case, with f computed from the line."""
     m = 0
     if n > 0:
         px = xs[n - 1]
@@ -479,6 +481,56 @@ def patch_points(c, n, u1, u2, d0, gx, gy, npts, xs: ti.template(), ys: ti.templ
 
 
 @ti.func
+def planar_gap(cc, u1, u2, inv1, inv2, oR, d1, d2, invI1, invI2, oI, d0, gx, gy):
+    """The gap of a planar warped face pair as an affine function of the reference face's
+    coordinates, d(x, y) = a + bx x + by y (m; x, y in m along u1, u2 from the reference face's
+    centre c).  Returns (a, bx, by), found once per pair.
+
+    A face's bilinear offset (:func:`bilinear`, corner values o_0..o_3, m) is
+        o(xi, eta) = A + B xi + C eta + T xi eta,
+        A = (o_0 + o_1 + o_2 + o_3) / 4,  B = (o_1 - o_0 + o_3 - o_2) / 4,
+        C = (o_2 - o_0 + o_3 - o_1) / 4,  T = (o_0 - o_1 - o_2 + o_3) / 4 (the twist).
+    The reference face's coordinates are xi_R = x / hR1, eta_R = y / hR2 (inv1 = 1 / hR1,
+    inv2 = 1 / hR2), the incident face's xi_I = r . d1 / hI1, eta_I = r . d2 / hI2 with
+    r = cc + x u1 + y u2, cc = c - ci (its centre ci, in-plane axes d1, d2, invI1 = 1 / hI1,
+    invI2 = 1 / hI2).  With T_R = T_I = 0 the gap d0 + gx x + gy y + o_R + o_I is affine:
+        a  = d0 + A_R + A_I + B_I (cc . d1) / hI1 + C_I (cc . d2) / hI2
+        bx = gx + B_R / hR1 + B_I (u1 . d1) / hI1 + C_I (u1 . d2) / hI2
+        by = gy + C_R / hR2 + B_I (u2 . d1) / hI1 + C_I (u2 . d2) / hI2.
+    Where it differs from evaluating the two bilinear forms at a point (the code before
+    2026-11-24, and still the twisted path's):
+    (1) the twist: the planar path takes pairs with |T_R| + |T_I| <= TWIST_FLOOR (1e-12 m), and
+        |T xi eta| <= |T| inside a face, so dropping it moves the gap by <= 1e-12 m (face_shape:
+        planar leaves ~1e-20 m);
+    (2) the clamp: :func:`bilinear` clamps xi, eta to [-1, 1], a constant extension of the
+        offset beyond the face's edge; here the plane goes on.  Inside both faces they are the
+        same up to round-off.  The clipped polygon is inside the reference face (|x| <= e1,
+        up to round-off), but not always inside the incident face in xi_I: its vertices on the
+        incident face's edge are that edge projected along n onto the reference plane, and
+        xi_I reads r . d1, the projection along the incident face's normal, so a vertex on the
+        edge xi_I = 1 at a height z off the reference plane reads xi_I = 1 - z (n . d1) / hI1:
+        beyond 1 by the depth times the boxes' relative tilt over hI1 (faces tilted against
+        each other and sunk into the nominal boxes), where the two forms differ by B_I times that (measured up to 4e-9 m on Model II with
+        0.1 mm beds, benchmarks/RESULTS.md).  That is the size of the gap definition's own
+        ambiguity there (the offset read at the foot of the normal rather than along n), and
+        the affine form is the one the planar path's exact clip (linear interpolation of d
+        along each edge) and quadrature assume: with the clamp d is only piecewise affine near
+        an incident edge.  So no clamp here;
+    (3) round-off: a, bx, by are sums of the same terms in another order, so the gap moves by a
+        few ulp of its largest term (tests/test_planar_affine_gap.py)."""
+    AR = 0.25 * (oR[0] + oR[1] + oR[2] + oR[3])
+    BR = 0.25 * (oR[1] - oR[0] + oR[3] - oR[2])
+    CR = 0.25 * (oR[2] - oR[0] + oR[3] - oR[1])
+    AI = 0.25 * (oI[0] + oI[1] + oI[2] + oI[3])
+    BI = 0.25 * (oI[1] - oI[0] + oI[3] - oI[2]) * invI1
+    CI = 0.25 * (oI[2] - oI[0] + oI[3] - oI[1]) * invI2
+    a = d0 + AR + AI + BI * cc.dot(d1) + CI * cc.dot(d2)
+    bx = gx + BR * inv1 + BI * u1.dot(d1) + CI * u1.dot(d2)
+    by = gy + CR * inv2 + BI * u2.dot(d1) + CI * u2.dot(d2)
+    return a, bx, by
+
+
+@ti.func
 def warped_patch(c, n, u1, u2, hR1, hR2, oR, ci, RI, hI, m, oI, d0, gx, gy, npoly,
                  xs: ti.template(), ys: ti.template(), xt: ti.template(), yt: ti.template(),
                  px: ti.template(), py: ti.template(), pz: ti.template(), dep: ti.template(),
@@ -527,31 +579,17 @@ def warped_patch(c, n, u1, u2, hR1, hR2, oR, ci, RI, hI, m, oI, d0, gx, gy, npol
                 pz[q] = p[2]
                 dep[q] = dq
     else:
-        # planar warps: the gap is affine, the clip exact, the quadrature that of flat faces
-        fs = point_buffer()
-        for q in range(npoly):
-            r = cc + xs[q] * u1 + ys[q] * u2
-            fs[q] = -(d0 + gx * xs[q] + gy * ys[q] + bilinear(oR, xs[q] * inv1, ys[q] * inv2)
-                      + bilinear(oI, r.dot(d1) * invI1, r.dot(d2) * invI2))
-        npoly = clip_values(xs, ys, fs, npoly, xt, yt)
+        # planar warps: the gap is affine, a + bx x + by y (planar_gap, once per pair); the
+        # clip exact, the quadrature and the points those of flat faces
+        a, bx, by = planar_gap(cc, u1, u2, inv1, inv2, oR, d1, d2, invI1, invI2, oI, d0, gx, gy)
+        npoly = clip_halfplane(xs, ys, npoly, -bx, -by, a, xt, yt)
         area, shrink_, gcx, gcy = polygon_quadrature(xt, yt, npoly, w)
         shrink = shrink_
-        rc = cc + gcx * u1 + gcy * u2
-        dc = ti.max(d0 + gx * gcx + gy * gcy + bilinear(oR, gcx * inv1, gcy * inv2)
-                    + bilinear(oI, rc.dot(d1) * invI1, rc.dot(d2) * invI2), 0.0)
+        dc = ti.max(a + bx * gcx + by * gcy, 0.0)
         centroid = c + gcx * u1 + gcy * u2 - 0.5 * dc * n
         if area > 0.0:
             npts = ti.min(npoly, MAXP)
-            for q in range(npts):
-                r = cc + xt[q] * u1 + yt[q] * u2
-                dq = ti.max(d0 + gx * xt[q] + gy * yt[q]
-                            + bilinear(oR, xt[q] * inv1, yt[q] * inv2)
-                            + bilinear(oI, r.dot(d1) * invI1, r.dot(d2) * invI2), 0.0)
-                p = c + xt[q] * u1 + yt[q] * u2 - 0.5 * dq * n
-                px[q] = p[0]
-                py[q] = p[1]
-                pz[q] = p[2]
-                dep[q] = dq
+            patch_points(c, n, u1, u2, a, bx, by, npts, xt, yt, px, py, pz, dep)
     return npts, shrink, centroid
 
 
