@@ -687,7 +687,8 @@ def report(out: Path, candidates: dict, specs: dict, n: int, command: str) -> di
          f"ran on the engine's results revision {RESULTS_REVISION} (dem.engine.RESULTS_REVISION, "
          "part of the resume fingerprint: a point of another revision is run again).", "",
          "How the frozen set will be chosen from these points was fixed before the grid "
-         "finished: [SELECTION.md](SELECTION.md).", ""]
+         "finished: [SELECTION.md](SELECTION.md).  Points of earlier revisions were withdrawn; "
+         "what they showed and why: [HISTORY.md](HISTORY.md).", ""]
     L += ["## Targets (../shared/REFERENCE.md) and their strength", "",
           "| target | kind | strength | what |", "|---|---|---|---|"]
     for t in TARGETS:

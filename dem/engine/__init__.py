@@ -19,7 +19,10 @@ from dem.engine.options import JointLaw, StepOptions
 # finished is run again instead of being mixed with the new engine's points.
 #   1: up to 8a0d44a
 #   2: planar warps take the planar path (dem.engine.geometry.TWIST_FLOOR)
-RESULTS_REVISION = 2
+#   3: quasi-static tilts relax up to 3 s (was 1 s) and keep turning until the mechanism shows;
+#      mechanisms read from the last equilibrium (postprocess.tilt.reference_frame); planar
+#      warped faces' gap affine, coefficients once per pair (geometry.planar_gap, 7fd286f)
+RESULTS_REVISION = 3
 
 __all__ = ["RESULTS_REVISION", "Simulation", "JointLaw", "StepOptions", "InputError",
            "SimulationError", "InstabilityError", "CapacityError"]

@@ -56,7 +56,9 @@ REST_MOTION = 0.1  # at max_relax_time, blocks that moved less than this x confi
                    # relaxation are in equilibrium whatever R and the speeds say: R has a floor
                    # of ~1e-4 on some walls and ~1e-2 on the box models (nanometre joint
                    # vibrations, light blocks that rattle at mm/s without going anywhere); a
-                   # sliding limit exceeded by 0.03 deg moves 0.5 mm in 1 s of relaxation
+                   # sliding limit exceeded by 0.03 deg moves 0.5 mm in 1 s of relaxation (about
+                   # 4.5 mm in the default max_relax_time, 3 s: the warped-bed walls seat by
+                   # 1.5-3 mm over 1.5-2 s near their limit, which 1 s read as a failure)
 
 
 class QuasiStaticTilt:
