@@ -553,12 +553,27 @@ def score_candidate(points: dict) -> dict:
 
 
 # ---- report -------------------------------------------------------------------------------------
-def collect(out: Path, candidates: dict, specs: dict) -> dict:
-    """candidate -> specimen -> point_summary, from the committed point files."""
-    return {c: {s: {"l_over_h": specs[s]["l_over_h"], "kind": specs[s]["kind"],
-                    **{k: v for k, v in point_summary(_read(point_path(out, c, s))).items()
-                       if v is not None or k not in ("l_over_h", "kind")}}
-                for s in specs} for c in candidates}
+def collect(out: Path, candidates: dict, specs: dict, n: int | None = None) -> dict:
+    """candidate -> specimen -> point_summary, from the committed point files.  With ``n``
+    (the study's N), a point whose fingerprint is not this code's for that case (an earlier
+    RESULTS_REVISION, another case; smoke points capped by --max-steps excepted) is reported
+    as pending, ``stale``: its numbers are not this engine's."""
+    res: dict = {}
+    for c, params in candidates.items():
+        res[c] = {}
+        for s in specs:
+            data = _read(point_path(out, c, s))
+            p = point_summary(data)
+            cal = (data or {}).get("calibration") or {}
+            if n is not None and cal and cal.get("max_steps") is None:
+                case = specimen_case(specs[s]["path"], params, f"cal-{c}-{s}")
+                if cal.get("fingerprint") != fingerprint(case, realisations_for(params, n), None):
+                    p = {"status": "pending", "stale": True, "n_ok": 0,
+                         "n_realisations": cal.get("n_realisations")}
+            res[c][s] = {"l_over_h": specs[s]["l_over_h"], "kind": specs[s]["kind"],
+                         **{k: v for k, v in p.items()
+                            if v is not None or k not in ("l_over_h", "kind")}}
+    return res
 
 
 def held_out_summary(out: Path) -> dict:
@@ -656,7 +671,7 @@ def report(out: Path, candidates: dict, specs: dict, n: int, command: str) -> di
     """Write <out>/summary.json and <out>/README.md from the committed point files."""
     from dem.output.atomic import write_json
 
-    points = collect(out, candidates, specs)
+    points = collect(out, candidates, specs, n)
     scores = {c: score_candidate(points[c]) for c in candidates}
     cpu = sum(p.get("cpu_seconds") or 0.0 for c in points for p in points[c].values())
     est = _estimate(points, specs, candidates, n)
@@ -724,6 +739,10 @@ def report(out: Path, candidates: dict, specs: dict, n: int, command: str) -> di
                          f"{_fmt(p.get('lambda_median'), 4)} | {vs} | {band} | {mech} | "
                          f"{_fmt(p.get('overturning_fraction_median'), 2)} | "
                          f"{_fmt(cpu_s, 0)} | {_fmt(per, 0)} |")
+            elif p.get("stale"):
+                L.append(f"| {s} | {_fmt(p.get('l_over_h'), 2)} | - | pending (the committed "
+                         "point is of an earlier revision or case: not shown, see HISTORY.md) | "
+                         "- | pending | pending | pending | - | - |")
             else:
                 L.append(f"| {s} | {_fmt(p.get('l_over_h'), 2)} | {done} | pending | - | "
                          f"pending | pending | pending | {_fmt(cpu_s, 0)} | - |")

@@ -251,6 +251,25 @@ def test_a_point_from_an_older_engine_is_not_reused(monkeypatch):
     assert cs.fingerprint(case, 20, None) != now
 
 
+def test_a_committed_point_of_an_older_engine_is_reported_pending_not_shown(tmp_path,
+                                                                            monkeypatch):
+    """After a RESULTS_REVISION bump the committed points stay on disk until rerun; the report
+    must not show their numbers as this engine's: such a point is pending and ``stale``."""
+    spec = cs.specimens()["ip-small-5x5"]
+    specs = {"ip-small-5x5": spec}
+    case = cs.specimen_case(spec["path"], CAND, "cal-c-ip-small-5x5")
+    data = _ensemble([0.80] * 20, ["sliding"] * 20)
+    data["calibration"]["fingerprint"] = cs.fingerprint(case, 20, None)
+    dest = cs.point_path(tmp_path, "c", "ip-small-5x5")
+    dest.parent.mkdir(parents=True)
+    dest.write_text(json.dumps(data))
+    now = cs.collect(tmp_path, {"c": CAND}, specs, 20)["c"]["ip-small-5x5"]
+    assert now["status"] == "finished" and now["lambda_median"] == pytest.approx(0.80)
+    monkeypatch.setattr(cs, "RESULTS_REVISION", cs.RESULTS_REVISION + 1)
+    later = cs.collect(tmp_path, {"c": CAND}, specs, 20)["c"]["ip-small-5x5"]
+    assert later["status"] == "pending" and later["stale"] and "lambda_median" not in later
+
+
 # ---- the held-out large-brick walls --------------------------------------------------------------
 def test_held_out_walls_are_the_three_large_brick_l_over_h_2_5_walls():
     held = cs.held_out_specimens()
