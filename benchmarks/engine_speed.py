@@ -37,7 +37,7 @@ on copies of the snapshot put back before every timed run.  Besides the stages a
 face frame + incident face + four rectangle clips alone (what a reuse of cut patches would
 keep), and, for planar warps, the gap at 2 npoly + 1 points per pair evaluated as
 geometry.warped_patch does (two bilinear forms a point) and from affine coefficients found once
-per pair (``_affine``); and the planar patch (gap clip, quadrature, points) by
+per pair (``geometry.planar_gap``); and the planar patch (gap clip, quadrature, points) by
 geometry.warped_patch and by a copy of the code before geometry.planar_gap
 (``_planar_tail_before``, two bilinear forms a point), timed in the same process, with the
 differences of their points, weights and resultants on the snapshot (``planar_tail_diff``:
@@ -224,23 +224,6 @@ def _kernels():
             + geometry.bilinear(oI, r.dot(d1) * invI1, r.dot(d2) * invI2)
 
     @ti.func
-    def _affine(cc, u1, u2, inv1, inv2, oR, d1, d2, invI1, invI2, oI, d0, gx, gy):
-        """The planar warped gap as d = a + bx x + by y: a twist-free bilinear face is
-        o = A + B xi + C eta (A the corners' mean, B, C half the differences along each axis),
-        and xi, eta are affine in (x, y); equal to :func:`_gap` inside both faces (where no
-        clamp acts) up to round-off and the ~1e-20 m twist left by face_shape: planar."""
-        AR = 0.25 * (oR[0] + oR[1] + oR[2] + oR[3])
-        BR = 0.25 * (oR[1] - oR[0] + oR[3] - oR[2])
-        CR = 0.25 * (oR[2] - oR[0] + oR[3] - oR[1])
-        AI = 0.25 * (oI[0] + oI[1] + oI[2] + oI[3])
-        BI = 0.25 * (oI[1] - oI[0] + oI[3] - oI[2]) * invI1
-        CI = 0.25 * (oI[2] - oI[0] + oI[3] - oI[1]) * invI2
-        a = d0 + AR + AI + BI * cc.dot(d1) + CI * cc.dot(d2)
-        bx = gx + BR * inv1 + BI * u1.dot(d1) + CI * u1.dot(d2)
-        by = gy + CR * inv2 + BI * u2.dot(d1) + CI * u2.dot(d2)
-        return a, bx, by
-
-    @ti.func
     def _gap_frame(RI, hI, m, hR1, hR2, c, ci):
         m1 = (m + 1) % 3
         m2 = (m + 2) % 3
@@ -254,7 +237,7 @@ def _kernels():
         """Per pair: code, imperfect pair, twisted pair, vertices of the overlap polygon,
         vertices with d <= 0 (the gap clip cuts them: not whole), points of the last step,
         |n_z| of the normal, and for planar warped pairs the largest difference (m) at the
-        overlap's vertices between the gap and its affine form (:func:`_affine`)."""
+        overlap's vertices between the gap and its affine form (geometry.planar_gap)."""
         ti.loop_config(serialize=True)
         for p in range(n_pairs):
             xs = geometry.point_buffer()
@@ -274,8 +257,8 @@ def _kernels():
                     if tw > geometry.TWIST_FLOOR:
                         twisted = 1
                     d1, d2, inv1, inv2, invI1, invI2, cc = _gap_frame(RI, hI, m, hR1, hR2, c, ci)
-                    a, bx, by = _affine(cc, u1, u2, inv1, inv2, oR, d1, d2, invI1, invI2, oI,
-                                        d0, gx, gy)
+                    a, bx, by = geometry.planar_gap(cc, u1, u2, inv1, inv2, oR, d1, d2, invI1,
+                                                        invI2, oI, d0, gx, gy)
                     for q in range(npoly):
                         d = _gap(xs[q], ys[q], cc, u1, u2, inv1, inv2, oR, d1, d2, invI1, invI2,
                                  oI, d0, gx, gy)
@@ -319,7 +302,7 @@ def _kernels():
         """_overlap, then for planar warped pairs the gap at 2 npoly + 1 points (the overlap's
         vertices, as many patch points and the centroid: what warped_patch's planar branch
         evaluates for a whole patch) either as today (two bilinear forms per point) or from
-        affine coefficients found once per pair (:func:`_affine`, then a + bx x + by y)."""
+        affine coefficients found once per pair (geometry.planar_gap, then a + bx x + by y)."""
         acc = 0.0
         ti.loop_config(serialize=True)
         for _ in range(reps):
@@ -338,8 +321,8 @@ def _kernels():
                     sx = 0.0
                     sy = 0.0
                     if ti.static(affine):
-                        a, bx, by = _affine(cc, u1, u2, inv1, inv2, oR, d1, d2, invI1, invI2, oI,
-                                            d0, gx, gy)
+                        a, bx, by = geometry.planar_gap(cc, u1, u2, inv1, inv2, oR, d1, d2, invI1,
+                                                            invI2, oI, d0, gx, gy)
                         for q in range(npoly):
                             acc += a + bx * xs[q] + by * ys[q]
                             acc += a + bx * (0.9 * xs[q]) + by * (0.9 * ys[q])
@@ -953,7 +936,7 @@ def _print_imperfect(r, bed, seed, where, load_time, repeats):
               ("narrow", "narrow phase (box_contact; warped kernel on warped scenes)", "ns/pair"),
               ("narrow_warped_kernel", "narrow phase, warped kernel", "ns/pair"),
               ("gap_bilinear", "planar gap at 2 npoly + 1 points, two bilinear forms each", "ns/pair"),
-              ("gap_affine", "the same, affine coefficients once per pair (_affine)", "ns/pair"),
+              ("gap_affine", "the same, affine coefficients once per pair (planar_gap)", "ns/pair"),
               ("tail_before", "face frame + clips + planar gap clip, quadrature, points: "
                "two bilinear forms a point (before planar_gap)", "ns/pair"),
               ("tail_now", "the same, geometry.warped_patch now (planar_gap once per pair)",
