@@ -671,8 +671,11 @@ def report(out: Path, candidates: dict, specs: dict, n: int, command: str) -> di
     """Write <out>/summary.json and <out>/README.md from the committed point files."""
     from dem.output.atomic import write_json
 
+    from postprocess.calibration_select import select, selection_lines
+
     points = collect(out, candidates, specs, n)
     scores = {c: score_candidate(points[c]) for c in candidates}
+    selection = select(candidates, points, scores)
     cpu = sum(p.get("cpu_seconds") or 0.0 for c in points for p in points[c].values())
     est = _estimate(points, specs, candidates, n)
     held = held_out_summary(out)
@@ -682,7 +685,8 @@ def report(out: Path, candidates: dict, specs: dict, n: int, command: str) -> di
                    "kind": v["kind"], "l_over_h": v["l_over_h"]}
                    for s, v in specs.items()},
                "targets": TARGETS, "points": points, "scores": scores,
-               "cpu_seconds_so_far": cpu, "estimate": est, "held_out": held}
+               "selection": selection, "cpu_seconds_so_far": cpu, "estimate": est,
+               "held_out": held}
     write_json(out / "summary.json", summary, indent=1)
 
     L = ["# Calibration on the Chapter 3 tilting tests (issue 13, step 1)", "",
@@ -708,7 +712,7 @@ def report(out: Path, candidates: dict, specs: dict, n: int, command: str) -> di
           "| target | kind | strength | what |", "|---|---|---|---|"]
     for t in TARGETS:
         L.append(f"| {t['id']} | {t['kind']} | {t['strength']} | {t['text']} |")
-    L += [""] + held_out_lines(held)
+    L += [""] + selection_lines(selection) + held_out_lines(held)
     for c, params in candidates.items():
         pts, sc = points[c], scores[c]
         L += [f"## {c}", "", "`" + json.dumps(params) + "`", "",
@@ -851,11 +855,17 @@ def main(argv=None) -> int:
                          "the committed frozen set (--frozen) into <out>/held-out/")
     ap.add_argument("--frozen", type=Path, default=ROOT / "cases" / "calibration" / "frozen.yaml",
                     help="the frozen set for --held-out (must be committed under cases/)")
+    ap.add_argument("--freeze", action="store_true",
+                    help="rebuild the report, then write the choice of SELECTION.md "
+                         "(postprocess.calibration_select) to --frozen; refused (exit 2) while "
+                         "the choice is undecided.  Commit the file and the report together.")
     args = ap.parse_args(argv)
     if args.realisations < 1:
         ap.error("--realisations must be >= 1")
     if args.held_out:
         return _main_held_out(ap, args)
+    if args.freeze:
+        return _main_freeze(ap, args)
     all_c, all_s = load_candidates(args.candidates_file), specimens()
     for what, chosen, known in (("candidate", args.candidates, all_c),
                                 ("specimen", args.specimens, all_s)):
@@ -883,6 +893,27 @@ def main(argv=None) -> int:
                 if state != "skipped":
                     report(out, all_c, all_s, args.realisations, command)
     report(out, all_c, all_s, args.realisations, command)
+    return 0
+
+
+def _main_freeze(ap, args) -> int:
+    """--freeze: the report from the committed points, then the decided choice to --frozen."""
+    from postprocess.calibration_select import FreezeRefused, freeze
+
+    if args.candidates or args.specimens:
+        ap.error("--freeze applies SELECTION.md to every candidate and specimen: no "
+                 "--candidates / --specimens")
+    all_c = load_candidates(args.candidates_file)
+    args.out.mkdir(parents=True, exist_ok=True)
+    summary = report(args.out, all_c, specimens(), args.realisations, _command(args))
+    sel = summary["selection"]
+    try:
+        written = freeze(sel, all_c, args.frozen, time.strftime("%Y-%m-%d", time.gmtime()))
+    except FreezeRefused as err:
+        print(f"calibration_study: {err}", file=sys.stderr)
+        return 2
+    print(f"{'froze' if written else 'already frozen:'} {sel['chosen']} -> {args.frozen} "
+          f"({sel['why']}); commit it with {args.out}/README.md and summary.json")
     return 0
 
 
