@@ -180,12 +180,24 @@ def is_perfect(params: dict) -> bool:
                 or any(s > 0 for s in sizes))
 
 
-def specimen_case(specimen_path: Path, params: dict, name: str) -> Case:
+def specimen_case(specimen_path: Path, params: dict, name: str,
+                  rate: float | None = None) -> Case:
     """The case of one (candidate, specimen) point: the specimen's case file on a quasi-static
     tilt and with the study's output settings (postprocess.tilt_study: ``_quasi_static``,
     ``_study_settings``), plus ``imperfections:`` = the candidate (seed 0: the ensemble sets each
-    realisation's).  Everything else, friction and joint stiffness included, is the case file's."""
-    case = _study_settings(_quasi_static(load_case(specimen_path), name), name)
+    realisation's).  Everything else, friction and joint stiffness included, is the case file's.
+    ``rate`` (deg/s): a constant-rate tilt from 0 deg at that rate instead of the quasi-static
+    one (postprocess.qs_validation), the case file's collapse detector unchanged."""
+    base = load_case(specimen_path)
+    if rate is None:
+        base = _quasi_static(base, name)
+    else:
+        data = base.model_dump()
+        data["name"] = name
+        data["loading"].update({"method": "constant_rate", "rate": float(rate),
+                                "start_angle": 0.0, "start_time": 0.0})
+        base = Case.model_validate(data)
+    case = _study_settings(base, name)
     data = case.model_dump()
     data["imperfections"] = {**data["imperfections"], **params, "seed": 0}
     return Case.model_validate(data)
@@ -269,13 +281,13 @@ def point_finished(data: dict | None, fp: str | None = None) -> bool:
 
 def run_point(out: Path, runs: Path, candidate: str, params: dict, specimen: str,
               spec: dict, realisations: int, max_steps: int | None = None,
-              log=print, record: dict | None = None) -> str:
+              log=print, record: dict | None = None, rate: float | None = None) -> str:
     """Run (or skip) one point; returns "skipped" (already finished), "finished", "pending"
     (interrupted or a realisation failed) or "failed" (dem ensemble refused the case).
     ``record``: more fields for the point's ``calibration`` block (the held-out points: the
-    frozen set's file and commit)."""
-    name = f"cal-{candidate}-{specimen}"
-    case = specimen_case(spec["path"], params, name)
+    frozen set's file and commit).  ``rate``: a constant-rate tilt (:func:`specimen_case`)."""
+    name = f"cal-{candidate}-{specimen}" + ("" if rate is None else f"-rate-{rate:g}")
+    case = specimen_case(spec["path"], params, name, rate)
     n = realisations_for(params, realisations)
     fp = fingerprint(case, n, max_steps)
     dest = point_path(out, candidate, specimen)

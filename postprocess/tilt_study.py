@@ -159,14 +159,16 @@ def _rate_extrapolation(pts) -> float | None:
     """lambda as the rate r -> 0 from the three slowest rates (r, 2r, 4r), fitting
     lambda = lambda0 - c r^p exactly: the differences D1 = lambda(r) - lambda(2r) and
     D2 = lambda(2r) - lambda(4r) give 2^p = D2 / D1 and lambda0 = lambda(r) + D1 / (2^p - 1).
-    None unless the three rates double and the differences fall (D2 > D1 > 0)."""
+    None unless the three rates double and the differences shrink towards the slow end with
+    one sign (|D2| > |D1|, D1 D2 > 0): c > 0 when a faster tilt reads low (the usual case),
+    c < 0 when it reads high."""
     if len(pts) < 3:
         return None
     (r1, l1, *_), (r2, l2, *_), (r3, l3, *_) = pts[:3]
     if not (np.isclose(r2, 2 * r1) and np.isclose(r3, 2 * r2)):
         return None
     d1, d2 = l1 - l2, l2 - l3
-    if not (d2 > d1 > 0):
+    if not (d1 * d2 > 0 and abs(d2) > abs(d1)):
         return None
     return l1 + d1 / (d2 / d1 - 1.0)
 

@@ -1,0 +1,218 @@
+"""Slow constant-rate tilts against the calibration's quasi-static lambda (issue 13, step 1).
+
+    python -m postprocess.qs_validation --out results/calibration/qs-validation   # run, report
+    python -m postprocess.qs_validation --out results/calibration/qs-validation --report
+    python -m postprocess.qs_validation --out results/calibration/qs-validation \\
+        --specimens ip-small-9x15-s10 --candidate bed-0.1-planar --realisations 2
+
+Why.  The calibration (postprocess.calibration_study) reads lambda from the quasi-static search
+(dem.run.quasi_static: increments relaxed with local damping, bisection of the first that
+fails).  That search was checked against the rate -> 0 limit of constant-rate tilts on two walls
+only (the perfect 5 x 7 wall and the 5 x 9 facade without wings; benchmarks/speed_error.md,
+"Quasi-static tilt").  On the perfect 9 x 15 wall with s = 10 mm it read 0.5408 where a tilt at
+0.5 deg/s read 0.5067 (+6.7 %; speed_error.md, "Quasi-static tilt of imperfect walls").  This
+study repeats that check on every calibration specimen.
+
+What it runs.  For each specimen (calibration_study.specimens) and each rate of ``--rates``
+(default 2, 1, 0.5 deg/s): the calibration's own case of that specimen and candidate
+(calibration_study.specimen_case with ``rate``: friction, stiffness, imperfections, output
+settings and the case file's collapse detector unchanged), tilted from 0 deg at that constant
+rate, one ``dem ensemble`` of N realisations (``--realisations``; seeds 0 .. N-1; a perfect
+candidate runs one), resumable exactly as the calibration's points (calibration_study.run_point):
+``<out>/rate-<r>/<candidate>/<specimen>/ensemble.json``, raw runs under ``<out>/runs/``.
+
+What it reports (``<out>/README.md``, ``<out>/summary.json``), per specimen and seed: lambda at
+each rate (the detector's onset: a block moving at collapse.onset_speed that goes on to move
+collapse.confirm; dem/collapse.py), lambda0 extrapolated to a vanishing rate through the three
+rates r, 2r, 4r (postprocess.tilt_study._rate_extrapolation: lambda = lambda0 - c r^p; none when
+the three are not monotone), and the calibration's quasi-static lambda of the same candidate and
+seed (its committed point), with QS / lambda0 - 1 and QS / lambda(slowest) - 1.  A constant-rate
+tilt reads low by its rate (the onset comes early on a wall that leans faster as it tilts
+faster), so the rate -> 0 value is the reference.  A specimen is flagged when its quasi-static
+lambda lies more than :data:`FLAG_TOLERANCE` (3 %, the tolerance of the issue's sliding
+invariant) from lambda0, or, without lambda0, from the slowest rate.
+
+Units: lambda = tan(tilt angle), dimensionless; rates in deg/s.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from postprocess import calibration_study as cs
+from postprocess import dem_child
+from postprocess.tilt_study import _rate_extrapolation
+
+RATES = (2.0, 1.0, 0.5)  # deg/s: r, 2r, 4r for the extrapolation; 2 deg/s is the case files'
+FLAG_TOLERANCE = 0.03
+DEFAULT_OUT = cs.ROOT / "results" / "calibration" / "qs-validation"
+
+
+def rate_dir(out: Path, rate: float) -> Path:
+    return Path(out) / f"rate-{rate:g}"
+
+
+def _lambdas(data: dict | None) -> dict[str, float | None]:
+    """seed name -> lambda of a finished point's ok realisations ({} unless finished)."""
+    if not cs.point_finished(data):
+        return {}
+    return {r["name"]: r.get("lambda") for r in data.get("realisations") or []
+            if r.get("status") == "ok"}
+
+
+def compare(qs: dict, by_rate: dict[float, dict]) -> list[dict]:
+    """One row per realisation present in the quasi-static point and at every rate:
+    ``qs``: seed name -> lambda; ``by_rate``: rate -> (seed name -> lambda)."""
+    rows = []
+    for seed, lam_qs in sorted(qs.items()):
+        lams = {r: by_rate[r].get(seed) for r in by_rate}
+        if lam_qs is None or any(v is None for v in lams.values()) or not lams:
+            continue
+        pts = sorted((r, v) for r, v in lams.items())
+        lam0 = _rate_extrapolation(pts)
+        slowest = pts[0][1]
+        ref = lam0 if lam0 is not None else slowest
+        rows.append({"seed": seed, "qs": lam_qs, "rates": {f"{r:g}": v for r, v in pts},
+                     "lambda0": lam0, "qs_vs_lambda0": None if lam0 is None else lam_qs / lam0 - 1,
+                     "qs_vs_slowest": lam_qs / slowest - 1,
+                     "flag": abs(lam_qs / ref - 1) > FLAG_TOLERANCE})
+    return rows
+
+
+def collect(out: Path, calibration: Path, candidate: str, specs: dict, rates) -> dict:
+    """specimen -> {"rows": compare(...), "pending": [rates not finished], "cpu_seconds"}."""
+    res = {}
+    for s in specs:
+        qs = _lambdas(cs._read(cs.point_path(calibration, candidate, s)))
+        by_rate, pending, cpu = {}, [], 0.0
+        for r in rates:
+            data = cs._read(cs.point_path(rate_dir(out, r), candidate, s))
+            cpu += ((data or {}).get("calibration") or {}).get("cpu_seconds") or 0.0
+            lams = _lambdas(data)
+            if lams:
+                by_rate[r] = lams
+            else:
+                pending.append(r)
+        res[s] = {"rows": compare(qs, by_rate) if not pending and qs else [],
+                  "pending_rates": pending, "quasi_static_finished": bool(qs),
+                  "cpu_seconds": cpu}
+    return res
+
+
+def report(out: Path, calibration: Path, candidate: str, specs: dict, rates, command: str
+           ) -> dict:
+    from dem.output.atomic import write_json
+
+    res = collect(out, calibration, candidate, specs, rates)
+    summary = {"kind": "quasi-static validation", "issue": 13, "command": command,
+               "candidate": candidate, "rates_deg_per_s": list(rates),
+               "flag_tolerance": FLAG_TOLERANCE, "specimens": res}
+    write_json(Path(out) / "summary.json", summary, indent=1)
+    rs = [f"{r:g}" for r in sorted(rates)]
+    L = ["# Quasi-static lambda against slow constant-rate tilts (issue 13, step 1)", "",
+         f"Generated by `{command}`; the method, the reference and the flag: the docstring of "
+         "postprocess/qs_validation.py.  Candidate: " + f"`{candidate}`; quasi-static lambda: "
+         "its committed calibration point (results/calibration).  lambda at a rate: the "
+         "collapse detector's onset.  lambda0: extrapolated to a vanishing rate "
+         "(lambda = lambda0 - c r^p through the three rates).", "",
+         "| specimen | seed | " + " | ".join(f"{r} deg/s" for r in rs)
+         + " | lambda0 | quasi-static | QS vs lambda0 | QS vs slowest | flag | CPU s |",
+         "|---|---|" + "---|" * len(rs) + "---|---|---|---|---|---|"]
+    for s, v in res.items():
+        if not v["rows"]:
+            why = ("quasi-static point pending" if not v["quasi_static_finished"] else
+                   f"pending at {v['pending_rates']} deg/s")
+            L.append(f"| {s} | - | " + " | ".join("-" for _ in rs)
+                     + f" | - | - | - | - | {why} | {v['cpu_seconds']:.0f} |")
+            continue
+        for row in v["rows"]:
+            pct = (lambda x: "-" if x is None else f"{100 * x:+.1f} %")
+            L.append(f"| {s} | {row['seed']} | "
+                     + " | ".join(cs._fmt(row["rates"].get(r), 4) for r in rs)
+                     + f" | {cs._fmt(row['lambda0'], 4)} | {row['qs']:.4f} | "
+                     f"{pct(row['qs_vs_lambda0'])} | {pct(row['qs_vs_slowest'])} | "
+                     f"{'**> 3 %**' if row['flag'] else 'ok'} | {v['cpu_seconds']:.0f} |")
+    flagged = sorted({s for s, v in res.items() for r in v["rows"] if r["flag"]})
+    done = [s for s, v in res.items() if v["rows"]]
+    L += ["", f"Compared: {len(done)} of {len(res)} specimens.  Flagged (quasi-static lambda "
+          f"more than {100 * FLAG_TOLERANCE:.0f} % from the rate -> 0 value): "
+          + (", ".join(flagged) if flagged else "none") + ".", ""]
+    (Path(out) / "README.md").write_text("\n".join(L) + "\n")
+    return summary
+
+
+def _command(args) -> str:
+    cmd = ["python -m postprocess.qs_validation", "--out", cs._repo_rel(args.out)]
+    if args.candidate != "perfect":
+        cmd += ["--candidate", args.candidate]
+    if args.specimens:
+        cmd += ["--specimens", *args.specimens]
+    if tuple(args.rates) != RATES:
+        cmd += ["--rates", *[f"{r:g}" for r in args.rates]]
+    if args.realisations != 1:
+        cmd += ["--realisations", str(args.realisations)]
+    if args.max_steps is not None:
+        cmd += ["--max-steps", str(args.max_steps)]
+    return " ".join(cmd)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+    ap.add_argument("--out", type=Path, default=DEFAULT_OUT)
+    ap.add_argument("--calibration", type=Path, default=cs.ROOT / "results" / "calibration",
+                    help="the calibration study's --out (its committed quasi-static points)")
+    ap.add_argument("--runs", type=Path, default=None, help="raw runs (default <out>/runs)")
+    ap.add_argument("--candidate", default="perfect",
+                    help="a candidate of cases/calibration/candidates.yaml (default perfect)")
+    ap.add_argument("--specimens", nargs="*", default=None,
+                    help="names (default: every calibration specimen, cheapest first)")
+    ap.add_argument("--rates", nargs="*", type=float, default=list(RATES),
+                    help="deg/s; three doubling rates give lambda0 (default 2 1 0.5)")
+    ap.add_argument("--realisations", type=int, default=1,
+                    help="seeds 0 .. N-1 of an imperfect candidate (a perfect one runs one)")
+    ap.add_argument("--max-steps", type=int, default=None, help="cap the steps (smoke)")
+    ap.add_argument("--stop-at", default=None, help="UTC HH:MM after which no new run starts")
+    ap.add_argument("--report", action="store_true", help="only rebuild the report")
+    args = ap.parse_args(argv)
+    cands, all_s = cs.load_candidates(), cs.specimens()
+    if args.candidate not in cands:
+        ap.error(f"--candidate: unknown {args.candidate!r}; known: {list(cands)}")
+    bad = [x for x in args.specimens or [] if x not in all_s]
+    if bad:
+        ap.error(f"--specimens: unknown {bad}; known: {list(all_s)}")
+    if not args.rates or any(not np.isfinite(r) or r <= 0 for r in args.rates):
+        ap.error("--rates: positive deg/s values")
+    if args.realisations < 1:
+        ap.error("--realisations must be >= 1")
+    specs = {s: all_s[s] for s in all_s if args.specimens is None or s in args.specimens}
+    params = cands[args.candidate]
+    out = args.out
+    runs = args.runs or out / "runs"
+    out.mkdir(parents=True, exist_ok=True)
+    command = _command(args)
+    dem_child.install_signal_handlers()
+    if not args.report:
+        for s, spec in specs.items():
+            for r in sorted(args.rates, reverse=True):        # the fast rate first: cheapest
+                if dem_child.stopped():
+                    break
+                if args.stop_at and time.strftime("%H:%M", time.gmtime()) >= args.stop_at:
+                    print(f"--stop-at {args.stop_at} UTC reached: no new run", flush=True)
+                    dem_child.request_stop()
+                    break
+                cs.run_point(rate_dir(out, r), runs / f"rate-{r:g}", args.candidate, params, s,
+                             spec, args.realisations, args.max_steps,
+                             log=lambda m: print(m, flush=True),
+                             record={"rate_deg_per_s": r}, rate=r)
+    report(out, args.calibration, args.candidate, all_s, args.rates, command)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
