@@ -18,7 +18,8 @@ def test_the_rate_case_is_the_calibration_case_on_a_constant_rate_tilt():
     assert qs.loading.method == "quasi_static"
     assert slow.loading.method == "constant_rate" and slow.loading.rate == 0.5
     assert slow.loading.start_angle == 0.0
-    assert slow.loading.collapse == qs.loading.collapse
+    assert slow.loading.collapse.confirm == cs.RUNAWAY_COLLAPSE["confirm"] == 0.02
+    assert slow.loading.collapse.onset_speed == qs.loading.collapse.onset_speed
     assert slow.imperfections == qs.imperfections and slow.material == qs.material
     # long enough to reach the case's largest angle at that rate
     assert slow.run.duration >= slow.loading.max_angle / 0.5
