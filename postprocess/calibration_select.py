@@ -28,14 +28,19 @@ from __future__ import annotations
 
 import math
 
-from postprocess.calibration_study import is_perfect
-
 #: the thesis checks that rank the candidates (rule 2); FaMIVE is shown, never scored
 THESIS_CHECKS = ("in-plane-mechanisms", "stagger-trend", "oop-mechanisms")
 #: rule 1: a specimen whose realisations collapse as one block alone more often than this
 LONE_BLOCK_LIMIT = 0.10
 #: rule 3: the centre of the prior bracket of the bed unevenness (0.05-0.2 mm), m
 CENTRE_BED = 1.0e-4
+
+
+def is_perfect(params: dict) -> bool:
+    """True when a candidate has no imperfection (every length zero): a deterministic model."""
+    sizes = params.get("size_scatter") or [0.0, 0.0, 0.0]
+    return not (params.get("bed_unevenness", 0.0) > 0 or params.get("arris", 0.0) > 0
+                or any(s > 0 for s in sizes))
 
 
 def has_scatter_and_arris(params: dict) -> bool:

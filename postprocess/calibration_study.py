@@ -51,6 +51,7 @@ from dem.builders.bricks import brick
 from dem.case import Case, load_case
 from dem.engine import RESULTS_REVISION
 from postprocess import dem_child
+from postprocess.calibration_select import is_perfect
 from postprocess.tilt_study import _quasi_static, _study_settings
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -171,13 +172,6 @@ def load_candidates(path: Path = CANDIDATES_FILE) -> dict[str, dict]:
                              f"and stiffness are not calibration parameters)")
         out[str(name)] = params
     return out
-
-
-def is_perfect(params: dict) -> bool:
-    """True when a candidate has no imperfection (every length zero): a deterministic model."""
-    sizes = params.get("size_scatter") or [0.0, 0.0, 0.0]
-    return not (params.get("bed_unevenness", 0.0) > 0 or params.get("arris", 0.0) > 0
-                or any(s > 0 for s in sizes))
 
 
 #: the collapse detector of a constant-rate tilt compared with the quasi-static lambda

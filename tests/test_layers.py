@@ -26,6 +26,7 @@ LAYERS = [
     ("analysis", ("postprocess",)),
     ("commands and studies", ("dem.commands", "dem.cli", "studies", "postprocess.tilt_study",
                               "postprocess.shake_study", "postprocess.calibration_study",
+                              "postprocess.qs_validation",
                               "postprocess.prediction_study",
                               "postprocess.rocking_report",
                               "postprocess.rocking_vs_dem_sweep")),
