@@ -23,9 +23,13 @@ side-wall ("wing") bricks that turn with it show which corners joined.  The shap
 line decides first (depths per column, in courses from the top):
   horizontal  depths within one course of each other:
       A   no wing brick joined (or no wings);  B1  wings joined on one side;  B2  on both sides
-  diagonal    the two ends differ by two courses or more: D (from one edge to the other)
-  arch        both ends at least two courses shallower than the deepest column:
+  diagonal    the two ends differ by two courses or more and no column lies more than one
+              course deeper than the deeper end: D (a crack from one edge down to the other)
+  arch        otherwise (the deepest column inside the facade, both ends shallower):
       G   arch three courses deep or more, wings joined on both sides;  B2 otherwise
+(:func:`crack_shape`.  Until 2026-11-24 a profile whose ends differed by two courses was
+diagonal whatever its middle, so an asymmetric arch, e.g. depths [2, 12, 14, 15, 15, 16, 16, 14,
+12, 8] on an imperfect 10 x 21 facade, read D; no perfect wall of cases/tilt has such a profile.)
 """
 
 from __future__ import annotations
@@ -150,6 +154,20 @@ def in_plane_mechanism(scene, pos0, quat0, pos, quat, moving, load_dir, wall_nor
     }
 
 
+def crack_shape(depth) -> str:
+    """The shape of an out-of-plane crack line from its depth per facade column (courses from
+    the top, left to right): "horizontal" (depths within one course), "diagonal" (the ends
+    differ by two courses or more and the deepest column is within one course of the deeper
+    end: the line runs from one edge down to the other, mechanism D) or "arch" (any other
+    profile: the deepest part inside the facade)."""
+    d = np.asarray(depth, int)
+    if d.max() - d.min() <= 1:
+        return "horizontal"
+    if abs(d[0] - d[-1]) >= 2 and d.max() - max(d[0], d[-1]) <= 1:
+        return "diagonal"
+    return "arch"
+
+
 def out_of_plane_mechanism(scene, pos0, quat0, pos, quat, load_dir,
                            facade_group: str = "facade", course=None, facade=None) -> dict:
     """Classify an out-of-plane collapse of a facade with wings from the brick rotations.
@@ -197,14 +215,13 @@ def out_of_plane_mechanism(scene, pos0, quat0, pos, quat, load_dir,
         depth.append(n_courses - lowest)
     depth = np.array(depth)
     sides = [s for s, n in wing_joined.items() if n > 0]
-    horizontal = depth.max() - depth.min() <= 1
-    diagonal = not horizontal and abs(int(depth[0]) - int(depth[-1])) >= 2
+    shape = crack_shape(depth)
     arch_depth = int(depth.max()) - max(int(depth[0]), int(depth[-1]))
     if theta_top <= 0 or depth.max() == 0:
         mech = "none"
-    elif horizontal:
+    elif shape == "horizontal":
         mech = {0: "A", 1: "B1"}.get(len(sides), "B2")
-    elif diagonal:
+    elif shape == "diagonal":
         mech = "D"
     else:
         mech = "G" if arch_depth >= 3 and len(sides) == 2 else "B2"
@@ -213,7 +230,7 @@ def out_of_plane_mechanism(scene, pos0, quat0, pos, quat, load_dir,
         "collapsed_courses": int(depth.max()),
         "facade_courses": n_courses,
         "crack_depth_per_column": depth.tolist(),
-        "crack_shape": "horizontal" if horizontal else ("diagonal" if diagonal else "arch"),
+        "crack_shape": shape,
         "wing_bricks_joined": wing_joined,
         "facade_rotation_mrad": 1e3 * theta_top,
         "n_turning": int(turning.sum()),

@@ -8,7 +8,7 @@ from dem import quaternion
 from dem.builders import Wing, build_facade, build_wall
 from dem.collapse import CollapseDetector
 from dem.loading import Tilt
-from postprocess.mechanisms import in_plane_mechanism, out_of_plane_mechanism
+from postprocess.mechanisms import crack_shape, in_plane_mechanism, out_of_plane_mechanism
 
 IDENT = np.array([1.0, 0.0, 0.0, 0.0])
 
@@ -160,3 +160,18 @@ def test_out_of_plane_a_b1_d_b2_g_from_planted_patterns():
     q[wing] = _quats(np.tile([-0.005, 0.0, 0.0], (wing.sum(), 1)))
     assert out_of_plane_mechanism(sc, sc.position, quat0, sc.position, q,
                                   [0.0, -1.0, 0.0])["mechanism"] == "A"
+
+
+@pytest.mark.parametrize("depth, shape", [
+    ([9, 9, 9, 9, 9], "horizontal"), ([8, 9, 9, 9, 8], "horizontal"),
+    # the diagonal cracks of results/tilt (poor-good, poor-strong large facades): D
+    ([9, 9, 9, 8, 5], "diagonal"), ([9, 9, 9, 8, 6], "diagonal"), ([2, 4, 6, 8, 9], "diagonal"),
+    # symmetric arches (the perfect 10 x 21 and 5 x 9 strong-strong facades): G
+    ([8, 12, 14, 15, 15, 15, 15, 14, 12, 8], "arch"), ([6, 8, 9, 8, 6], "arch"),
+    # an asymmetric arch (bed-0.1-planar 10 x 21, seed 0): its ends differ by 6 courses, its
+    # deepest columns lie 8 below the deeper end: not a crack from one edge to the other
+    ([2, 12, 14, 15, 15, 16, 16, 14, 12, 8], "arch"),
+])
+def test_crack_shape_tells_a_diagonal_from_an_asymmetric_arch(depth, shape):
+    assert crack_shape(depth) == shape
+    assert crack_shape(depth[::-1]) == shape          # mirror image, same shape
