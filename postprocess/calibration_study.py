@@ -51,7 +51,7 @@ from dem.builders.bricks import brick
 from dem.case import Case, load_case
 from dem.engine import RESULTS_REVISION
 from postprocess import dem_child
-from postprocess.calibration_select import is_perfect
+from postprocess.calibration_select import is_perfect, select, selection_lines
 from postprocess.tilt_study import _quasi_static, _study_settings
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -686,8 +686,6 @@ def _fmt(x, nd=3):
 def report(out: Path, candidates: dict, specs: dict, n: int, command: str) -> dict:
     """Write <out>/summary.json and <out>/README.md from the committed point files."""
     from dem.output.atomic import write_json
-
-    from postprocess.calibration_select import select, selection_lines
 
     points = collect(out, candidates, specs, n)
     scores = {c: score_candidate(points[c]) for c in candidates}
