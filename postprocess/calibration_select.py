@@ -145,8 +145,11 @@ def selection_lines(sel: dict) -> list[str]:
         detail = "; ".join(r["reasons"]) or (", ".join(r["pending_specimens"]) or "-")
         extra = ""
         if "could_outrank_leader" in r:
-            extra = " (could outrank the leader)" if r["could_outrank_leader"] else \
-                " (cannot outrank the leader)"
+            if sel["leader"] is None:
+                extra = " (could still be chosen)"
+            else:
+                extra = " (could outrank the leader)" if r["could_outrank_leader"] else \
+                    " (cannot outrank the leader)"
         failed = [k for k, v in r["thesis"].items() if v == "fail"]
         L.append(f"| {c} | {r['status']}{extra} | {r['passes']} | {', '.join(failed) or '-'} | "
                  f"{', '.join(r['pending_checks']) or '-'} | {r['best_possible_passes']} | "

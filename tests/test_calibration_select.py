@@ -97,6 +97,17 @@ def test_a_pending_candidate_that_cannot_outrank_does_not_block_the_choice():
     assert not s["candidates"]["bed-0.05"]["could_outrank_leader"]
 
 
+def test_the_table_names_the_leader_only_when_there_is_one():
+    row = lambda s, c: next(l for l in sel.selection_lines(s) if l.startswith(f"| {c} |"))
+    s = _select(**{"bed-0.1": {"thesis": ("pass", "pass", "pending"), "pending": ("b",)},
+                   "bed-0.2": {"thesis": ("pass", "pending", "pending"), "pending": ("b",)}})
+    assert s["leader"] is None
+    assert "(could still be chosen)" in row(s, "bed-0.1") and "leader" not in row(s, "bed-0.1")
+    s = _select(**{"bed-0.1": {},
+                   "bed-0.2": {"thesis": ("fail", "pending", "pending"), "pending": ("b",)}})
+    assert "(cannot outrank the leader)" in row(s, "bed-0.2")
+
+
 def test_a_pending_candidate_that_would_win_the_tie_blocks_the_choice():
     s = _select(**{"bed-0.1": {},
                    "bed-0.1-sa": {"thesis": ("pass", "pass", "pending"), "pending": ("b",)}})
