@@ -79,3 +79,61 @@ def test_smoke_run_resumes_and_reports(tmp_path):
     assert s["specimens"]["ip-small-5x5"]["rows"] == []       # no quasi-static point here
     assert not s["specimens"]["ip-small-5x5"]["quasi_static_finished"]
     assert "quasi-static point pending" in (out / "README.md").read_text()
+
+
+def test_rates_that_do_not_converge_give_no_lambda0_and_only_a_bound():
+    # the perfect 5 x 15 wall (results/calibration/qs-validation): 2, 1, 0.5 deg/s read
+    # 0.5839, 0.5966, 0.6087: the differences barely shrink (2^p = 1.05), and lambda = lambda0 -
+    # c r^p through them would put lambda0 at 0.865, far beyond the 0.025 the rates span
+    rates = {2.0: {"seed-0": 0.5839}, 1.0: {"seed-0": 0.5966}, 0.5: {"seed-0": 0.6087}}
+    pts = sorted((r, v["seed-0"]) for r, v in rates.items())
+    assert qv._rate_extrapolation(pts) > 0.8              # the raw fit
+    assert qv.rate_limit(pts) == (None, "not converging")
+    (r,) = qv.compare({"seed-0": 0.6241}, rates)          # above the slowest: the trend's side
+    assert r["lambda0"] is None and r["verdict"] == "unconfirmed" and not r["flag"]
+    (r,) = qv.compare({"seed-0": 0.6087 * 0.96}, rates)   # 4 % below the slowest: against it
+    assert r["verdict"] == "flag" and r["flag"]
+    (r,) = qv.compare({"seed-0": 0.6087 * 0.98}, rates)   # 2 % below: within the tolerance
+    assert r["verdict"] == "unconfirmed"
+
+
+def test_a_converging_trio_extrapolates_within_its_span():
+    # lambda = 0.62 - 0.02 r exactly (p = 1): lambda0 is the intercept
+    pts = [(r, 0.62 - 0.02 * r) for r in (0.5, 1.0, 2.0)]
+    lam0, how = qv.rate_limit(pts)
+    assert how == "extrapolated" and lam0 == pytest.approx(0.62)
+    # the edge is p = 1/2 (correction D1 / (2^p - 1) = span D1 (1 + 2^p)): 0.6 in, 0.4 out
+    pts = [(r, 0.62 - 0.02 * r ** 0.6) for r in (0.5, 1.0, 2.0)]
+    assert qv.rate_limit(pts)[0] == pytest.approx(0.62)
+    pts = [(r, 0.62 - 0.02 * r ** 0.4) for r in (0.5, 1.0, 2.0)]
+    assert qv.rate_limit(pts) == (None, "not converging")
+
+
+def test_a_slower_rate_on_disk_joins_the_specimens_that_have_it(tmp_path):
+    out, cal = tmp_path / "v", tmp_path / "cal"
+
+    def point(d, spec, lam):
+        p = cs.point_path(d, "perfect", spec)
+        p.parent.mkdir(parents=True, exist_ok=True)
+        p.write_text(json.dumps({"realisations": [{"name": "seed-0", "status": "ok",
+                                                   "lambda": lam}]}))
+
+    lam = {0.25: 0.6191, 0.5: 0.6087, 1.0: 0.5966, 2.0: 0.5839}
+    for spec in ("ip-small-5x15", "ip-small-5x20"):
+        point(cal, spec, 0.6241)
+        for r in (0.5, 1.0, 2.0):
+            point(qv.rate_dir(out, r), spec, lam[r])
+    point(qv.rate_dir(out, 0.25), "ip-small-5x15", lam[0.25])
+    orig = cs.point_finished
+    cs.point_finished = lambda data: data is not None      # the synthetic points are complete
+    try:
+        res = qv.collect(out, cal, "perfect", {"ip-small-5x15": {}, "ip-small-5x20": {}},
+                         (2.0, 1.0, 0.5))
+    finally:
+        cs.point_finished = orig
+    assert qv.rates_on_disk(out) and 0.25 in qv.rates_on_disk(out)
+    (a,), (b,) = res["ip-small-5x15"]["rows"], res["ip-small-5x20"]["rows"]
+    assert set(a["rates"]) == {"0.25", "0.5", "1", "2"} and set(b["rates"]) == {"0.5", "1", "2"}
+    assert res["ip-small-5x20"]["pending_rates"] == []
+    # 0.25, 0.5, 1 deg/s: differences 0.0104, 0.0121 -> 2^p = 1.16, still not converging
+    assert a["rate_limit"] == "not converging"
