@@ -162,3 +162,30 @@ def test_a_run_of_an_engine_whose_results_moved_is_not_resumed(tmp_path):
         (run / "summary.json").write_text(json.dumps(summary))
         assert (finished_realisation(case, run, shake=False) is not None) is reused
         assert (finished_point(case, run) is not None) is reused
+
+
+def test_a_signal_stops_dem_sweep_realisations_instead_of_starting_the_next(tmp_path,
+                                                                            monkeypatch):
+    """prediction_study's SIGTERM stopped one realisation's sweep, and ``dem sweep
+    --realisations`` went on to the next (2026-11-25): the interrupt now ends the loop, exit 1,
+    and no ensemble statistics are written from a partial set."""
+    from dem.commands import sweep as cmd
+    from dem.commands.exit_codes import ExitCode
+    from dem.signals import Interrupted
+
+    calls = []
+
+    def fake_run_sweep(case_path, out, *args, case=None, reraise_interrupt=False, **kw):
+        calls.append((out.name, reraise_interrupt))
+        if len(calls) == 2:                     # the signal arrives in the second realisation
+            if reraise_interrupt:
+                raise Interrupted("SIGTERM")
+            return ExitCode.RUN_FAILED
+        return ExitCode.OK
+
+    monkeypatch.setattr(cmd, "run_sweep", fake_run_sweep)
+    code = cmd._run_sweep_realisations(_case(tmp_path), tmp_path / "sw", "2,3", None, 5.0, 1.0,
+                                       None, 1, None, 4, 0)
+    assert code == ExitCode.RUN_FAILED
+    assert calls == [("seed-0", True), ("seed-1", True)]    # seed-2, seed-3 never started
+    assert not (tmp_path / "sw" / "ensemble.json").exists()

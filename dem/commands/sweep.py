@@ -75,7 +75,7 @@ def run_sweep(case_path, out, frequencies: str | None = None, rng: str | None = 
               cycles: float | None = None, margin: float = DEFAULT_MARGIN,
               scheduler: str | None = None, workers: int | None = None,
               max_steps: int | None = None, realisations: int | None = None,
-              seed: int | None = None, case=None) -> int:
+              seed: int | None = None, case=None, reraise_interrupt: bool = False) -> int:
     """Body of ``dem sweep``; returns the exit code (0 all ok, 1 a point failed, 2 bad input).
 
     ``realisations``: the sweep runs once per realisation of the case's imperfections (seeds
@@ -164,6 +164,8 @@ def run_sweep(case_path, out, frequencies: str | None = None, rng: str | None = 
     except KeyboardInterrupt as err:
         say(f"interrupted by {signal_name(err)}; finished points are in {out}/sweep.json (a rerun"
             f" of the same command keeps them and runs the others)")
+        if reraise_interrupt:       # --realisations: the loop over realisations stops too
+            raise
         return exit_code_for(err)
     for rec in records:  # records the callback may not have seen (should not happen)
         if rec is not None and points[rec["name"]]["status"] == "pending":
@@ -196,14 +198,23 @@ def _run_sweep_realisations(case_path, out: Path, frequencies, rng, cycles, marg
     except ValueError as err:
         say(f"error: {case_path}: {err}")
         return exit_code_for(err)
+    from dem.signals import signal_name, stop_on_signals
+
     codes = []
-    for name, c in cases:
-        say(f"realisation {name} ({len(codes) + 1} of {len(cases)})")
-        code = run_sweep(case_path, out / name, frequencies, rng, cycles, margin, scheduler,
-                         workers, max_steps, case=c)
-        if code == ExitCode.BAD_INPUT:
-            return code
-        codes.append(code)
+    try:
+        with stop_on_signals():     # a signal between two realisations stops the loop as well
+            for name, c in cases:
+                say(f"realisation {name} ({len(codes) + 1} of {len(cases)})")
+                code = run_sweep(case_path, out / name, frequencies, rng, cycles, margin,
+                                 scheduler, workers, max_steps, case=c, reraise_interrupt=True)
+                if code == ExitCode.BAD_INPUT:
+                    return code
+                codes.append(code)
+    except KeyboardInterrupt as err:
+        left = [name for name, _ in cases][len(codes):]
+        say(f"stopped by {signal_name(err)}: realisation(s) {', '.join(left)} not finished; a "
+            f"rerun of the same command keeps every finished point")
+        return exit_code_for(err)
     curves: dict[float, list] = {}
     lags: dict[float, list] = {}
     per_seed = []
