@@ -537,17 +537,24 @@ def survived(row: dict) -> bool | None:
     return row.get("collapse_suspected") is False
 
 
-def characteristic(freqs, curve: dict) -> dict:
+def characteristic(freqs, curve: dict, unrun=()) -> dict:
     """Characteristic frequency and effective range of an amplification curve {f: amplification}
     by postprocess.sweep.effective_range; at an edge of the sweep the frequency is null with the
-    reason "peak at the edge of the sweep: no resonance found in the range"."""
+    reason "peak at the edge of the sweep: no resonance found in the range".  ``unrun``: the
+    frequencies of the sweep with no finished run yet; a peak at the last finished frequency
+    before them is not at the edge of the sweep, and reads "pending" instead."""
     fs = [f for f in freqs if _finite(curve.get(f))]
     er = effective_range(fs, [curve[f] for f in fs])
     if not fs:
         er["characteristic_frequency_note"] = "no surviving realisation with an analysed response"
     if er.get("characteristic_frequency_hz") is None and fs:
         k = int(np.argmax([curve[f] for f in fs]))
-        if len(fs) >= 3 and k in (0, len(fs) - 1):
+        beyond = [f for f in unrun if (f < fs[k] if k == 0 else f > fs[k])]
+        if len(fs) >= 3 and k in (0, len(fs) - 1) and beyond:
+            er["characteristic_frequency_note"] = (
+                f"pending: the peak so far is at {fs[k]:g} Hz, and {len(beyond)} frequencies "
+                f"beyond it have not run")
+        elif len(fs) >= 3 and k in (0, len(fs) - 1):
             er["characteristic_frequency_note"] = (
                 f"peak at the edge of the sweep ({fs[k]:g} Hz, the "
                 f"{'lowest' if k == 0 else 'highest'} frequency): no resonance found in the range")
@@ -693,7 +700,9 @@ def analyse_sweep(name: str, data: dict | None) -> dict:
                                      if r["frequency_hz"] == f and survived(r)) for f in freqs}
         for label, (fr, bk) in FRONT_BACK.items()}
     med = {f: curves["ds"][f"{f:g}"]["median"] for f in freqs}
-    er = characteristic(freqs, med)
+    unrun = [f for f in freqs if not any(r["frequency_hz"] == f and r.get("run_status") == "ok"
+                                         for r in rows)]
+    er = characteristic(freqs, med, unrun)
     out["characteristic_frequency_hz"] = er.get("characteristic_frequency_hz")
     out["characteristic_frequency_note"] = er.get("characteristic_frequency_note")
     out["peak_at_edge"] = bool(er.get("peak_at_edge"))

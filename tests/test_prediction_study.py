@@ -172,6 +172,19 @@ def test_a_peak_at_the_edge_of_the_sweep_is_no_characteristic_frequency():
     assert inner["effective_range_hz"] == [2.4, 3.2]
 
 
+def test_a_peak_at_the_last_finished_frequency_of_an_unfinished_sweep_is_pending():
+    # model-ii-y on 2026-11-25: 4 of 10 frequencies run (1.8 - 2.1 Hz), ds rising; the report
+    # said "peak at the edge of the sweep (2.1 Hz, the highest frequency)"
+    freqs = [1.8, 1.9, 2.0, 2.1, 2.2, 2.4, 2.5, 2.8, 3.2, 3.6]
+    curve = {1.8: 0.0754, 1.9: 0.0845, 2.0: 0.0953, 2.1: 0.107}
+    part = ps.characteristic(freqs, curve, unrun=freqs[4:])
+    assert part["characteristic_frequency_hz"] is None and not part.get("peak_at_edge")
+    assert part["characteristic_frequency_note"].startswith("pending")
+    # the same four points as a whole sweep: the peak is at its edge
+    whole = ps.characteristic(freqs[:4], curve)
+    assert whole["peak_at_edge"]
+
+
 def test_thesis_value_outside_the_band_fails_even_with_a_close_median():
     close_narrow = {"n": 10, "median": 2.75, "q10": 2.70, "q90": 2.78}
     v = ps.band_verdict(close_narrow, 2.8, tol_abs=0.3)
