@@ -5,6 +5,12 @@ By default a local cluster sized to the cores, one single-threaded worker proces
 cluster is used with the same code (``dask scheduler`` / ``dask worker`` started by the user).
 A failed case never stops the others: its record carries ``status: "failed"`` and the error.
 
+Draining: with ``drain`` (a check, e.g. :func:`drain_file_check`: "does OUT/DRAIN exist?") the
+cases are handed to the cluster no faster than it has threads, and once the check says yes no
+further case starts: the runs in flight finish and are kept, then :class:`Drained` names the cases
+that never started.  It ends a long study at a chosen moment without losing the runs in flight,
+which a signal (SIGTERM: stop now) does lose, as no run can resume from its middle.
+
 Each case writes its own output directory (summary.json, frames.npz, ...) under ``out_root``.
 """
 
@@ -17,6 +23,33 @@ from pathlib import Path
 from typing import Callable
 
 from dem.case import Case
+
+
+class Drained(Exception):
+    """The drain check said stop: the runs in flight finished, ``not_started`` (names) never
+    began.  Their records were passed to ``on_done`` like any other."""
+
+    def __init__(self, not_started: list[str]):
+        super().__init__(f"drained: {len(not_started)} case(s) not started")
+        self.not_started = not_started
+
+
+DRAIN_FILE = "DRAIN"
+
+
+def drain_file_check(path: Path) -> Callable[[], bool]:
+    """The drain check of a file: True once ``path`` exists (``touch OUT/DRAIN``)."""
+    path = Path(path)
+    return path.exists
+
+
+def clear_drain_file(path: Path, say=None) -> None:
+    """Remove a drain file left by an earlier stop, so that a new start is not drained at once."""
+    path = Path(path)
+    if path.exists():
+        path.unlink()
+        if say is not None:
+            say(f"removed {path}, left by an earlier drain")
 
 
 def _run_one(name: str, case_json: str, out_dir: str, threads: int, max_steps: int | None,
@@ -54,7 +87,7 @@ def _run_one(name: str, case_json: str, out_dir: str, threads: int, max_steps: i
 def run_batch(cases: list[tuple[str, Case]], out_root: str | Path, scheduler: str | None = None,
               n_workers: int | None = None, max_steps: int | None = None,
               post: Callable | None = None, on_done: Callable[[dict], None] | None = None,
-              analyses: tuple = ()) -> list[dict]:
+              analyses: tuple = (), drain: Callable[[], bool] | None = None) -> list[dict]:
     """Run (name, case) pairs; returns one record per case, in the order given.
 
     analyses: handed to dem.run.run_case (functions merged into each run's summary.json, e.g.
@@ -62,7 +95,9 @@ def run_batch(cases: list[tuple[str, Case]], out_root: str | Path, scheduler: st
 
     post(case, RunResult, out_dir) -> dict runs on the worker after a successful run (keep its
     result small: it travels back to the client).  on_done(record) is called on the client as
-    each case finishes (progress reporting).
+    each case finishes (progress reporting).  drain() -> bool: checked before each case is handed
+    to the cluster; once True nothing more starts and, after the runs in flight, :class:`Drained`
+    is raised (module docstring).  Without it every case is handed over at once.
     """
     from dask.distributed import Client, LocalCluster, as_completed
 
@@ -86,16 +121,37 @@ def run_batch(cases: list[tuple[str, Case]], out_root: str | Path, scheduler: st
         client = Client(cluster)
     else:
         client = Client(scheduler)
+        if drain is not None:
+            client.wait_for_workers(1)  # their threads set how many cases are handed over
     try:
+        def free_threads() -> int:
+            if drain is None:
+                return len(cases)
+            return max(1, sum(client.nthreads().values())) - len(futures)
+
         futures = {}
-        for i, (name, case) in enumerate(cases):
-            fut = client.submit(_run_one, name, case.model_dump_json(), str(out_root / name), 1,
-                                max_steps, post, tuple(analyses), key=f"dem-{i}-{name}",
-                                pure=False)
-            futures[fut] = i
+        waiting = list(range(len(cases)))
+        done = as_completed()
+        drained = False
+
+        def hand_over() -> None:
+            nonlocal drained
+            while waiting and not drained and free_threads() > 0:
+                if drain is not None and drain():
+                    drained = True
+                    break
+                i = waiting.pop(0)
+                name, case = cases[i]
+                fut = client.submit(_run_one, name, case.model_dump_json(), str(out_root / name),
+                                    1, max_steps, post, tuple(analyses), key=f"dem-{i}-{name}",
+                                    pure=False)
+                futures[fut] = i
+                done.add(fut)
+
+        hand_over()
         records: list[dict | None] = [None] * len(cases)
-        for fut in as_completed(futures):
-            i = futures[fut]
+        for fut in done:
+            i = futures.pop(fut)
             try:
                 rec = fut.result()
             except Exception as err:  # noqa: BLE001 - worker died: still report the point
@@ -104,6 +160,9 @@ def run_batch(cases: list[tuple[str, Case]], out_root: str | Path, scheduler: st
             records[i] = rec
             if on_done is not None:
                 on_done(rec)
+            hand_over()
+        if waiting:
+            raise Drained([cases[i][0] for i in waiting])
         return records
     finally:
         client.close()

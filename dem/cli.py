@@ -171,15 +171,23 @@ def sweep(
                                      help="run the sweep for N realisations of the case's "
                                           "imperfections (seeds S, S+1, ...)"),
     seed: int = typer.Option(None, "--seed", help="first seed of --realisations"),
+    drain_file: Path = typer.Option(None, "--drain-file",
+                                    help="once this file exists, no new run starts and the runs "
+                                         "in flight finish (default: OUT/DRAIN)"),
 ) -> None:
     """Frequency sweep of a shake case at its constant peak acceleration (or amplitude): one run
     per frequency on dask, each analysed (postprocess.shake), then the amplification curves,
     characteristic frequency, effective range and lag times in OUT/sweep.json and sweep.png.
-    Exit 0 all points ok, 1 a point failed (the others still land), 2 bad input."""
-    from dem.commands.sweep import run_sweep
+    To end a long sweep without losing the runs in flight, ``touch OUT/DRAIN`` (Ctrl-C or
+    SIGTERM stop at once and lose them; a rerun resumes either way).
+    Exit 0 all points ok, 1 a point failed or the sweep was stopped or drained, 2 bad input."""
+    from dem.batch import DRAIN_FILE, clear_drain_file
+    from dem.commands.sweep import run_sweep, say
 
+    drain_file = drain_file if drain_file is not None else out / DRAIN_FILE
+    clear_drain_file(drain_file, say)
     raise typer.Exit(run_sweep(case, out, frequencies, range_, cycles, margin, scheduler, workers,
-                               max_steps, realisations, seed))
+                               max_steps, realisations, seed, drain_file=drain_file))
 
 
 @app.command()
@@ -191,14 +199,21 @@ def ensemble(
     workers: int = typer.Option(None, "--workers", help="local workers (default: one per core)"),
     scheduler: str = typer.Option(None, "--scheduler", help="address of a running dask scheduler"),
     max_steps: int = typer.Option(None, "--max-steps", help="cap the steps of each run (smoke)"),
+    drain_file: Path = typer.Option(None, "--drain-file",
+                                    help="once this file exists, no new realisation starts and "
+                                         "those in flight finish (default: OUT/DRAIN)"),
 ) -> None:
     """Run N realisations of an imperfect case (seeds S, S+1, ...) on dask; OUT/ensemble.json
     holds each realisation's results and their statistics (median, 10-90 %, mean, std,
     mechanism counts).  A rerun skips finished realisations.  Exit 0 all ok, 1 one failed,
-    2 bad input."""
-    from dem.commands.ensemble import run_ensemble
+    2 bad input.  ``touch OUT/DRAIN`` ends it without losing the realisations in flight."""
+    from dem.batch import DRAIN_FILE, clear_drain_file
+    from dem.commands.ensemble import run_ensemble, say
 
-    raise typer.Exit(run_ensemble(case, out, realisations, seed, scheduler, workers, max_steps))
+    drain_file = drain_file if drain_file is not None else out / DRAIN_FILE
+    clear_drain_file(drain_file, say)
+    raise typer.Exit(run_ensemble(case, out, realisations, seed, scheduler, workers, max_steps,
+                                  drain_file=drain_file))
 
 
 @app.command()

@@ -39,6 +39,9 @@ The protocol (issue 13: calibrate -> freeze -> predict, in this order in the git
   holds every (seed, frequency) finished for the same fingerprint (case, seeds, frequencies,
   cycles, step cap) is skipped without starting anything.  The child's CPU seconds (user +
   system of its process tree) add up over sessions in points.json.
+* Ending a session: ``touch <runs>/DRAIN`` (``--drain-file``) lets the runs in flight finish,
+  starts no new one and writes the report (dem.batch, "Draining"); SIGTERM stops at once and
+  loses the runs in flight, as no run resumes from its middle.
 * points.json is the committed analysis record of a sweep: one row per (seed, frequency) with
   the numbers of the point's analysis.json (postprocess.shake via postprocess.sweep.compact):
   amplification of ds, dsr, da, a (unfiltered), a_lp (low-passed, below), a_front, a_front_lp,
@@ -462,9 +465,10 @@ def sweep_finished(data: dict | None, fp: str | None = None) -> bool:
 
 
 def run_sweep_point(out: Path, runs: Path, name: str, plan: dict, workers: int | None = None,
-                    log=print) -> str:
+                    log=print, drain_file: Path | None = None) -> str:
     """Run (or skip) one sweep of the plan: "skipped" (finished before), "finished", "pending"
-    (interrupted or a run failed) or "failed" (dem sweep refused the case)."""
+    (interrupted, drained or a run failed) or "failed" (dem sweep refused the case).
+    ``drain_file``: handed to dem sweep (once it exists no new run starts)."""
     from dem.output.atomic import write_json
 
     frozen = plan["frozen"]
@@ -486,6 +490,8 @@ def run_sweep_point(out: Path, runs: Path, name: str, plan: dict, workers: int |
         args += ["--workers", str(workers)]
     if plan["max_steps"] is not None:
         args += ["--max-steps", str(plan["max_steps"])]
+    if drain_file is not None:
+        args += ["--drain-file", str(drain_file)]
     log(f"[{time.strftime('%H:%M:%S', time.gmtime())} UTC] {name}: {len(freqs)} frequencies x "
         f"{len(seeds)} realisations, {plan['cycles']:g} cycles ...")
     rc, cpu, wall = dem_child.run_dem(args, log)
@@ -1415,6 +1421,10 @@ def main(argv=None) -> int:
     ap.add_argument("--cycles-check", type=float, default=None, metavar="N",
                     help="no runs: re-analyse the finished runs of the sweeps (--only) over "
                          "their first N cycles, compare with the full cycles, then report")
+    ap.add_argument("--drain-file", type=Path, default=None,
+                    help="once this file exists no new run starts, the runs in flight finish, "
+                         "then the report is written (default <runs>/DRAIN); SIGTERM instead "
+                         "stops at once and loses the runs in flight")
     args = ap.parse_args(argv)
     try:
         frozen = load_frozen(args.frozen)
@@ -1440,12 +1450,17 @@ def main(argv=None) -> int:
         return 2
     states = []
     if not args.report and args.cycles_check is None:
+        from dem.batch import DRAIN_FILE, clear_drain_file
+
         runs = args.runs or Path(args.out) / "runs"
+        drain = args.drain_file or runs / DRAIN_FILE
+        clear_drain_file(drain, lambda m: print(m, file=sys.stderr))
         dem_child.install_signal_handlers()
         for n in names:
-            if dem_child.stopped():
+            if dem_child.stopped() or drain.exists():
                 break
-            states.append(run_sweep_point(args.out, runs, n, plan, args.workers))
+            states.append(run_sweep_point(args.out, runs, n, plan, args.workers,
+                                          drain_file=drain))
     report(args.out, frozen, _command(args), args.runs)
     print(f"{args.out}/summary.json, {args.out}/README.md", file=sys.stderr)
     return 0 if all(s in ("skipped", "finished") for s in states) else 1

@@ -114,7 +114,7 @@ def test_seeds_are_written_before_the_first_run_model_ii_y_first(tmp_path, monke
     out = tmp_path / "out"
     calls = []
 
-    def fake_run(out_, runs, name, plan, workers=None, log=print):
+    def fake_run(out_, runs, name, plan, workers=None, log=print, drain_file=None):
         on_disk = json.loads((out_ / "plan.json").read_text())
         calls.append((name, on_disk["seeds"], on_disk["frozen"]["commit"]))
         return "finished"
@@ -322,6 +322,28 @@ def test_an_edge_peak_fails_the_characteristic_frequency_criterion():
 
 
 # ---- resume and the smoke run -------------------------------------------------------------------
+def test_a_drain_file_ends_the_study_after_the_sweep_in_flight(tmp_path, monkeypatch):
+    """The study hands its drain file (default <runs>/DRAIN) to every dem sweep, clears one left
+    by an earlier drain at the start, and starts no further sweep once it exists."""
+    _, path = _repo(tmp_path)
+    out = tmp_path / "out"
+    drain = out / "runs" / "DRAIN"
+    drain.parent.mkdir(parents=True)
+    drain.touch()                                # left by an earlier drain
+    calls = []
+
+    def fake_run(out_, runs, name, plan, workers=None, log=print, drain_file=None):
+        calls.append((name, drain_file, drain_file.exists()))
+        drain_file.touch()                      # the user drains while the first sweep runs
+        return "pending"
+
+    monkeypatch.setattr(ps, "run_sweep_point", fake_run)
+    assert ps.main(["--frozen", str(path), "--out", str(out), "--realisations", "3",
+                    "--only", "model-ii-y,model-iii-y"]) == 1
+    assert calls == [("model-ii-y", drain, False)]   # model-iii-y never started
+    assert (out / "summary.json").is_file()          # the report is still written
+
+
 def test_a_finished_sweep_starts_nothing(tmp_path, monkeypatch):
     _, path = _repo(tmp_path)
     fr = ps.load_frozen(path)

@@ -392,7 +392,7 @@ def test_sweep_at_constant_peak_acceleration_exits_0_and_aggregates(tmp_path, mo
     from dem.run import run_case
 
     def sequential(cases, out_root, scheduler=None, n_workers=None, max_steps=None, post=None,
-                   on_done=None):
+                   on_done=None, drain=None):
         recs = []
         for name, case in cases:
             d = str(out_root / name)

@@ -72,9 +72,10 @@ def write_ensemble(out: Path, meta: dict, names: list[str], records: dict, plots
 
 def run_ensemble(case_path, out, realisations: int, seed: int | None = None,
                  scheduler: str | None = None, workers: int | None = None,
-                 max_steps: int | None = None) -> int:
-    """Body of ``dem ensemble``; returns the exit code."""
-    from dem.batch import run_batch
+                 max_steps: int | None = None, drain_file: Path | None = None) -> int:
+    """Body of ``dem ensemble``; returns the exit code.  ``drain_file``: once it exists no new
+    realisation starts and those in flight finish (dem.batch, "Draining"); exit code 1."""
+    from dem.batch import Drained, drain_file_check, run_batch
     from dem.case import CaseError, ShakeLoading, load_case
     from dem.commands.run import RUN_ANALYSES
     from dem.run.build import scene_from_case
@@ -149,7 +150,13 @@ def run_ensemble(case_path, out, realisations: int, seed: int | None = None,
             if todo:
                 run_batch(todo, out, scheduler=scheduler, n_workers=workers, max_steps=max_steps,
                           post=analyze_point if shake else None, on_done=on_done,
-                          analyses=() if shake else RUN_ANALYSES)
+                          analyses=() if shake else RUN_ANALYSES,
+                          drain=None if drain_file is None else drain_file_check(drain_file))
+    except Drained as err:
+        say(f"drained ({drain_file} exists): the realisations in flight finished; "
+            f"{len(err.not_started)} not started ({', '.join(err.not_started)}); finished ones "
+            f"are in {out}/ensemble.json (a rerun of the same command keeps them)")
+        return ExitCode.RUN_FAILED
     except KeyboardInterrupt as err:
         say(f"interrupted by {signal_name(err)}; finished realisations are in "
             f"{out}/ensemble.json (a rerun of the same command keeps them)")

@@ -75,22 +75,27 @@ def run_sweep(case_path, out, frequencies: str | None = None, rng: str | None = 
               cycles: float | None = None, margin: float = DEFAULT_MARGIN,
               scheduler: str | None = None, workers: int | None = None,
               max_steps: int | None = None, realisations: int | None = None,
-              seed: int | None = None, case=None, reraise_interrupt: bool = False) -> int:
+              seed: int | None = None, case=None, reraise_interrupt: bool = False,
+              drain_file: Path | None = None) -> int:
     """Body of ``dem sweep``; returns the exit code (0 all ok, 1 a point failed, 2 bad input).
 
     ``realisations``: the sweep runs once per realisation of the case's imperfections (seeds
     ``seed``, ``seed`` + 1, ...: dem.run.sweep.realisation_cases), each a whole sweep in
     OUT/seed-<seed>/ (resumable like any sweep), then OUT/ensemble.json and
     amplification_band.png gather the amplification curves (median, 10-90 %:
-    postprocess.ensemble).  ``case``: the loaded case (else read from case_path)."""
-    from dem.batch import run_batch
+    postprocess.ensemble).  ``case``: the loaded case (else read from case_path).
+    ``drain_file``: once this file exists no new point starts; the points in flight finish
+    (dem.batch, "Draining"), the exit code is 1 and, with realisations, the loop stops too.
+    None: no draining (the caller clears a leftover file: dem.batch.clear_drain_file)."""
+    from dem.batch import Drained, drain_file_check, run_batch
     from dem.case import CaseError, load_case
     from dem.run.build import scene_from_case
 
     out = Path(out)
     if realisations is not None or seed is not None:
         return _run_sweep_realisations(case_path, out, frequencies, rng, cycles, margin,
-                                       scheduler, workers, max_steps, realisations, seed)
+                                       scheduler, workers, max_steps, realisations, seed,
+                                       drain_file)
     try:
         case = load_case(case_path) if case is None else case
         freqs = parse_frequencies(frequencies, rng)
@@ -159,8 +164,18 @@ def run_sweep(case_path, out, frequencies: str | None = None, rng: str | None = 
     try:
         with stop_on_signals():
             records = run_batch(todo, out, scheduler=scheduler, n_workers=workers,
-                                max_steps=max_steps, post=analyze_point,
-                                on_done=on_done) if todo else []
+                                max_steps=max_steps, post=analyze_point, on_done=on_done,
+                                drain=None if drain_file is None else
+                                drain_file_check(drain_file)) if todo else []
+    except Drained as err:
+        say(f"drained ({drain_file} exists): the points in flight finished; "
+            f"{len(err.not_started)} not started: "
+            + ", ".join(f"{by_name[n][0]:g} Hz" for n in err.not_started)
+            + f"; {out}/sweep.json holds the finished ones (a rerun of the same command runs "
+              f"the others)")
+        if reraise_interrupt:       # --realisations: the loop over realisations stops too
+            raise
+        return ExitCode.RUN_FAILED
     except KeyboardInterrupt as err:
         say(f"interrupted by {signal_name(err)}; finished points are in {out}/sweep.json (a rerun"
             f" of the same command keeps them and runs the others)")
@@ -181,8 +196,9 @@ def run_sweep(case_path, out, frequencies: str | None = None, rng: str | None = 
 
 
 def _run_sweep_realisations(case_path, out: Path, frequencies, rng, cycles, margin, scheduler,
-                            workers, max_steps, realisations, seed) -> int:
+                            workers, max_steps, realisations, seed, drain_file=None) -> int:
     """``dem sweep --realisations N``: one sweep per realisation, then their statistics."""
+    from dem.batch import Drained
     from dem.case import CaseError, load_case
     from dem.output.atomic import write_json
     from dem.run.sweep import realisation_cases
@@ -206,10 +222,16 @@ def _run_sweep_realisations(case_path, out: Path, frequencies, rng, cycles, marg
             for name, c in cases:
                 say(f"realisation {name} ({len(codes) + 1} of {len(cases)})")
                 code = run_sweep(case_path, out / name, frequencies, rng, cycles, margin,
-                                 scheduler, workers, max_steps, case=c, reraise_interrupt=True)
+                                 scheduler, workers, max_steps, case=c, reraise_interrupt=True,
+                                 drain_file=drain_file)
                 if code == ExitCode.BAD_INPUT:
                     return code
                 codes.append(code)
+    except Drained:
+        left = [name for name, _ in cases][len(codes) + 1:]
+        if left:
+            say(f"drained: realisation(s) {', '.join(left)} not started")
+        return ExitCode.RUN_FAILED
     except KeyboardInterrupt as err:
         left = [name for name, _ in cases][len(codes):]
         say(f"stopped by {signal_name(err)}: realisation(s) {', '.join(left)} not finished; a "
