@@ -96,6 +96,12 @@ Shown, not scored (none is one of issue 13's criteria):
   at 2-4 cycles (the drift-free integral's fit and running mean at the record's end) and raw a
   to ~5 % (the spikes' peaks move with the grid).  ``<out>/<sweep>/cycles-check-<N>.json``
   (committed) holds the rows and the verdict.
+* The cut itself (``--cut-cycles N --only SWEEPS``): the sweeps named, not yet planned and not
+  Model II y, are planned at N cycles, and only once Model II y finished at the plan's cycles
+  and its cycles-check-N.json, made from the finished sweep, says the answer is unchanged
+  (:func:`cut_record`).  The plan records the cut per sweep with that file and its verdict; a
+  planned sweep's cycles never change; the false-success check on the excitation names every
+  cut and fails one without its record.  Survival is then over N cycles, which the report says.
 """
 
 from __future__ import annotations
@@ -127,6 +133,9 @@ PARAM_KEYS = ("bed_unevenness", "face_shape", "size_scatter", "arris")
 PROVENANCE_KEYS = ("derived_in", "candidate", "note", "frozen_on")
 #: the order of the study: Model II y in full first (issue 13 step 3)
 ORDER = ("model-ii-y", "model-ii-x", "model-ii-xy", "model-i-y", "model-i-x", "model-iii-y")
+EXCITATION_CHECK = ("excitation as in the thesis (Appendix I peak accelerations, 50 cycles, or "
+                    "fewer where shown not to change the answer)")
+FULL_SWEEP = ORDER[0]        # run in full; its cycles check is what may justify a cut elsewhere
 MEASURED_FRICTION = 0.81     # small bricks, thesis Tables 3.1-3.2 (REFERENCE.md, Bricks)
 SURVIVAL_MIN = 0.8           # issue 13: at least 80 % of the realisations survive
 FC_TOL_HZ = 0.3              # characteristic frequency within +-0.3 Hz
@@ -324,6 +333,42 @@ def fingerprint(case, freqs, seeds, cycles, max_steps) -> str:
     return h.hexdigest()[:16]
 
 
+def sweep_cycles(plan: dict, name: str) -> float:
+    """The cycles one sweep of the plan runs: its cut (:func:`cut_record`) or the plan's."""
+    return plan["sweeps"][name].get("cycles", plan["cycles"])
+
+
+def cut_record(out: Path, plan: dict | None, cycles: float) -> dict:
+    """The justification of running sweeps other than FULL_SWEEP at ``cycles`` < the plan's
+    (issue 13 step 3: "do Model II y in full first ... and show that the cut does not change
+    the answer"): FULL_SWEEP finished at the plan's cycles, and its committed
+    ``cycles-check-<N>.json``, made from the finished sweep, says the answer is unchanged
+    (:func:`cycles_verdict`).  PredictionInputError naming what is missing otherwise."""
+    if plan is None:
+        raise PredictionInputError(f"--cut-cycles: {out}/plan.json missing: {FULL_SWEEP} runs "
+                                   f"in full first")
+    if not 2 <= cycles < plan["cycles"]:
+        raise PredictionInputError(f"--cut-cycles {cycles:g}: must lie in [2, {plan['cycles']:g})"
+                                   f" (the plan's cycles)")
+    full = _read(points_path(out, FULL_SWEEP))
+    if not sweep_finished(full) or full["prediction"]["cycles"] != plan["cycles"]:
+        raise PredictionInputError(f"--cut-cycles: {FULL_SWEEP} has not finished at the plan's "
+                                   f"{plan['cycles']:g} cycles ({points_path(out, FULL_SWEEP)}):"
+                                   f" no cut before it")
+    path = cycles_check_path(out, FULL_SWEEP, cycles)
+    chk = _read(path)
+    if not chk or not chk.get("sweep_finished"):
+        raise PredictionInputError(f"--cut-cycles: {path} missing or made before {FULL_SWEEP} "
+                                   f"finished: run --cycles-check {cycles:g} --only {FULL_SWEEP}")
+    v = chk["verdict"]
+    if v.get("unchanged") is not True:
+        raise PredictionInputError(f"--cut-cycles {cycles:g}: {path} says the answer "
+                                   f"{verdict_text(v)}: no cut")
+    return {"cycles": cycles, "full_cycles": plan["cycles"], "justified_by": _rel(path),
+            "verdict": verdict_text(v),
+            "decided_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
+
+
 def source_state() -> dict:
     """The code that ran: this checkout's HEAD and whether dem/, postprocess/ or cases/ differ."""
     commit = _git(ROOT, "rev-parse", "HEAD").stdout.strip() or None
@@ -359,8 +404,9 @@ def make_plan(frozen: dict, names: list[str], realisations: int, cycles: float,
 
 def write_plan(out: Path, plan: dict) -> dict:
     """Write ``<out>/plan.json`` unless one exists; an existing plan must agree on the frozen
-    commit, parameters, seeds, cycles and step cap (sweeps may be added); returns the plan in
-    force.  PredictionInputError on a disagreement."""
+    commit, parameters, seeds, cycles and step cap (sweeps may be added, never changed: a sweep
+    already planned keeps its cycles); returns the plan in force.  PredictionInputError on a
+    disagreement."""
     from dem.output.atomic import write_json
 
     path = Path(out) / "plan.json"
@@ -379,6 +425,11 @@ def write_plan(out: Path, plan: dict) -> dict:
                 raise PredictionInputError(
                     f"{path}: made with {key} {a!r}, this call has {b!r}: the plan is fixed "
                     f"before the runs; use another --out for another plan")
+        for n in plan["order"]:
+            if n in old["sweeps"] and sweep_cycles(old, n) != sweep_cycles(plan, n):
+                raise PredictionInputError(
+                    f"{path}: {n} is planned at {sweep_cycles(old, n):g} cycles, this call has "
+                    f"{sweep_cycles(plan, n):g}: a planned sweep's cycles are fixed")
         added = [n for n in plan["order"] if n not in old["sweeps"]]
         if not added:
             return old
@@ -474,7 +525,8 @@ def run_sweep_point(out: Path, runs: Path, name: str, plan: dict, workers: int |
     frozen = plan["frozen"]
     case = sweep_case(name, frozen["parameters"])
     freqs, seeds = plan["sweeps"][name]["frequencies_hz"], plan["seeds"]
-    fp = fingerprint(case, freqs, seeds, plan["cycles"], plan["max_steps"])
+    cycles = sweep_cycles(plan, name)
+    fp = fingerprint(case, freqs, seeds, cycles, plan["max_steps"])
     dest = points_path(out, name)
     old = _read(dest)
     if sweep_finished(old, fp):
@@ -484,7 +536,7 @@ def run_sweep_point(out: Path, runs: Path, name: str, plan: dict, workers: int |
     case_file.parent.mkdir(parents=True, exist_ok=True)
     case_file.write_text(yaml.safe_dump(case.model_dump(mode="json"), sort_keys=False))
     args = ["sweep", str(case_file), "--out", str(sweep_dir),
-            "--frequencies", ",".join(f"{f:g}" for f in freqs), "--cycles", f"{plan['cycles']:g}",
+            "--frequencies", ",".join(f"{f:g}" for f in freqs), "--cycles", f"{cycles:g}",
             "--realisations", str(len(seeds)), "--seed", str(seeds[0])]
     if workers is not None:
         args += ["--workers", str(workers)]
@@ -493,7 +545,7 @@ def run_sweep_point(out: Path, runs: Path, name: str, plan: dict, workers: int |
     if drain_file is not None:
         args += ["--drain-file", str(drain_file)]
     log(f"[{time.strftime('%H:%M:%S', time.gmtime())} UTC] {name}: {len(freqs)} frequencies x "
-        f"{len(seeds)} realisations, {plan['cycles']:g} cycles ...")
+        f"{len(seeds)} realisations, {cycles:g} cycles ...")
     rc, cpu, wall = dem_child.run_dem(args, log)
     rows = collect_rows(sweep_dir, seeds, freqs)
     if not any(r["run_status"] != "pending" for r in rows) and rc == 2:
@@ -504,7 +556,7 @@ def run_sweep_point(out: Path, runs: Path, name: str, plan: dict, workers: int |
     data = {"kind": "prediction-sweep", "sweep": name, "rows": rows, "prediction": {
         "sweep": name, "case_file": plan["sweeps"][name]["case_file"],
         "run_case": _rel(case_file), "frozen": frozen, "seeds": seeds,
-        "frequencies_hz": freqs, "cycles": plan["cycles"], "max_steps": plan["max_steps"],
+        "frequencies_hz": freqs, "cycles": cycles, "max_steps": plan["max_steps"],
         "fingerprint": fp, "friction": case.material.friction,
         "peak_acceleration_m_s2": case.loading.peak_acceleration,
         "direction": list(case.loading.direction),
@@ -870,7 +922,8 @@ def cycles_check(out: Path, runs: Path, name: str, cycles: float) -> dict:
     short = truncated_points(data, Path(runs) / name, cycles)
     full_sw, short_sw = analyse_sweep(name, data), analyse_sweep(name, short)
     res = {"kind": "prediction-cycles-check", "sweep": name, "cycles": cycles,
-           "full_cycles": full_cycles, "rows": short["rows"],
+           "full_cycles": full_cycles, "sweep_finished": sweep_finished(data),
+           "n_runs": full_sw["n_run"], "rows": short["rows"],
            "verdict": cycles_verdict(full_sw, short_sw, data["prediction"]["frequencies_hz"]),
            "rule": CYCLES_RULE,
            "source": source_state()}
@@ -953,7 +1006,7 @@ def survival_verdict(sw: dict, min_rate: float = SURVIVAL_MIN) -> dict:
         status = "pending"
     return {"status": status, "min_rate": r, "threshold": min_rate,
             "why": f"lowest survival over the frequencies {r:.0%} "
-                   f"({'>=' if ok else '<'} {min_rate:.0%})"}
+                   f"({'>=' if ok else '<'} {min_rate:.0%}) in {_f(sw.get('cycles'), 'g')} cycles"}
 
 
 def criteria(summary: dict) -> list[dict]:
@@ -1058,14 +1111,21 @@ def false_success_checks(plan: dict | None, summary: dict) -> list[dict]:
     bad = {n: s.get("peak_acceleration_m_s2") for n, s in sweeps.items()
            if n in THESIS and s.get("peak_acceleration_m_s2") != THESIS[n]["peak_acc"]}
     cyc = (plan or {}).get("cycles")
-    rows.append({"check": "excitation as in the thesis (Appendix I peak accelerations, 50 cycles)",
+    cuts = {n: s["cut"] for n, s in sweeps.items() if s.get("cut")}
+    unjustified = {n: s["cycles"] for n, s in sweeps.items()
+                   if "cycles" in s and s["cycles"] != cyc and not s.get("cut")}
+    rows.append({"check": EXCITATION_CHECK,
                  "status": ("fail" if bad or cyc != DEFAULT_CYCLES or plan.get("max_steps")
-                            else "pass") if plan else "pending",
+                            or unjustified else "pass") if plan else "pending",
                  "why": "; ".join(filter(None, [
                      f"peak accelerations differ: {bad}" if bad else
                      "peak accelerations 1.53 (y) / 1.71 (x) / 1.08 (diagonal) / 1.23 (III) m/s2",
                      f"{cyc:g} cycles, not {DEFAULT_CYCLES}" if plan and cyc != DEFAULT_CYCLES
                      else None,
+                     f"cycles cut without a cycles check: {unjustified}" if unjustified else None,
+                     "cut: " + ", ".join(f"{n} {c['cycles']:g} cycles ({c['justified_by']}: "
+                                         f"{c['verdict']})" for n, c in cuts.items())
+                     if cuts else None,
                      f"runs capped at {plan['max_steps']} steps (smoke)" if plan and
                      plan.get("max_steps") else None]))})
     # 4. an edge peak is not a characteristic frequency
@@ -1260,6 +1320,9 @@ def report(out: Path, frozen: dict, command: str, runs: Path | None = None) -> d
          "",
          f"Plan (written before the first run): seeds {plan['seeds'] if plan else '-'}, "
          f"{plan['cycles'] if plan else '-'} cycles after settling"
+         + "".join(f"; {n} CUT to {c['cycles']:g} cycles ({c['justified_by']}: {c['verdict']})"
+                   for n, c in ((n, s.get("cut")) for n, s in
+                                ((plan or {}).get("sweeps") or {}).items()) if c)
          + (f", runs capped at {plan['max_steps']} steps (SMOKE, not a prediction)"
             if plan and plan.get("max_steps") else "") + f".  CPU time so far: {cpu:.0f} s.", "",
          "Amplification of ds (thesis Section 4.2.5), median (10 % - 90 %) over the realisations "
@@ -1421,6 +1484,10 @@ def main(argv=None) -> int:
     ap.add_argument("--cycles-check", type=float, default=None, metavar="N",
                     help="no runs: re-analyse the finished runs of the sweeps (--only) over "
                          "their first N cycles, compare with the full cycles, then report")
+    ap.add_argument("--cut-cycles", type=float, default=None, metavar="N",
+                    help=f"run the sweeps of --only (not {FULL_SWEEP}, not yet planned) at N "
+                         f"cycles; only once {FULL_SWEEP} finished in full and its "
+                         f"cycles-check-N.json says the answer is unchanged")
     ap.add_argument("--drain-file", type=Path, default=None,
                     help="once this file exists no new run starts, the runs in flight finish, "
                          "then the report is written (default <runs>/DRAIN); SIGTERM instead "
@@ -1430,8 +1497,15 @@ def main(argv=None) -> int:
         frozen = load_frozen(args.frozen)
         names = sweep_names(args.only)
         if not args.report and args.cycles_check is None:
-            plan = write_plan(args.out, make_plan(frozen, names, args.realisations, args.cycles,
-                                                  args.max_steps))
+            new = make_plan(frozen, names, args.realisations, args.cycles, args.max_steps)
+            if args.cut_cycles is not None:
+                if FULL_SWEEP in names:
+                    raise PredictionInputError(f"--cut-cycles: {FULL_SWEEP} runs in full (issue "
+                                               f"13 step 3); leave it out of --only")
+                cut = cut_record(args.out, _read(Path(args.out) / "plan.json"), args.cut_cycles)
+                for n in names:
+                    new["sweeps"][n].update(cycles=args.cut_cycles, cut=cut)
+            plan = write_plan(args.out, new)
         else:
             plan = _read(Path(args.out) / "plan.json")
             if plan is not None and plan["frozen"]["commit"] != frozen["commit"]:

@@ -274,7 +274,7 @@ def test_survival_below_80_percent_fails_and_a_collapsing_match_is_rejected():
     assert checks["a match by collapsing facades is not a match"]["status"] == "fail"
     assert checks["no per-model or per-frequency parameters or seeds"]["status"] == "pass"
     assert checks["friction unchanged (measured 0.81)"]["status"] == "pass"
-    assert checks["excitation as in the thesis (Appendix I peak accelerations, 50 cycles)"][
+    assert checks[ps.EXCITATION_CHECK][
         "status"] == "pass"
 
 
@@ -296,7 +296,7 @@ def test_false_success_checks_catch_lowered_friction_raised_excitation_and_drift
             "sweeps": {"model-ii-y": {"friction": 0.7, "peak_acceleration_m_s2": 4.0}}}
     checks = {c["check"]: c for c in ps.false_success_checks(plan, {"model-ii-y": sw})}
     assert checks["friction unchanged (measured 0.81)"]["status"] == "fail"
-    assert checks["excitation as in the thesis (Appendix I peak accelerations, 50 cycles)"][
+    assert checks[ps.EXCITATION_CHECK][
         "status"] == "fail"
     assert checks["amplification is rocking, not drift or a sliding ratchet (da, dsr)"][
         "status"] == "fail"
@@ -406,7 +406,7 @@ def test_smoke_one_frequency_two_realisations_then_resume(tmp_path, monkeypatch)
     # 50 steps do not reach the shaking: no analysable response, never a number
     assert sw["characteristic_frequency_hz"] is None
     checks = {c["check"]: c for c in summ["false_success_checks"]}
-    assert checks["excitation as in the thesis (Appendix I peak accelerations, 50 cycles)"][
+    assert checks[ps.EXCITATION_CHECK][
         "status"] == "fail"  # capped runs are not the thesis' excitation
     assert "SMOKE" in (out / "README.md").read_text()
 
@@ -566,3 +566,66 @@ def test_cycles_check_reanalyses_the_finished_runs_and_reports(tmp_path, monkeyp
         assert ps.main(["--frozen", str(path), "--out", str(out), "--only", "model-ii-y",
                         "--cycles-check", bad]) == 2
         assert "--cycles-check" in capsys.readouterr().err
+
+
+def test_a_cut_in_cycles_needs_model_ii_y_in_full_and_its_cycles_check(tmp_path, monkeypatch,
+                                                                       capsys):
+    """issue 13 step 3: fewer cycles only after Model II y ran in full and its cycles check says
+    the answer is unchanged; the cut is recorded in the plan per sweep, a planned sweep's cycles
+    never change, and the false-success check names the cut."""
+    _, path = _repo(tmp_path)
+    out = tmp_path / "out"
+    seen = []
+
+    def fake_run(out_, runs, name, plan, workers=None, log=print, drain_file=None):
+        seen.append((name, ps.sweep_cycles(plan, name)))
+        return "finished"
+
+    monkeypatch.setattr(ps, "run_sweep_point", fake_run)
+    base = ["--frozen", str(path), "--out", str(out), "--realisations", "2"]
+    assert ps.main(base + ["--only", "model-ii-y"]) == 0
+    cut = base + ["--only", "model-ii-x", "--cut-cycles", "10"]
+    assert ps.main(cut) == 2                                # Model II y has not finished
+    assert "has not finished" in capsys.readouterr().err
+    rows = [_row(s, f, 1.0) for s in (0, 1) for f in FREQS]
+    (out / "model-ii-y").mkdir()
+    (out / "model-ii-y" / "points.json").write_text(
+        json.dumps(_points(rows, seeds=(0, 1), freqs=FREQS)))
+    assert ps.main(cut) == 2                                # no cycles check yet
+    assert "cycles-check-10.json missing" in capsys.readouterr().err
+    full = ps.analyse_sweep("model-ii-y", _points(rows, seeds=(0, 1), freqs=FREQS))
+    short = ps.analyse_sweep("model-ii-y", _points([_row(s, f, 3.0) for s in (0, 1)
+                                                    for f in FREQS], seeds=(0, 1), freqs=FREQS))
+    chk = {"kind": "prediction-cycles-check", "sweep": "model-ii-y", "cycles": 10,
+           "full_cycles": 50, "sweep_finished": True,
+           "verdict": ps.cycles_verdict(full, short, FREQS)}
+    assert chk["verdict"]["unchanged"] is False
+    (out / "model-ii-y" / "cycles-check-10.json").write_text(json.dumps(chk))
+    assert ps.main(cut) == 2                                # the check says it changed
+    assert "no cut" in capsys.readouterr().err
+    assert ps.main(base + ["--only", "model-ii-y,model-ii-x", "--cut-cycles", "10"]) == 2
+    chk["verdict"] = ps.cycles_verdict(full, full, FREQS)
+    chk["sweep_finished"] = False                           # made from a partial sweep
+    (out / "model-ii-y" / "cycles-check-10.json").write_text(json.dumps(chk))
+    assert ps.main(cut) == 2
+    assert "made before model-ii-y finished" in capsys.readouterr().err
+    chk["sweep_finished"] = True
+    (out / "model-ii-y" / "cycles-check-10.json").write_text(json.dumps(chk))
+    assert ps.main(base + ["--only", "model-ii-x", "--cut-cycles", "60"]) == 2
+    seen.clear()
+    assert ps.main(cut) == 0
+    assert seen == [("model-ii-x", 10)]
+    plan = json.loads((out / "plan.json").read_text())
+    assert plan["cycles"] == 50 and "cycles" not in plan["sweeps"]["model-ii-y"]
+    rec = plan["sweeps"]["model-ii-x"]["cut"]
+    assert rec["cycles"] == 10 and rec["justified_by"].endswith("cycles-check-10.json")
+    assert ps.main(base + ["--only", "model-ii-x"]) == 2   # planned at 10: cannot become 50
+    assert "planned at 10 cycles" in capsys.readouterr().err
+    summary = {"model-ii-y": {}, "model-ii-x": {}}
+    row = {c["check"]: c for c in ps.false_success_checks(plan, summary)}
+    exc = next(v for k, v in row.items() if k.startswith("excitation as in the thesis"))
+    assert exc["status"] == "pass" and "model-ii-x 10 cycles" in exc["why"]
+    del plan["sweeps"]["model-ii-x"]["cut"]                 # a cut without its justification
+    exc = next(v for k, v in ((c["check"], c) for c in ps.false_success_checks(plan, summary))
+               if k.startswith("excitation as in the thesis"))
+    assert exc["status"] == "fail" and "without a cycles check" in exc["why"]
