@@ -1293,6 +1293,7 @@ def report(out: Path, frozen: dict, command: str, runs: Path | None = None) -> d
     from dem.output.atomic import write_json
 
     out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
     plan = _read(out / "plan.json")
     summary = {n: analyse_sweep(n, _read(points_path(out, n))) for n in ORDER}
     crit = criteria(summary)
@@ -1514,11 +1515,14 @@ def main(argv=None) -> int:
                     f"{args.frozen} is now at {frozen['commit']}")
         if args.cycles_check is not None:
             runs = args.runs or Path(args.out) / "runs"
-            for n in names:
-                if points_path(args.out, n).is_file():
-                    v = cycles_check(args.out, runs, n, args.cycles_check)["verdict"]
-                    print(f"{n}: {args.cycles_check:g} cycles: {verdict_text(v)}",
-                          file=sys.stderr)
+            have = [n for n in names if points_path(args.out, n).is_file()]
+            if not have:
+                raise PredictionInputError(
+                    f"--cycles-check: no {points_path(args.out, names[0]).name} of "
+                    f"{', '.join(names)} under {args.out}: nothing to check")
+            for n in have:
+                v = cycles_check(args.out, runs, n, args.cycles_check)["verdict"]
+                print(f"{n}: {args.cycles_check:g} cycles: {verdict_text(v)}", file=sys.stderr)
     except PredictionInputError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2

@@ -629,3 +629,15 @@ def test_a_cut_in_cycles_needs_model_ii_y_in_full_and_its_cycles_check(tmp_path,
     exc = next(v for k, v in ((c["check"], c) for c in ps.false_success_checks(plan, summary))
                if k.startswith("excitation as in the thesis"))
     assert exc["status"] == "fail" and "without a cycles check" in exc["why"]
+
+
+def test_report_and_cycles_check_on_an_empty_out(tmp_path, capsys):
+    """--cycles-check where no sweep has a points.json says so (exit 2) instead of writing an
+    empty report; --report into a new directory creates it (it crashed on the missing folder)."""
+    _, path = _repo(tmp_path)
+    out = tmp_path / "new" / "out"
+    assert ps.main(["--frozen", str(path), "--out", str(out), "--only", "model-ii-y",
+                    "--cycles-check", "10"]) == 2
+    assert "nothing to check" in capsys.readouterr().err
+    assert ps.main(["--frozen", str(path), "--out", str(out), "--report"]) == 0
+    assert (out / "summary.json").is_file() and (out / "README.md").is_file()
