@@ -16,7 +16,7 @@ from dem.cli import app
 from dem.commands.exit_codes import ExitCode
 from dem.run.sweep import realisation_cases
 from tests.test_ensemble import _case
-from tests.test_shake_analysis import BLOCK, _case_file
+from tests.test_shake_analysis import BLOCK, _case_file, sequential_batch
 
 
 def test_a_drained_batch_finishes_the_runs_in_flight_and_starts_no_new_one(tmp_path):
@@ -35,35 +35,14 @@ def test_a_drained_batch_finishes_the_runs_in_flight_and_starts_no_new_one(tmp_p
     assert not (tmp_path / "runs" / "seed-3").exists()
 
 
-def _sequential_with_drain(calls):
-    """dem.batch.run_batch in this process, honouring ``drain`` like the real one with one
-    worker: checked before each case."""
-    from dem.run import run_case
-
-    def run(cases, out_root, scheduler=None, n_workers=None, max_steps=None, post=None,
-            on_done=None, drain=None):
-        calls.append(drain)
-        recs = []
-        for k, (name, case) in enumerate(cases):
-            if drain is not None and drain():
-                raise Drained([n for n, _ in cases[k:]])
-            d = str(out_root / name)
-            res = run_case(case, d, max_steps=max_steps)
-            rec = {"name": name, "status": "ok", "out_dir": d, "summary": res.summary,
-                   "post": post(case, res, d)}
-            on_done(rec)
-            recs.append(rec)
-            (out_root / "DRAIN").touch()        # the user drains after the first point
-        return recs
-    return run
-
-
 def test_dem_sweep_drained_keeps_the_finished_point_exits_1_and_a_rerun_resumes(tmp_path,
                                                                                monkeypatch):
     import dem.batch
 
     calls = []
-    monkeypatch.setattr(dem.batch, "run_batch", _sequential_with_drain(calls))
+    # the user drains after the first point
+    monkeypatch.setattr(dem.batch, "run_batch",
+                        sequential_batch(lambda root: (root / "DRAIN").touch(), calls))
     case = _case_file(tmp_path, BLOCK)
     out = tmp_path / "sweep"
     out.mkdir()

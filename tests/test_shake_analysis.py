@@ -384,26 +384,40 @@ def test_dem_sweep_survives_a_failed_point_and_dem_post_reaggregates(tmp_path):
         ["ok", "ok", "failed"]
 
 
-def test_sweep_at_constant_peak_acceleration_exits_0_and_aggregates(tmp_path, monkeypatch):
-    """All points ok -> exit 0; constant peak acceleration: the amplitude follows 1/f^2.  The
-    batch runs in this process (dem.batch.run_batch replaced by a sequential loop over
-    dem.run.run_case), to keep the test to seconds; the dask path is the test above."""
-    import dem.batch
+def sequential_batch(after_each=None, calls=None):
+    """dem.batch.run_batch in this process: a sequential loop over dem.run.run_case that, like
+    the real one with one worker, checks ``drain`` before each case (dem.batch.Drained).
+    ``after_each(out_root)`` runs after each case; ``calls`` collects the drain checks given."""
+    from dem.batch import Drained
     from dem.run import run_case
 
-    def sequential(cases, out_root, scheduler=None, n_workers=None, max_steps=None, post=None,
-                   on_done=None, drain=None):
+    def run(cases, out_root, scheduler=None, n_workers=None, max_steps=None, post=None,
+            on_done=None, drain=None):
+        if calls is not None:
+            calls.append(drain)
         recs = []
-        for name, case in cases:
+        for k, (name, case) in enumerate(cases):
+            if drain is not None and drain():
+                raise Drained([n for n, _ in cases[k:]])
             d = str(out_root / name)
             res = run_case(case, d, max_steps=max_steps)
             rec = {"name": name, "status": "ok", "out_dir": d, "summary": res.summary,
                    "post": post(case, res, d)}
             on_done(rec)
             recs.append(rec)
+            if after_each is not None:
+                after_each(out_root)
         return recs
+    return run
 
-    monkeypatch.setattr(dem.batch, "run_batch", sequential)
+
+def test_sweep_at_constant_peak_acceleration_exits_0_and_aggregates(tmp_path, monkeypatch):
+    """All points ok -> exit 0; constant peak acceleration: the amplitude follows 1/f^2.  The
+    batch runs in this process (dem.batch.run_batch replaced by a sequential loop over
+    dem.run.run_case), to keep the test to seconds; the dask path is the test above."""
+    import dem.batch
+
+    monkeypatch.setattr(dem.batch, "run_batch", sequential_batch())
     case = _case_file(tmp_path, BLOCK)
     out = tmp_path / "sweep"
     r = CliRunner().invoke(app, ["sweep", str(case), "--out", str(out), "--range", "2:4:1",
