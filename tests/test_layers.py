@@ -28,6 +28,7 @@ LAYERS = [
                               "postprocess.shake_study", "postprocess.calibration_study",
                               "postprocess.qs_validation",
                               "postprocess.prediction_study",
+                              "postprocess.unevenness_sensitivity",
                               "postprocess.rocking_report",
                               "postprocess.rocking_vs_dem_sweep")),
 ]
