@@ -32,13 +32,22 @@ The protocol (issue 13: calibrate -> freeze -> predict, in this order in the git
   for every sweep and frequency.  The plan (``<out>/plan.json``: frozen set, freezing commit,
   seeds, sweeps, frequencies, cycles) is written before the first run; a later call with
   another frozen commit, parameter set, seeds or cycles refuses (exit 2) rather than mixing.
-* One sweep = one ``dem sweep CASE --realisations N --seed 0`` (dem.commands.sweep) in a child
-  process with DEM_THREADS=1, its raw runs under ``--runs`` (default ``<out>/runs/``,
-  git-ignored by ``results/*/runs/``).  ``dem sweep`` skips every (seed, frequency) whose run
-  finished, so an interrupted sweep resumes; a sweep whose committed ``<out>/<sweep>/points.json``
-  holds every (seed, frequency) finished for the same fingerprint (case, seeds, frequencies,
-  cycles, step cap) is skipped without starting anything.  The child's CPU seconds (user +
-  system of its process tree) add up over sessions in points.json.
+* One sweep = one ``dem sweep CASE --realisations 1 --seed S --frequencies F`` per seed S
+  (dem.commands.sweep) in a child process with DEM_THREADS=1, F the frequencies of S that the
+  committed ``<out>/<sweep>/points.json`` does not already hold finished for the same
+  fingerprint (case, seeds, frequencies, cycles, step cap, engine results revision); its raw
+  runs under ``--runs`` (default ``<out>/runs/``, git-ignored by ``results/*/runs/``).
+  points.json is merged after every seed (:func:`update_points`, under a lock): a point
+  finished in an earlier session counts even where its run directory is gone (a new
+  checkout, another machine) and never runs again; ``dem sweep`` itself skips every point whose
+  run directory holds a finished run, so an interrupted seed resumes.  A sweep whose
+  points.json holds every (seed, frequency) finished is skipped without starting anything.
+  ``--seeds`` / ``--frequencies`` restrict a call to a subset (the plan does not change), to
+  share a sweep between processes or machines; postprocess.point_pool runs chosen points in a
+  process pool without dask (a borrowed many-core machine), into the same run directories,
+  from which the next call here merges them.  The child's CPU seconds (user + system of its
+  process tree) add up over sessions in points.json (a point_pool machine's are not in it:
+  its record says what they were).
 * Ending a session: ``touch <runs>/DRAIN`` (``--drain-file``) lets the runs in flight finish,
   starts no new one and writes the report (dem.batch, "Draining"); SIGTERM stops at once and
   loses the runs in flight, as no run resumes from its middle.
@@ -107,6 +116,8 @@ Shown, not scored (none is one of issue 13's criteria):
 from __future__ import annotations
 
 import argparse
+import contextlib
+import fcntl
 import hashlib
 import json
 import math
@@ -502,6 +513,32 @@ def collect_rows(runs_dir: Path, seeds, freqs) -> list[dict]:
     return rows
 
 
+def _key(seed: int, f: float) -> tuple[int, float]:
+    return int(seed), round(float(f), 9)
+
+
+def finished_rows(data: dict | None, fp: str) -> dict:
+    """{(seed, frequency): row} of the finished rows of a points.json made for fingerprint
+    ``fp`` (none for another fingerprint: another case, seed list, cycles or engine)."""
+    if not data or (data.get("prediction") or {}).get("fingerprint") != fp:
+        return {}
+    return {_key(r["seed"], r["frequency_hz"]): r for r in data.get("rows") or []
+            if r.get("run_status") == "ok"}
+
+
+def merge_rows(fresh: list[dict], kept: dict) -> list[dict]:
+    """The rows of a sweep from this machine's run directories (``fresh``, in plan order) and
+    the finished rows of the committed points.json (``kept``, :func:`finished_rows`): a finished
+    fresh row wins, else a finished kept row, else the fresh one (pending or failed).  So a
+    point finished in an earlier session counts even where its raw run directory is gone (a new
+    checkout, another machine), and is never run again."""
+    out = []
+    for r in fresh:
+        k = kept.get(_key(r["seed"], r["frequency_hz"]))
+        out.append(r if r.get("run_status") == "ok" or k is None else k)
+    return out
+
+
 def sweep_finished(data: dict | None, fp: str | None = None) -> bool:
     """Every (seed, frequency) of a committed points.json has a finished run (and, if given,
     the fingerprint is ``fp``)."""
@@ -515,60 +552,122 @@ def sweep_finished(data: dict | None, fp: str | None = None) -> bool:
         all(r.get("run_status") == "ok" for r in rows)
 
 
-def run_sweep_point(out: Path, runs: Path, name: str, plan: dict, workers: int | None = None,
-                    log=print, drain_file: Path | None = None) -> str:
-    """Run (or skip) one sweep of the plan: "skipped" (finished before), "finished", "pending"
-    (interrupted, drained or a run failed) or "failed" (dem sweep refused the case).
-    ``drain_file``: handed to dem sweep (once it exists no new run starts)."""
+@contextlib.contextmanager
+def _locked(path: Path):
+    """An exclusive lock on ``path``.lock for a read-merge-write of points.json: two study
+    processes on one sweep (e.g. different --seeds) never lose each other's rows."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(str(path) + ".lock", "w") as fh:
+        fcntl.flock(fh, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(fh, fcntl.LOCK_UN)
+
+
+def update_points(dest: Path, name: str, plan: dict, case, case_file: Path, fp: str,
+                  fresh: list[dict], cpu: float, wall: float, rc: int | None,
+                  new_session: bool) -> dict:
+    """Merge ``fresh`` rows into ``dest`` (points.json; :func:`merge_rows` with the finished
+    rows already there) and add this call's CPU and wall seconds, under a lock; returns the
+    written data."""
     from dem.output.atomic import write_json
 
+    freqs, seeds = plan["sweeps"][name]["frequencies_hz"], plan["seeds"]
     frozen = plan["frozen"]
-    case = sweep_case(name, frozen["parameters"])
+    with _locked(dest):
+        old = _read(dest)
+        prev = (old or {}).get("prediction") or {}
+        same = prev.get("fingerprint") == fp
+        rows = merge_rows(fresh, finished_rows(old, fp))
+        data = {"kind": "prediction-sweep", "sweep": name, "rows": rows, "prediction": {
+            "sweep": name, "case_file": plan["sweeps"][name]["case_file"],
+            "run_case": _rel(case_file), "frozen": frozen, "seeds": seeds,
+            "frequencies_hz": freqs, "cycles": sweep_cycles(plan, name),
+            "max_steps": plan["max_steps"], "fingerprint": fp,
+            "friction": case.material.friction,
+            "peak_acceleration_m_s2": case.loading.peak_acceleration,
+            "direction": list(case.loading.direction),
+            "cpu_seconds": (prev.get("cpu_seconds", 0.0) if same else 0.0) + cpu,
+            "wall_seconds": (prev.get("wall_seconds", 0.0) if same else 0.0) + wall,
+            "sessions": (prev.get("sessions", 0) if same else 0) + (1 if new_session else 0),
+            "exit_code": rc if rc is not None else prev.get("exit_code"),
+            "source": source_state()}}
+        data["prediction"]["finished"] = sweep_finished(data)
+        write_json(dest, data, indent=1)
+    return data
+
+
+def run_sweep_point(out: Path, runs: Path, name: str, plan: dict, workers: int | None = None,
+                    log=print, drain_file: Path | None = None, only_seeds=None,
+                    only_freqs=None) -> str:
+    """Run (or skip) one sweep of the plan: "skipped" (finished before), "finished", "pending"
+    (interrupted, drained or a run failed) or "failed" (dem sweep refused the case).
+
+    One ``dem sweep --realisations 1 --seed S --frequencies F`` per seed S, F the frequencies
+    of S that the committed points.json does not hold finished (:func:`finished_rows`), and
+    points.json merged after each (:func:`update_points`).  ``only_seeds`` / ``only_freqs``
+    restrict this call to a subset of the plan's seeds / frequencies (to share a sweep between
+    processes or machines; the plan and fingerprint do not change).  ``drain_file``: handed to
+    dem sweep (once it exists no new run starts, and no further seed)."""
+    case = sweep_case(name, plan["frozen"]["parameters"])
     freqs, seeds = plan["sweeps"][name]["frequencies_hz"], plan["seeds"]
     cycles = sweep_cycles(plan, name)
     fp = fingerprint(case, freqs, seeds, cycles, plan["max_steps"])
     dest = points_path(out, name)
-    old = _read(dest)
-    if sweep_finished(old, fp):
+    if sweep_finished(_read(dest), fp):
         return "skipped"
     sweep_dir = Path(runs) / name
     case_file = Path(runs) / f"{name}.yaml"
     case_file.parent.mkdir(parents=True, exist_ok=True)
     case_file.write_text(yaml.safe_dump(case.model_dump(mode="json"), sort_keys=False))
-    args = ["sweep", str(case_file), "--out", str(sweep_dir),
-            "--frequencies", ",".join(f"{f:g}" for f in freqs), "--cycles", f"{cycles:g}",
-            "--realisations", str(len(seeds)), "--seed", str(seeds[0])]
-    if workers is not None:
-        args += ["--workers", str(workers)]
-    if plan["max_steps"] is not None:
-        args += ["--max-steps", str(plan["max_steps"])]
-    if drain_file is not None:
-        args += ["--drain-file", str(drain_file)]
-    log(f"[{time.strftime('%H:%M:%S', time.gmtime())} UTC] {name}: {len(freqs)} frequencies x "
-        f"{len(seeds)} realisations, {cycles:g} cycles ...")
-    rc, cpu, wall = dem_child.run_dem(args, log)
-    rows = collect_rows(sweep_dir, seeds, freqs)
-    if not any(r["run_status"] != "pending" for r in rows) and rc == 2:
-        log(f"    dem sweep exit {rc}: refused the case")
+    my_seeds = [s for s in seeds if only_seeds is None or s in set(only_seeds)]
+    my_freqs = [f for f in freqs if only_freqs is None or
+                any(abs(f - g) < 1e-9 for g in only_freqs)]
+    log(f"[{time.strftime('%H:%M:%S', time.gmtime())} UTC] {name}: {len(my_freqs)} of "
+        f"{len(freqs)} frequencies x {len(my_seeds)} of {len(seeds)} realisations, "
+        f"{cycles:g} cycles ...")
+    # what this machine's run directories hold, merged, before anything runs
+    data = update_points(dest, name, plan, case, case_file, fp,
+                         collect_rows(sweep_dir, seeds, freqs), 0.0, 0.0, None, True)
+    cpu_all, rc_all, refused = 0.0, 0, False
+    for s in my_seeds:
+        if dem_child.stopped() or (drain_file is not None and drain_file.exists()):
+            rc_all = rc_all or 1
+            break
+        done = finished_rows(data, fp)
+        todo = [f for f in my_freqs if _key(s, f) not in done]
+        if not todo:
+            continue
+        args = ["sweep", str(case_file), "--out", str(sweep_dir),
+                "--frequencies", ",".join(f"{f:g}" for f in todo), "--cycles", f"{cycles:g}",
+                "--realisations", "1", "--seed", str(s)]
+        if workers is not None:
+            args += ["--workers", str(workers)]
+        if plan["max_steps"] is not None:
+            args += ["--max-steps", str(plan["max_steps"])]
+        if drain_file is not None:
+            args += ["--drain-file", str(drain_file)]
+        log(f"[{time.strftime('%H:%M:%S', time.gmtime())} UTC] {name} seed {s}: "
+            f"{', '.join(f'{f:g}' for f in todo)} Hz")
+        rc, cpu, wall = dem_child.run_dem(args, log)
+        cpu_all += cpu
+        fresh = collect_rows(sweep_dir, seeds, freqs)
+        if rc == 2 and not any(r["run_status"] != "pending" for r in fresh
+                               if r["seed"] == s):
+            log(f"    dem sweep exit {rc}: refused the case")
+            refused = True
+            break
+        data = update_points(dest, name, plan, case, case_file, fp, fresh, cpu, wall, rc,
+                             False)
+        rc_all = rc_all or rc
+        if rc != 0 and (dem_child.stopped() or
+                        (drain_file is not None and drain_file.exists())):
+            break
+    if refused:
         return "failed"
-    prev = (old or {}).get("prediction") or {}
-    same = prev.get("fingerprint") == fp
-    data = {"kind": "prediction-sweep", "sweep": name, "rows": rows, "prediction": {
-        "sweep": name, "case_file": plan["sweeps"][name]["case_file"],
-        "run_case": _rel(case_file), "frozen": frozen, "seeds": seeds,
-        "frequencies_hz": freqs, "cycles": cycles, "max_steps": plan["max_steps"],
-        "fingerprint": fp, "friction": case.material.friction,
-        "peak_acceleration_m_s2": case.loading.peak_acceleration,
-        "direction": list(case.loading.direction),
-        "cpu_seconds": (prev.get("cpu_seconds", 0.0) if same else 0.0) + cpu,
-        "wall_seconds": (prev.get("wall_seconds", 0.0) if same else 0.0) + wall,
-        "sessions": (prev.get("sessions", 0) if same else 0) + 1, "exit_code": rc,
-        "source": source_state()}}
-    data["prediction"]["finished"] = sweep_finished(data)
-    dest.parent.mkdir(parents=True, exist_ok=True)
-    write_json(dest, data, indent=1)
     state = "finished" if data["prediction"]["finished"] else "pending"
-    log(f"    -> {state}: {cpu:.0f} CPU-s, {wall:.0f} s this call")
+    log(f"    -> {state}: {cpu_all:.0f} CPU-s this call")
     return state
 
 
@@ -1470,6 +1569,19 @@ def _command(args) -> str:
     return " ".join(cmd)
 
 
+def _subset(text: str | None, kind, flag: str) -> list | None:
+    """A comma-separated --seeds / --frequencies value as a list (None: all of the plan's)."""
+    if text is None:
+        return None
+    try:
+        vals = [kind(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        raise PredictionInputError(f"{flag}: expected comma-separated numbers, got {text!r}")
+    if not vals:
+        raise PredictionInputError(f"{flag}: empty")
+    return vals
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     ap.add_argument("--frozen", type=Path, default=DEFAULT_FROZEN)
@@ -1489,12 +1601,19 @@ def main(argv=None) -> int:
                     help=f"run the sweeps of --only (not {FULL_SWEEP}, not yet planned) at N "
                          f"cycles; only once {FULL_SWEEP} finished in full and its "
                          f"cycles-check-N.json says the answer is unchanged")
+    ap.add_argument("--seeds", default=None, metavar="S,S,...",
+                    help="run only these of the plan's seeds (share a sweep between processes "
+                         "or machines; the plan does not change)")
+    ap.add_argument("--frequencies", default=None, metavar="F,F,...",
+                    help="run only these of each sweep's frequencies (Hz; as --seeds)")
     ap.add_argument("--drain-file", type=Path, default=None,
                     help="once this file exists no new run starts, the runs in flight finish, "
                          "then the report is written (default <runs>/DRAIN); SIGTERM instead "
                          "stops at once and loses the runs in flight")
     args = ap.parse_args(argv)
     try:
+        only_seeds = _subset(args.seeds, int, "--seeds")
+        only_freqs = _subset(args.frequencies, float, "--frequencies")
         frozen = load_frozen(args.frozen)
         names = sweep_names(args.only)
         if not args.report and args.cycles_check is None:
@@ -1513,6 +1632,16 @@ def main(argv=None) -> int:
                 raise PredictionInputError(
                     f"{args.out}/plan.json: made with frozen commit {plan['frozen']['commit']}, "
                     f"{args.frozen} is now at {frozen['commit']}")
+        if plan is not None and only_seeds is not None and \
+                not set(only_seeds) <= set(plan["seeds"]):
+            raise PredictionInputError(f"--seeds {args.seeds}: not among the plan's seeds "
+                                       f"{plan['seeds']}")
+        if plan is not None and only_freqs is not None:
+            known = [f for n in names for f in plan["sweeps"].get(n, {}).get("frequencies_hz", [])]
+            bad = [f for f in only_freqs if not any(abs(f - g) < 1e-9 for g in known)]
+            if bad:
+                raise PredictionInputError(f"--frequencies: {bad} Hz not in the plan of "
+                                           f"{', '.join(names)}")
         if args.cycles_check is not None:
             runs = args.runs or Path(args.out) / "runs"
             have = [n for n in names if points_path(args.out, n).is_file()]
@@ -1538,7 +1667,8 @@ def main(argv=None) -> int:
             if dem_child.stopped() or drain.exists():
                 break
             states.append(run_sweep_point(args.out, runs, n, plan, args.workers,
-                                          drain_file=drain))
+                                          drain_file=drain, only_seeds=only_seeds,
+                                          only_freqs=only_freqs))
     report(args.out, frozen, _command(args), args.runs)
     print(f"{args.out}/summary.json, {args.out}/README.md", file=sys.stderr)
     return 0 if all(s in ("skipped", "finished") for s in states) else 1

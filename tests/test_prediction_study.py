@@ -114,7 +114,7 @@ def test_seeds_are_written_before_the_first_run_model_ii_y_first(tmp_path, monke
     out = tmp_path / "out"
     calls = []
 
-    def fake_run(out_, runs, name, plan, workers=None, log=print, drain_file=None):
+    def fake_run(out_, runs, name, plan, workers=None, log=print, drain_file=None, **kw):
         on_disk = json.loads((out_ / "plan.json").read_text())
         calls.append((name, on_disk["seeds"], on_disk["frozen"]["commit"]))
         return "finished"
@@ -332,7 +332,7 @@ def test_a_drain_file_ends_the_study_after_the_sweep_in_flight(tmp_path, monkeyp
     drain.touch()                                # left by an earlier drain
     calls = []
 
-    def fake_run(out_, runs, name, plan, workers=None, log=print, drain_file=None):
+    def fake_run(out_, runs, name, plan, workers=None, log=print, drain_file=None, **kw):
         calls.append((name, drain_file, drain_file.exists()))
         drain_file.touch()                      # the user drains while the first sweep runs
         return "pending"
@@ -371,6 +371,76 @@ def test_a_finished_sweep_starts_nothing(tmp_path, monkeypatch):
     (out / "model-ii-y" / "points.json").write_text(json.dumps(data))
     with pytest.raises(AssertionError, match="started again"):
         ps.run_sweep_point(out, out / "runs", "model-ii-y", plan)
+
+
+def _planned(tmp_path, seeds=(0, 1, 2)):
+    """A plan for Model II y with ``seeds`` and its fingerprint."""
+    _, path = _repo(tmp_path)
+    fr = ps.load_frozen(path)
+    out = tmp_path / "out"
+    plan = ps.write_plan(out, ps.make_plan(fr, ["model-ii-y"], len(seeds), 50, None))
+    freqs = plan["sweeps"]["model-ii-y"]["frequencies_hz"]
+    case = ps.sweep_case("model-ii-y", fr["parameters"])
+    return out, plan, freqs, ps.fingerprint(case, freqs, list(seeds), 50, None), path
+
+
+def test_merge_rows_keeps_committed_finished_points_of_the_same_fingerprint_only():
+    fresh = [{"seed": 0, "frequency_hz": 2.8, "run_status": "pending"},
+             {"seed": 0, "frequency_hz": 3.2, "run_status": "failed"},
+             {"seed": 1, "frequency_hz": 2.8, "run_status": "ok", "tag": "fresh"},
+             {"seed": 1, "frequency_hz": 3.2, "run_status": "pending"}]
+    committed = {"prediction": {"fingerprint": "fp"}, "rows": [
+        {"seed": 0, "frequency_hz": 2.8, "run_status": "ok", "tag": "kept"},
+        {"seed": 0, "frequency_hz": 3.2, "run_status": "ok", "tag": "kept"},
+        {"seed": 1, "frequency_hz": 2.8, "run_status": "ok", "tag": "kept"},
+        {"seed": 1, "frequency_hz": 3.2, "run_status": "failed", "tag": "kept"}]}
+    rows = ps.merge_rows(fresh, ps.finished_rows(committed, "fp"))
+    assert [(r["run_status"], r.get("tag")) for r in rows] == \
+        [("ok", "kept"), ("ok", "kept"), ("ok", "fresh"), ("pending", None)]
+    # rows of another fingerprint (case, seeds, cycles, engine revision) are never kept
+    assert ps.finished_rows(committed, "other") == {}
+    assert ps.merge_rows(fresh, ps.finished_rows(committed, "other")) == fresh
+
+
+def test_committed_points_are_not_run_again_when_their_run_directories_are_gone(
+        tmp_path, monkeypatch, capsys):
+    """A new checkout has points.json but no runs/: the study runs only what points.json does
+    not hold finished, one dem sweep per seed, and keeps the committed rows; --seeds /
+    --frequencies restrict a call to a subset."""
+    out, plan, freqs, fp, path = _planned(tmp_path)
+    rows = [_row(0, f, 0.1) for f in freqs] + [_row(1, f, 0.2) for f in freqs[:3]] + \
+        [{"seed": 1, "frequency_hz": f, "run_status": "pending"} for f in freqs[3:]] + \
+        [{"seed": 2, "frequency_hz": f, "run_status": "pending"} for f in freqs]
+    data = _points(rows, seeds=(0, 1, 2), freqs=freqs)
+    data["prediction"]["fingerprint"] = fp
+    (out / "model-ii-y").mkdir()
+    (out / "model-ii-y" / "points.json").write_text(json.dumps(data))
+    calls = []
+
+    def fake_dem(args, log):
+        calls.append((int(args[args.index("--seed") + 1]),
+                      [float(x) for x in args[args.index("--frequencies") + 1].split(",")]))
+        return 0, 1.0, 1.0
+
+    monkeypatch.setattr(dem_child, "run_dem", fake_dem)
+    assert ps.run_sweep_point(out, out / "runs", "model-ii-y", plan,
+                              log=lambda s: None) == "pending"
+    assert calls == [(1, freqs[3:]), (2, freqs)]       # seed 0 and seed 1's first three: kept
+    got = json.loads((out / "model-ii-y" / "points.json").read_text())
+    assert [r["run_status"] for r in got["rows"]] == [r["run_status"] for r in rows]
+    assert got["rows"][0]["amplification"]["ds"] == 0.1
+    assert got["prediction"]["cpu_seconds"] == pytest.approx(10.0 + 2.0)
+    calls.clear()
+    assert ps.run_sweep_point(out, out / "runs", "model-ii-y", plan, log=lambda s: None,
+                              only_seeds=[2, 0], only_freqs=[freqs[-1]]) == "pending"
+    assert calls == [(2, [freqs[-1]])]
+    # the command line refuses a seed or frequency the plan does not have, naming the flag
+    for flag, val in (("--seeds", "7"), ("--frequencies", "9.9"), ("--seeds", "x")):
+        capsys.readouterr()
+        assert ps.main(["--frozen", str(path), "--out", str(out), "--realisations", "3",
+                        "--only", "model-ii-y", flag, val]) == 2
+        assert f"error: {flag}" in capsys.readouterr().err
+    assert calls == [(2, [freqs[-1]])]                  # nothing ran
 
 
 def test_smoke_one_frequency_two_realisations_then_resume(tmp_path, monkeypatch):
@@ -577,7 +647,7 @@ def test_a_cut_in_cycles_needs_model_ii_y_in_full_and_its_cycles_check(tmp_path,
     out = tmp_path / "out"
     seen = []
 
-    def fake_run(out_, runs, name, plan, workers=None, log=print, drain_file=None):
+    def fake_run(out_, runs, name, plan, workers=None, log=print, drain_file=None, **kw):
         seen.append((name, ps.sweep_cycles(plan, name)))
         return "finished"
 
