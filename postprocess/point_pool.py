@@ -1,0 +1,143 @@
+"""Run chosen (seed, frequency) points of a prediction sweep in a local process pool, without
+dask: for a borrowed many-core machine where dask is not installed.
+
+    python -m postprocess.point_pool --out results/prediction --sweep model-ii-y \\
+        --points 0:3.2,9:3.6,9:3.2 --workers 16
+
+Each point is built exactly as ``dem sweep --realisations 1 --seed S --frequencies F`` builds
+it from the study's case file (postprocess.prediction_study: the sweep's case with the frozen
+set, written to ``<runs>/<sweep>.yaml`` the same way; dem.run.sweep.realisation_cases, then
+sweep_cases at the plan's cycles), and is run by the same task body (dem.batch._run_one: one
+Taichi thread, the point's analysis, postprocess.sweep.analyze_point) into the directory dem sweep
+uses, ``<runs>/<sweep>/seed-<S>/f<F>Hz/``.  So a finished point's directory, or just its
+``summary.json``, ``case.json`` and ``analysis.json`` copied back to the study's runs directory,
+is taken by the next ``prediction_study`` call as finished (dem.commands.sweep.finished_point:
+same case.json, status ok, same results revision) and merged into points.json; nothing of
+points.json is written here.  A point already finished in its directory is skipped.
+
+Each task runs in a fresh process (``maxtasksperchild=1``, spawn), so a point's memory and
+Taichi runtime end with it.  ``--list`` prints ``OUT/RUNS`` relative paths of the finished
+points' three JSON files (to pack them).  Exit 0 every point ok, 1 one failed or was cut short.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import multiprocessing as mp
+import sys
+import time
+from pathlib import Path
+
+from postprocess import prediction_study as ps
+
+RECEIPT = ("summary.json", "case.json", "analysis.json")
+
+
+def parse_points(text: str) -> list[tuple[int, float]]:
+    """``S:F,S:F,...`` -> [(seed, frequency in Hz)]."""
+    out = []
+    for item in text.split(","):
+        if not item.strip():
+            continue
+        try:
+            s, f = item.split(":")
+            out.append((int(s), float(f)))
+        except ValueError:
+            raise ps.PredictionInputError(f"--points: expected SEED:FREQUENCY, got {item!r}")
+    if not out:
+        raise ps.PredictionInputError("--points: empty")
+    return out
+
+
+def point_cases(out: Path, runs: Path, name: str, plan: dict, points) -> list[tuple]:
+    """(seed, frequency, point name, Case, directory) of each point, as dem sweep builds them
+    from the study's case file (module docstring)."""
+    from dem.case import load_case
+    from dem.run.sweep import realisation_cases, sweep_cases
+
+    import yaml
+
+    sweep = plan["sweeps"].get(name)
+    if sweep is None:
+        raise ps.PredictionInputError(f"--sweep {name}: not in {out}/plan.json")
+    case_file = Path(runs) / f"{name}.yaml"
+    case_file.parent.mkdir(parents=True, exist_ok=True)
+    case = ps.sweep_case(name, plan["frozen"]["parameters"])
+    case_file.write_text(yaml.safe_dump(case.model_dump(mode="json"), sort_keys=False))
+    loaded = load_case(case_file)
+    cycles = ps.sweep_cycles(plan, name)
+    res = []
+    for s, f in points:
+        if s not in plan["seeds"]:
+            raise ps.PredictionInputError(f"--points: seed {s} not among the plan's {plan['seeds']}")
+        if not any(abs(f - g) < 1e-9 for g in sweep["frequencies_hz"]):
+            raise ps.PredictionInputError(f"--points: {f:g} Hz not in {name}'s frequencies "
+                                          f"{sweep['frequencies_hz']}")
+        ((rname, rcase),) = realisation_cases(loaded, 1, s)
+        ((pname, pcase),) = sweep_cases(rcase, [f], cycles)
+        res.append((s, f, pname, pcase, Path(runs) / name / rname / pname))
+    return res
+
+
+def _task(args) -> dict:
+    """One point in its own process (dem.batch._run_one with the sweep's analysis)."""
+    pname, case_json, out_dir, max_steps = args
+    from dem.batch import _run_one
+    from postprocess.sweep import analyze_point
+
+    rec = _run_one(pname, case_json, out_dir, 1, max_steps, analyze_point)
+    s = rec.get("summary") or {}
+    return {"out_dir": out_dir, "status": rec["status"], "error": rec.get("error"),
+            "steps": s.get("steps"), "wall_seconds": s.get("wall_seconds", rec.get("wall_seconds")),
+            "amplification_ds": ((rec.get("post") or {}).get("amplification") or {}).get("ds")}
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+    ap.add_argument("--out", type=Path, default=ps.ROOT / "results" / "prediction",
+                    help="the study's folder (its plan.json)")
+    ap.add_argument("--runs", type=Path, default=None, help="raw runs (default <out>/runs)")
+    ap.add_argument("--sweep", required=True)
+    ap.add_argument("--points", required=True, metavar="S:F,S:F,...")
+    ap.add_argument("--workers", type=int, default=None, help="processes (default: one per core)")
+    ap.add_argument("--list", action="store_true",
+                    help="print the finished points' summary/case/analysis.json and exit")
+    args = ap.parse_args(argv)
+    from dem.commands.sweep import finished_run
+
+    runs = args.runs or Path(args.out) / "runs"
+    try:
+        plan = ps._read(Path(args.out) / "plan.json")
+        if plan is None:
+            raise ps.PredictionInputError(f"{args.out}/plan.json: missing or unreadable")
+        pts = point_cases(args.out, runs, args.sweep, plan, parse_points(args.points))
+        if args.workers is not None and args.workers < 1:
+            raise ps.PredictionInputError(f"--workers must be >= 1, got {args.workers}")
+    except ps.PredictionInputError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    cap = plan["max_steps"]          # the plan's step cap (smoke plans), as the study runs it
+    if args.list:
+        for *_, pcase, d in pts:
+            if finished_run(pcase, d, cap) is not None and (d / "analysis.json").is_file():
+                print("\n".join(str((d / f).relative_to(runs)) for f in RECEIPT))
+        return 0
+    todo = [(pname, pcase.model_dump_json(), str(d), cap)
+            for _, _, pname, pcase, d in pts if finished_run(pcase, d, cap) is None]
+    n = min(len(todo), args.workers or mp.cpu_count()) if todo else 0
+    print(f"{args.sweep}: {len(pts)} points, {len(pts) - len(todo)} finished before, "
+          f"{len(todo)} to run on {n} processes", file=sys.stderr, flush=True)
+    bad = 0
+    t0 = time.perf_counter()
+    if todo:
+        with mp.get_context("spawn").Pool(n, maxtasksperchild=1) as pool:
+            for r in pool.imap_unordered(_task, todo):
+                bad += r["status"] != "ok"
+                print(f"[{time.perf_counter() - t0:6.0f} s] {json.dumps(r)}", file=sys.stderr,
+                      flush=True)
+    return 1 if bad else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

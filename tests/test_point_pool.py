@@ -1,0 +1,53 @@
+"""postprocess.point_pool: prediction points run in a process pool (no dask) land in the
+directories dem sweep uses, with the case dem sweep would build, so the study takes them as
+finished (dem.commands.sweep.finished_point) and merges them into points.json without a rerun."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from postprocess import point_pool as pp
+from postprocess import prediction_study as ps
+from tests.test_prediction_study import _repo
+
+
+def test_parse_points_names_the_bad_item():
+    assert pp.parse_points("0:3.2, 9:3.6,") == [(0, 3.2), (9, 3.6)]
+    for bad in ("3.2", "a:3.2", "1:2:3", ""):
+        with pytest.raises(ps.PredictionInputError, match="--points"):
+            pp.parse_points(bad)
+
+
+def test_points_outside_the_plan_are_refused(tmp_path, capsys):
+    _, path = _repo(tmp_path)
+    out = tmp_path / "out"
+    ps.write_plan(out, ps.make_plan(ps.load_frozen(path), ["model-ii-y"], 2, 50, None))
+    for pts, what in (("5:2.8", "seed 5"), ("0:9.9", "9.9 Hz")):
+        assert pp.main(["--out", str(out), "--sweep", "model-ii-y", "--points", pts]) == 2
+        assert what in capsys.readouterr().err
+    assert pp.main(["--out", str(out), "--sweep", "model-x", "--points", "0:2.8"]) == 2
+    assert not (out / "runs" / "model-ii-y").exists()      # nothing ran
+
+
+def test_a_pooled_point_is_taken_by_the_study_without_a_rerun(tmp_path, monkeypatch):
+    monkeypatch.setenv("DEM_THREADS", "1")
+    _, path = _repo(tmp_path)
+    out = tmp_path / "out"
+    plan = ps.make_plan(ps.load_frozen(path), ["model-ii-y"], 2, 50, 50)   # 50-step smoke runs
+    plan["sweeps"]["model-ii-y"]["frequencies_hz"] = [2.8]
+    plan = ps.write_plan(out, plan)
+    assert pp.main(["--out", str(out), "--sweep", "model-ii-y", "--points", "1:2.8",
+                    "--workers", "1"]) == 0
+    d = out / "runs" / "model-ii-y" / "seed-1" / "f2.800Hz"
+    summ = json.loads((d / "summary.json").read_text())
+    assert summ["status"] == "ok" and summ["step_limit"] == 50
+    assert json.loads((d / "case.json").read_text())["imperfections"]["seed"] == 1
+    lines = []
+    assert ps.run_sweep_point(out, out / "runs", "model-ii-y", plan, workers=1,
+                              log=lines.append, only_seeds=[1]) == "pending"  # seed 0 not run
+    assert any("1 point(s) already finished" in ln for ln in lines), lines
+    assert json.loads((d / "summary.json").read_text()) == summ          # not run again
+    rows = json.loads((out / "model-ii-y" / "points.json").read_text())["rows"]
+    assert [(r["seed"], r["run_status"]) for r in rows] == [(0, "pending"), (1, "ok")]
