@@ -100,7 +100,10 @@ Shown, not scored (none is one of issue 13's criteria):
   re-analyses the finished runs of a sweep over their first N cycles
   (postprocess.shake.analyze_run(cycles=N): no simulation) and compares with the full cycles
   (:func:`cycles_verdict`, rule CYCLES_RULE): characteristic frequency, ds amplification inside
-  and outside, survival.  The analysis of the first N cycles matches that of an N-cycle run to
+  and outside, survival.  Both sides use the same runs: those whose raw run (frames.npz) is on
+  this machine; a finished point known only from its committed row (an earlier checkout, a
+  point_pool machine) is left out of both and named (``left_out_no_raw_run``), and the README
+  gives the runs compared out of the sweep's finished ones.  The analysis of the first N cycles matches that of an N-cycle run to
   2e-5 in ds (the jittered samples' resampling grid spans the record), a_lp to 3e-4, da to 2-3 %
   at 2-4 cycles (the drift-free integral's fit and running mean at the record's end) and raw a
   to ~5 % (the spikes' peaks move with the grid).  ``<out>/<sweep>/cycles-check-<N>.json``
@@ -945,18 +948,42 @@ def truncated_row(seed: int, f: float, run_dir: Path, cycles: float) -> dict:
     return row_from_point(seed, p)
 
 
-def truncated_points(data: dict, sweep_dir: Path, cycles: float) -> dict:
-    """A points.json-like record of the sweep ``data`` (its committed points.json) with every
-    finished run re-analysed over its first ``cycles`` cycles from the raw runs in
-    ``sweep_dir`` (``seed-<k>/<point>/``); unfinished rows stay as they are."""
+def has_raw_run(run_dir: Path) -> bool:
+    """Whether a finished point's raw run (its frames.npz) is on this machine: a point finished
+    in an earlier checkout, or run elsewhere (postprocess.point_pool) and merged from its
+    summary / case / analysis.json, has only its committed row."""
+    return (Path(run_dir) / "frames.npz").is_file()
+
+
+NO_RAW_RUN = "no raw run on this machine: left out of both sides of the cycles check"
+
+
+def truncated_points(data: dict, sweep_dir: Path, cycles: float) -> tuple[dict, dict, list]:
+    """Both sides of a cycles check of the sweep ``data`` (its committed points.json), on the
+    finished rows whose raw runs are in ``sweep_dir`` (``seed-<k>/<point>/``,
+    :func:`has_raw_run`): (full, short, left_out).  ``short`` has each of those runs
+    re-analysed over its first ``cycles`` cycles; a finished row without its raw run is set
+    pending on both sides (named in ``left_out`` as [seed, frequency]), so that the full and
+    the short answer come from the same runs; unfinished rows stay as they are."""
     from dem.run.sweep import point_name
 
-    rows = []
+    full, short, left_out = [], [], []
     for r in data.get("rows") or []:
         d = Path(sweep_dir) / f"seed-{r['seed']}" / point_name(r["frequency_hz"])
-        rows.append(truncated_row(r["seed"], r["frequency_hz"], d, cycles)
-                    if r.get("run_status") == "ok" else dict(r))
-    return {"prediction": {**data["prediction"], "cycles": cycles}, "rows": rows}
+        if r.get("run_status") != "ok":
+            full.append(dict(r))
+            short.append(dict(r))
+        elif has_raw_run(d):
+            full.append(r)
+            short.append(truncated_row(r["seed"], r["frequency_hz"], d, cycles))
+        else:
+            left_out.append([r["seed"], r["frequency_hz"]])
+            gone = {"seed": r["seed"], "frequency_hz": r["frequency_hz"],
+                    "run_status": "pending", "analysis_status": None, "note": NO_RAW_RUN}
+            full.append(gone)
+            short.append(dict(gone))
+    return ({"prediction": data["prediction"], "rows": full},
+            {"prediction": {**data["prediction"], "cycles": cycles}, "rows": short}, left_out)
 
 
 def _median_agrees(full: dict | None, short: dict | None) -> dict:
@@ -1018,11 +1045,13 @@ def cycles_check(out: Path, runs: Path, name: str, cycles: float) -> dict:
     if not 2 <= cycles < full_cycles:
         raise PredictionInputError(f"--cycles-check {cycles:g}: must lie in [2, {full_cycles:g}) "
                                    f"(the sweep ran {full_cycles:g} cycles; cycle 1 is dropped)")
-    short = truncated_points(data, Path(runs) / name, cycles)
-    full_sw, short_sw = analyse_sweep(name, data), analyse_sweep(name, short)
+    full, short, left_out = truncated_points(data, Path(runs) / name, cycles)
+    full_sw, short_sw = analyse_sweep(name, full), analyse_sweep(name, short)
     res = {"kind": "prediction-cycles-check", "sweep": name, "cycles": cycles,
            "full_cycles": full_cycles, "sweep_finished": sweep_finished(data),
-           "n_runs": full_sw["n_run"], "rows": short["rows"],
+           "n_runs": full_sw["n_run"],
+           "n_runs_sweep": sum(1 for r in data.get("rows") or [] if r.get("run_status") == "ok"),
+           "left_out_no_raw_run": left_out, "rows": short["rows"],
            "verdict": cycles_verdict(full_sw, short_sw, data["prediction"]["frequencies_hz"]),
            "rule": CYCLES_RULE,
            "source": source_state()}
@@ -1290,8 +1319,8 @@ def read_cycles_checks(out: Path) -> dict:
         for path in sorted((Path(out) / n).glob("cycles-check-*.json")):
             d = _read(path)
             if d and d.get("kind") == "prediction-cycles-check":
-                res.setdefault(n, []).append({k: d.get(k) for k in ("cycles", "full_cycles",
-                                                                    "verdict")})
+                res.setdefault(n, []).append({k: d.get(k) for k in (
+                    "cycles", "full_cycles", "n_runs", "n_runs_sweep", "verdict")})
     return res
 
 
@@ -1371,14 +1400,16 @@ def cycles_table(checks: dict) -> list[str]:
 
     def med(v):
         return f"{_f(v.get('short'))} / {_f(v.get('full'))}"
-    L += ["| sweep | N / full cycles | f_c (Hz) | ds inside | ds outside | lowest survival | "
-          "answer |", "|---|---|---|---|---|---|---|"]
+    L += ["| sweep | N / full cycles | runs compared | f_c (Hz) | ds inside | ds outside | "
+          "lowest survival | answer |", "|---|---|---|---|---|---|---|---|"]
     for n, lst in checks.items():
         for c in lst:
             v = c["verdict"]
             fc, sv = v["characteristic_frequency"], v["survival"]
             ans = verdict_text(v)
+            n_all = c.get("n_runs_sweep", c.get("n_runs"))
             L.append(f"| {n} | {c['cycles']:g} / {c['full_cycles']:g} | "
+                     f"{c.get('n_runs')} of {n_all} | "
                      f"{fc['short'] if fc['short'] is not None else 'none'} / "
                      f"{fc['full'] if fc['full'] is not None else 'none'} | "
                      f"{med(v['amplification_ds_inside'])} | "

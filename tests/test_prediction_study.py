@@ -613,6 +613,10 @@ def test_cycles_check_reanalyses_the_finished_runs_and_reports(tmp_path, monkeyp
     rows[-1] = {"seed": 4, "frequency_hz": 3.6, "run_status": "pending", "analysis_status": None}
     (out / "model-ii-y").mkdir()
     (out / "model-ii-y" / "points.json").write_text(json.dumps(_points(rows)))
+    for r in rows[len(FREQS):]:   # raw runs on this machine for seeds 1-4; seed 0's are gone
+        d = out / "runs" / "model-ii-y" / f"seed-{r['seed']}" / f"f{r['frequency_hz']:.3f}Hz"
+        d.mkdir(parents=True)
+        (d / "frames.npz").touch()
     seen = []
 
     def fake_row(seed, f, run_dir, cycles):
@@ -622,13 +626,17 @@ def test_cycles_check_reanalyses_the_finished_runs_and_reports(tmp_path, monkeyp
     monkeypatch.setattr(ps, "truncated_row", fake_row)
     assert ps.main(["--frozen", str(path), "--out", str(out), "--only", "model-ii-y",
                     "--cycles-check", "10"]) == 0
-    assert len(seen) == 29 and seen[0] == (0, 1.8, "f1.800Hz", "seed-0", 10.0)
+    assert len(seen) == 23 and seen[0] == (1, 1.8, "f1.800Hz", "seed-1", 10.0)
     assert "model-ii-y: 10 cycles: unchanged" in capsys.readouterr().err
     chk = json.loads((out / "model-ii-y" / "cycles-check-10.json").read_text())
     assert chk["cycles"] == 10 and chk["full_cycles"] == 50 and chk["verdict"]["unchanged"]
     assert chk["rows"][-1]["run_status"] == "pending" and chk["rule"] == ps.CYCLES_RULE
+    # seed 0 has no raw runs: left out of both sides, named, and the count says so
+    assert chk["left_out_no_raw_run"] == [[0, f] for f in FREQS]
+    assert chk["n_runs"] == 23 and chk["n_runs_sweep"] == 29
+    assert all(r["note"] == ps.NO_RAW_RUN for r in chk["rows"][:len(FREQS)])
     readme = (out / "README.md").read_text()
-    assert "| model-ii-y | 10 / 50 | 2.8 / 2.8 |" in readme and "| unchanged |" in readme
+    assert "| model-ii-y | 10 / 50 | 23 of 29 | 2.8 / 2.8 |" in readme and "| unchanged |" in readme
     summ = json.loads((out / "summary.json").read_text())
     assert summ["cycles_checks"]["model-ii-y"][0]["cycles"] == 10
     assert summ["low_pass"]["cutoff_hz"] == 20.0
