@@ -31,7 +31,8 @@ same stages:
   large enough to pay for the thread pool's dispatch (~30-60 us per parallel loop on the 2-core
   test machine, benchmarks/RESULTS.md); :mod:`dem.engine.launch` makes its launch cheap.
 Both sum contact forces per body in the same fixed order (CSR gather, no atomics), so they give
-bit-identical trajectories.
+the same trajectories: bit for bit where the compiler emits the same instructions for both
+kernels, to the last bit where fast-math selects them differently (AVX-512 CPUs; docs/engine.md).
 
 Integrator (symplectic Euler with an exact-angular-momentum rotation splitting):
     v_{n+1} = v_n + dt F_n / m,            x_{n+1} = x_n + dt v_{n+1}
