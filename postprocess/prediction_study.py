@@ -171,6 +171,8 @@ ROW_QUANTITIES = ("ds", "dsr", "da", "a", "a_lp", "a_front", "a_front_lp", "da_f
 #: accelerometer-derived displacement, free of impact spikes and of the assumed cutoff)
 FRONT_BACK = {"da": ("da_front", "da"), "a_lp": ("a_front_lp", "a_lp")}
 CYCLES_REL_FLOOR = 0.1   # cycles check: medians agree within max(band width, 10 % of median)
+LEFT_OUT = "left out"    # cycles check: a finished row whose raw run is not on this machine
+NO_RAW_RUN = "no raw run on this machine: left out of both sides of the cycles check"
 CYCLES_RULE = (
     "the answer at N cycles is unchanged from the full cycles when (1) the characteristic "
     "frequency is the same within one frequency step (both null, or at most one position apart "
@@ -723,11 +725,18 @@ def characteristic(freqs, curve: dict, unrun=()) -> dict:
 
 
 def _per_seed_mean(rows, seeds, freqs_in, key) -> list:
-    """Per seed, the mean of ``key(row)`` over its surviving rows at the frequencies freqs_in."""
+    """Per seed, the mean of ``key(row)`` over its surviving rows at the frequencies freqs_in;
+    None for a seed with one of those frequencies not yet finished (pending or failed run: an
+    unfinished sweep's seed does not enter the statistics with a part of the range).  Rows a
+    cycles check left out (LEFT_OUT: no raw run here) are skipped, on both of its sides alike."""
     out = []
     for s in seeds:
-        v = [key(r) for r in rows if r["seed"] == s and r["frequency_hz"] in freqs_in
-             and survived(r)]
+        mine = [r for r in rows if r["seed"] == s and r["frequency_hz"] in freqs_in]
+        if len(mine) < len(freqs_in) or any(survived(r) is None and
+                                            r.get("run_status") != LEFT_OUT for r in mine):
+            out.append(None)
+            continue
+        v = [key(r) for r in mine if survived(r)]
         v = [x for x in v if _finite(x)]
         out.append(float(np.mean(v)) if v else None)
     return out
@@ -955,15 +964,14 @@ def has_raw_run(run_dir: Path) -> bool:
     return (Path(run_dir) / "frames.npz").is_file()
 
 
-NO_RAW_RUN = "no raw run on this machine: left out of both sides of the cycles check"
 
 
 def truncated_points(data: dict, sweep_dir: Path, cycles: float) -> tuple[dict, dict, list]:
     """Both sides of a cycles check of the sweep ``data`` (its committed points.json), on the
     finished rows whose raw runs are in ``sweep_dir`` (``seed-<k>/<point>/``,
     :func:`has_raw_run`): (full, short, left_out).  ``short`` has each of those runs
-    re-analysed over its first ``cycles`` cycles; a finished row without its raw run is set
-    pending on both sides (named in ``left_out`` as [seed, frequency]), so that the full and
+    re-analysed over its first ``cycles`` cycles; a finished row without its raw run is marked
+    LEFT_OUT on both sides (named in ``left_out`` as [seed, frequency]), so that the full and
     the short answer come from the same runs; unfinished rows stay as they are."""
     from dem.run.sweep import point_name
 
@@ -979,7 +987,7 @@ def truncated_points(data: dict, sweep_dir: Path, cycles: float) -> tuple[dict, 
         else:
             left_out.append([r["seed"], r["frequency_hz"]])
             gone = {"seed": r["seed"], "frequency_hz": r["frequency_hz"],
-                    "run_status": "pending", "analysis_status": None, "note": NO_RAW_RUN}
+                    "run_status": LEFT_OUT, "analysis_status": None, "note": NO_RAW_RUN}
             full.append(gone)
             short.append(dict(gone))
     return ({"prediction": data["prediction"], "rows": full},

@@ -255,6 +255,24 @@ def test_analyse_sweep_on_a_hand_made_ensemble_gives_the_known_numbers(tmp_path)
     assert (tmp_path / "amplification.png").stat().st_size > 1000
 
 
+def test_a_seed_enters_the_inside_outside_statistics_only_with_its_whole_range():
+    """An unfinished sweep: a seed with one frequency of the range still pending is not
+    averaged over the part it has (that would mix seeds over different frequencies); a row a
+    cycles check left out (no raw run here) is skipped instead."""
+    rows = [_row(s, f, CURVE[f]) for s in range(3) for f in FREQS]
+    rows[FREQS.index(2.4)] = {"seed": 0, "frequency_hz": 2.4, "run_status": "pending"}
+    ins = [2.4, 2.8, 3.2]
+    ds = ps._amp("ds")
+    assert ps._per_seed_mean(rows, [0, 1, 2], ins, ds) == \
+        [None] + [pytest.approx((1.8 + 2.1 + 1.9) / 3)] * 2
+    rows[FREQS.index(2.4)] = {"seed": 0, "frequency_hz": 2.4, "run_status": ps.LEFT_OUT}
+    assert ps._per_seed_mean(rows, [0], ins, ds) == [pytest.approx((2.1 + 1.9) / 2)]
+    sw = ps.analyse_sweep("model-ii-y", _points(rows[:6] + [
+        {**r, "run_status": "pending"} if r["frequency_hz"] == 3.2 else r for r in rows[6:]],
+        seeds=(0, 1, 2)))
+    assert sw["inside_outside"]["thesis_range"]["amplification_ds_inside"]["n"] == 1
+
+
 def test_survival_below_80_percent_fails_and_a_collapsing_match_is_rejected():
     # 2 of 5 realisations collapse at 2.8 Hz: 60 % survive there
     rows = [_row(s, f, CURVE[f], collapse=(f == 2.8 and s < 2)) for s in range(5)
@@ -634,7 +652,8 @@ def test_cycles_check_reanalyses_the_finished_runs_and_reports(tmp_path, monkeyp
     # seed 0 has no raw runs: left out of both sides, named, and the count says so
     assert chk["left_out_no_raw_run"] == [[0, f] for f in FREQS]
     assert chk["n_runs"] == 23 and chk["n_runs_sweep"] == 29
-    assert all(r["note"] == ps.NO_RAW_RUN for r in chk["rows"][:len(FREQS)])
+    assert all(r["note"] == ps.NO_RAW_RUN and r["run_status"] == ps.LEFT_OUT
+               for r in chk["rows"][:len(FREQS)])
     readme = (out / "README.md").read_text()
     assert "| model-ii-y | 10 / 50 | 23 of 29 | 2.8 / 2.8 |" in readme and "| unchanged |" in readme
     summ = json.loads((out / "summary.json").read_text())
