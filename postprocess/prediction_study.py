@@ -635,10 +635,9 @@ def run_sweep_point(out: Path, runs: Path, name: str, plan: dict, workers: int |
     # what this machine's run directories hold, merged, before anything runs
     data = update_points(dest, name, plan, case, case_file, fp,
                          collect_rows(sweep_dir, seeds, freqs), 0.0, 0.0, None, True)
-    cpu_all, rc_all, refused = 0.0, 0, False
+    cpu_all, refused = 0.0, False
     for s in my_seeds:
         if dem_child.stopped() or (drain_file is not None and drain_file.exists()):
-            rc_all = rc_all or 1
             break
         done = finished_rows(data, fp)
         todo = [f for f in my_freqs if _key(s, f) not in done]
@@ -665,7 +664,6 @@ def run_sweep_point(out: Path, runs: Path, name: str, plan: dict, workers: int |
             break
         data = update_points(dest, name, plan, case, case_file, fp, fresh, cpu, wall, rc,
                              False)
-        rc_all = rc_all or rc
         if rc != 0 and (dem_child.stopped() or
                         (drain_file is not None and drain_file.exists())):
             break
@@ -962,8 +960,6 @@ def has_raw_run(run_dir: Path) -> bool:
     in an earlier checkout, or run elsewhere (postprocess.point_pool) and merged from its
     summary / case / analysis.json, has only its committed row."""
     return (Path(run_dir) / "frames.npz").is_file()
-
-
 
 
 def truncated_points(data: dict, sweep_dir: Path, cycles: float) -> tuple[dict, dict, list]:
