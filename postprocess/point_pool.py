@@ -10,14 +10,18 @@ set, written to ``<runs>/<sweep>.yaml`` the same way; dem.run.sweep.realisation_
 sweep_cases at the plan's cycles), and is run by the same task body (dem.batch._run_one: one
 Taichi thread, the point's analysis, postprocess.sweep.analyze_point) into the directory dem sweep
 uses, ``<runs>/<sweep>/seed-<S>/f<F>Hz/``.  So a finished point's directory, or just its
-``summary.json``, ``case.json`` and ``analysis.json`` copied back to the study's runs directory,
-is taken by the next ``prediction_study`` call as finished (dem.commands.sweep.finished_point:
-same case.json, status ok, same results revision) and merged into points.json; nothing of
-points.json is written here.  A point already finished in its directory is skipped.
+``summary.json``, ``case.json``, ``analysis.json`` and ``truncated-rows.json`` copied back to the
+study's runs directory, is taken by the next ``prediction_study`` call as finished
+(dem.commands.sweep.finished_point: same case.json, status ok, same results revision) and
+merged into points.json; nothing of points.json is written here.  A point already finished in
+its directory is skipped.
 
 Each task runs in a fresh process (``maxtasksperchild=1``, spawn), so a point's memory and
-Taichi runtime end with it.  ``--list`` prints ``OUT/RUNS`` relative paths of the finished
-points' three JSON files (to pack them).  Exit 0 every point ok, 1 one failed or was cut short.
+Taichi runtime end with it.  After a run, its analyses over the first N cycles
+(prediction_study.TRUNCATED_CYCLES) go to ``truncated-rows.json`` beside it, from which the
+study's cycles checks take them (the raw run stays on that machine).  ``--list`` prints the
+``<runs>``-relative paths of the finished points' JSON files (to pack them).  Exit 0 every
+point ok, 1 one failed or was cut short.
 """
 
 from __future__ import annotations
@@ -31,7 +35,7 @@ from pathlib import Path
 
 from postprocess import prediction_study as ps
 
-RECEIPT = ("summary.json", "case.json", "analysis.json")
+RECEIPT = ("summary.json", "case.json", "analysis.json", ps.POOL_TRUNCATED)
 
 
 def parse_points(text: str) -> list[tuple[int, float]]:
@@ -81,12 +85,18 @@ def point_cases(out: Path, runs: Path, name: str, plan: dict, points) -> list[tu
 
 
 def _task(args) -> dict:
-    """One point in its own process (dem.batch._run_one with the sweep's analysis)."""
-    pname, case_json, out_dir, max_steps = args
+    """One point in its own process (dem.batch._run_one with the sweep's analysis), then the
+    analyses of its first N cycles for each N of ``ns`` (prediction_study.record_truncated
+    takes them from ``truncated-rows.json``: the raw run does not travel back)."""
+    pname, case_json, out_dir, max_steps, seed, f, ns = args
     from dem.batch import _run_one
+    from dem.output.atomic import write_json
     from postprocess.sweep import analyze_point
 
     rec = _run_one(pname, case_json, out_dir, 1, max_steps, analyze_point)
+    if rec["status"] == "ok" and ns:
+        write_json(Path(out_dir) / ps.POOL_TRUNCATED,
+                   {f"{n:g}": ps.truncated_row(seed, f, Path(out_dir), n) for n in ns}, indent=1)
     s = rec.get("summary") or {}
     return {"out_dir": out_dir, "status": rec["status"], "error": rec.get("error"),
             "steps": s.get("steps"), "wall_seconds": s.get("wall_seconds", rec.get("wall_seconds")),
@@ -121,10 +131,12 @@ def main(argv=None) -> int:
     if args.list:
         for *_, pcase, d in pts:
             if finished_run(pcase, d, cap) is not None and (d / "analysis.json").is_file():
-                print("\n".join(str((d / f).relative_to(runs)) for f in RECEIPT))
+                print("\n".join(str((d / f).relative_to(runs)) for f in RECEIPT
+                                if (d / f).is_file()))
         return 0
-    todo = [(pname, pcase.model_dump_json(), str(d), cap)
-            for _, _, pname, pcase, d in pts if finished_run(pcase, d, cap) is None]
+    ns = [n for n in ps.TRUNCATED_CYCLES if 2 <= n < ps.sweep_cycles(plan, args.sweep)]
+    todo = [(pname, pcase.model_dump_json(), str(d), cap, s, f, ns)
+            for s, f, pname, pcase, d in pts if finished_run(pcase, d, cap) is None]
     n = min(len(todo), args.workers or mp.cpu_count()) if todo else 0
     print(f"{args.sweep}: {len(pts)} points, {len(pts) - len(todo)} finished before, "
           f"{len(todo)} to run on {n} processes", file=sys.stderr, flush=True)

@@ -100,10 +100,14 @@ Shown, not scored (none is one of issue 13's criteria):
   re-analyses the finished runs of a sweep over their first N cycles
   (postprocess.shake.analyze_run(cycles=N): no simulation) and compares with the full cycles
   (:func:`cycles_verdict`, rule CYCLES_RULE): characteristic frequency, ds amplification inside
-  and outside, survival.  Both sides use the same runs: those whose raw run (frames.npz) is on
-  this machine; a finished point known only from its committed row (an earlier checkout, a
-  point_pool machine) is left out of both and named (``left_out_no_raw_run``), and the README
-  gives the runs compared out of the sweep's finished ones.  The analysis of the first N cycles matches that of an N-cycle run to
+  and outside, survival.  The analyses of the first N cycles for N in TRUNCATED_CYCLES are made
+  as the points finish, while their raw runs exist (:func:`record_truncated`; a point_pool
+  machine makes them beside its runs), and committed in ``<out>/<sweep>/truncated.json``, so
+  that the check does not depend on raw runs surviving between sessions.  Both sides use the
+  same runs: those with a kept analysis or a raw run (frames.npz) here; a finished point with
+  neither (seed 0 of Model II y, whose runs were lost with a machine before this existed) is
+  left out of both and named (``left_out_no_raw_run``), and the README gives the runs compared
+  out of the sweep's finished ones.  The analysis of the first N cycles matches that of an N-cycle run to
   2e-5 in ds (the jittered samples' resampling grid spans the record), a_lp to 3e-4, da to 2-3 %
   at 2-4 cycles (the drift-free integral's fit and running mean at the record's end) and raw a
   to ~5 % (the spikes' peaks move with the grid).  ``<out>/<sweep>/cycles-check-<N>.json``
@@ -171,6 +175,7 @@ ROW_QUANTITIES = ("ds", "dsr", "da", "a", "a_lp", "a_front", "a_front_lp", "da_f
 #: accelerometer-derived displacement, free of impact spikes and of the assumed cutoff)
 FRONT_BACK = {"da": ("da_front", "da"), "a_lp": ("a_front_lp", "a_lp")}
 CYCLES_REL_FLOOR = 0.1   # cycles check: medians agree within max(band width, 10 % of median)
+TRUNCATED_CYCLES = (10, 20, 25, 30)   # cycles analyses kept as the points finish
 LEFT_OUT = "left out"    # cycles check: a finished row whose raw run is not on this machine
 NO_RAW_RUN = "no raw run on this machine: left out of both sides of the cycles check"
 CYCLES_RULE = (
@@ -635,6 +640,7 @@ def run_sweep_point(out: Path, runs: Path, name: str, plan: dict, workers: int |
     # what this machine's run directories hold, merged, before anything runs
     data = update_points(dest, name, plan, case, case_file, fp,
                          collect_rows(sweep_dir, seeds, freqs), 0.0, 0.0, None, True)
+    record_truncated(out, runs, name, plan, fp, log)
     cpu_all, refused = 0.0, False
     for s in my_seeds:
         if dem_child.stopped() or (drain_file is not None and drain_file.exists()):
@@ -664,6 +670,7 @@ def run_sweep_point(out: Path, runs: Path, name: str, plan: dict, workers: int |
             break
         data = update_points(dest, name, plan, case, case_file, fp, fresh, cpu, wall, rc,
                              False)
+        record_truncated(out, runs, name, plan, fp, log)
         if rc != 0 and (dem_child.stopped() or
                         (drain_file is not None and drain_file.exists())):
             break
@@ -962,24 +969,29 @@ def has_raw_run(run_dir: Path) -> bool:
     return (Path(run_dir) / "frames.npz").is_file()
 
 
-def truncated_points(data: dict, sweep_dir: Path, cycles: float) -> tuple[dict, dict, list]:
+def truncated_points(data: dict, sweep_dir: Path, cycles: float,
+                     stored: dict | None = None) -> tuple[dict, dict, list]:
     """Both sides of a cycles check of the sweep ``data`` (its committed points.json), on the
-    finished rows whose raw runs are in ``sweep_dir`` (``seed-<k>/<point>/``,
-    :func:`has_raw_run`): (full, short, left_out).  ``short`` has each of those runs
-    re-analysed over its first ``cycles`` cycles; a finished row without its raw run is marked
-    LEFT_OUT on both sides (named in ``left_out`` as [seed, frequency]), so that the full and
-    the short answer come from the same runs; unfinished rows stay as they are."""
+    finished rows whose first ``cycles`` cycles were analysed when they finished (``stored``:
+    {(seed, frequency): row}, :func:`stored_truncated`) or can be now from their raw runs in
+    ``sweep_dir`` (``seed-<k>/<point>/``, :func:`has_raw_run`): (full, short, left_out).  A
+    finished row with neither is marked LEFT_OUT on both sides (named in ``left_out`` as
+    [seed, frequency]), so that the full and the short answer come from the same runs;
+    unfinished rows stay as they are."""
     from dem.run.sweep import point_name
 
+    stored = stored or {}
     full, short, left_out = [], [], []
     for r in data.get("rows") or []:
         d = Path(sweep_dir) / f"seed-{r['seed']}" / point_name(r["frequency_hz"])
+        k = _key(r["seed"], r["frequency_hz"])
         if r.get("run_status") != "ok":
             full.append(dict(r))
             short.append(dict(r))
-        elif has_raw_run(d):
+        elif k in stored or has_raw_run(d):
             full.append(r)
-            short.append(truncated_row(r["seed"], r["frequency_hz"], d, cycles))
+            short.append(stored[k] if k in stored else
+                         truncated_row(r["seed"], r["frequency_hz"], d, cycles))
         else:
             left_out.append([r["seed"], r["frequency_hz"]])
             gone = {"seed": r["seed"], "frequency_hz": r["frequency_hz"],
@@ -1034,6 +1046,75 @@ def cycles_verdict(full: dict, short: dict, freqs) -> dict:
     return out
 
 
+def truncated_path(out: Path, name: str) -> Path:
+    return Path(out) / name / "truncated.json"
+
+
+def stored_truncated(out: Path, name: str, fp: str, cycles: float) -> dict:
+    """{(seed, frequency): row} of the committed truncated.json for ``cycles`` cycles (none
+    when it was made for another fingerprint)."""
+    data = _read(truncated_path(out, name)) or {}
+    if data.get("fingerprint") != fp:
+        return {}
+    return {_key(r["seed"], r["frequency_hz"]): r
+            for r in (data.get("rows") or {}).get(f"{cycles:g}", [])}
+
+
+POOL_TRUNCATED = "truncated-rows.json"   # a point_pool run's analyses of its first N cycles
+
+
+def record_truncated(out: Path, runs: Path, name: str, plan: dict, fp: str,
+                     log=print) -> int:
+    """Analyse every finished point of the sweep's points.json over its first N cycles, for each
+    N of TRUNCATED_CYCLES below the sweep's cycles, while its raw run is here (or take the
+    analyses a point_pool machine made, ``<point>/truncated-rows.json``), and merge them into the
+    committed ``<out>/<sweep>/truncated.json`` (under the lock of points.json).  So the cycles
+    check (:func:`cycles_check`) does not depend on raw runs surviving from session to session
+    (a new checkout loses them; a pooled point never had them here).  ~0.6 s per analysis.
+    Returns the number of points added."""
+    from dem.output.atomic import write_json
+    from dem.run.sweep import point_name
+
+    ns = [n for n in TRUNCATED_CYCLES if 2 <= n < sweep_cycles(plan, name)]
+    data = _read(points_path(out, name))
+    if not ns or not data or (data.get("prediction") or {}).get("fingerprint") != fp:
+        return 0
+    have = stored_truncated(out, name, fp, ns[0])
+    new: dict[str, list] = {f"{n:g}": [] for n in ns}
+    for r in data.get("rows") or []:
+        k = _key(r["seed"], r["frequency_hz"])
+        if r.get("run_status") != "ok" or k in have:
+            continue
+        d = Path(runs) / name / f"seed-{r['seed']}" / point_name(r["frequency_hz"])
+        pooled = _read(d / POOL_TRUNCATED)
+        if pooled is not None and all(f"{n:g}" in pooled for n in ns):
+            for n in ns:
+                new[f"{n:g}"].append(pooled[f"{n:g}"])
+        elif has_raw_run(d):
+            for n in ns:
+                new[f"{n:g}"].append(truncated_row(r["seed"], r["frequency_hz"], d, n))
+    added = len(new[f"{ns[0]:g}"])
+    if not added:
+        return 0
+    dest = truncated_path(out, name)
+    with _locked(points_path(out, name)):
+        old = _read(dest) or {}
+        rows = (old.get("rows") or {}) if old.get("fingerprint") == fp else {}
+        for n, lst in new.items():
+            mine = {_key(x["seed"], x["frequency_hz"]): x for x in rows.get(n, [])}
+            mine.update({_key(x["seed"], x["frequency_hz"]): x for x in lst})
+            rows[n] = [mine[k] for k in sorted(mine)]
+        write_json(dest, {"kind": "prediction-truncated-rows", "sweep": name,
+                          "fingerprint": fp, "cycles": ns, "rows": rows,
+                          "what": "each finished point's analysis over its first N cycles "
+                                  "(postprocess.shake.analyze_run(cycles=N)), made while its "
+                                  "raw run existed: the input of the cycles checks"},
+                   indent=1)
+    log(f"    {name}: first {', '.join(f'{n:g}' for n in ns)} cycles of {added} finished "
+        f"point(s) analysed -> {_rel(dest)}")
+    return added
+
+
 def cycles_check(out: Path, runs: Path, name: str, cycles: float) -> dict:
     """Re-analyse the finished runs of a sweep over their first ``cycles`` cycles (no
     simulation), compare with the full cycles (:func:`cycles_verdict`) and write
@@ -1049,7 +1130,8 @@ def cycles_check(out: Path, runs: Path, name: str, cycles: float) -> dict:
     if not 2 <= cycles < full_cycles:
         raise PredictionInputError(f"--cycles-check {cycles:g}: must lie in [2, {full_cycles:g}) "
                                    f"(the sweep ran {full_cycles:g} cycles; cycle 1 is dropped)")
-    full, short, left_out = truncated_points(data, Path(runs) / name, cycles)
+    stored = stored_truncated(out, name, data["prediction"].get("fingerprint"), cycles)
+    full, short, left_out = truncated_points(data, Path(runs) / name, cycles, stored)
     full_sw, short_sw = analyse_sweep(name, full), analyse_sweep(name, short)
     res = {"kind": "prediction-cycles-check", "sweep": name, "cycles": cycles,
            "full_cycles": full_cycles, "sweep_finished": sweep_finished(data),

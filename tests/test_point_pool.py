@@ -44,6 +44,10 @@ def test_a_pooled_point_is_taken_by_the_study_without_a_rerun(tmp_path, monkeypa
     summ = json.loads((d / "summary.json").read_text())
     assert summ["status"] == "ok" and summ["step_limit"] == 50
     assert json.loads((d / "case.json").read_text())["imperfections"]["seed"] == 1
+    # the analyses of its first N cycles travel with it (50 steps: no shaking, failed rows)
+    trunc = json.loads((d / ps.POOL_TRUNCATED).read_text())
+    assert sorted(trunc) == sorted(f"{n}" for n in ps.TRUNCATED_CYCLES)
+    assert all(r["seed"] == 1 and r["frequency_hz"] == 2.8 for r in trunc.values())
     lines = []
     assert ps.run_sweep_point(out, out / "runs", "model-ii-y", plan, workers=1,
                               log=lines.append, only_seeds=[1]) == "pending"  # seed 0 not run
@@ -51,3 +55,5 @@ def test_a_pooled_point_is_taken_by_the_study_without_a_rerun(tmp_path, monkeypa
     assert json.loads((d / "summary.json").read_text()) == summ          # not run again
     rows = json.loads((out / "model-ii-y" / "points.json").read_text())["rows"]
     assert [(r["seed"], r["run_status"]) for r in rows] == [(0, "pending"), (1, "ok")]
+    kept = json.loads(ps.truncated_path(out, "model-ii-y").read_text())["rows"]
+    assert [(r["seed"], r["frequency_hz"]) for r in kept["20"]] == [(1, 2.8)]

@@ -665,6 +665,55 @@ def test_cycles_check_reanalyses_the_finished_runs_and_reports(tmp_path, monkeyp
         assert "--cycles-check" in capsys.readouterr().err
 
 
+def test_truncated_analyses_are_kept_as_points_finish_and_outlive_the_raw_runs(tmp_path,
+                                                                             monkeypatch):
+    """record_truncated analyses each finished point over its first N cycles while its raw run
+    is here (or takes a point_pool machine's analyses) and commits them; a later cycles check
+    uses them after the raw runs are gone, instead of leaving the points out."""
+    out, plan, freqs, fp, path = _planned(tmp_path, seeds=(0, 1))
+    rows = [_row(s, f, CURVE.get(f, 0.2)) for s in (0, 1) for f in freqs]
+    rows[-1] = {"seed": 1, "frequency_hz": freqs[-1], "run_status": "pending"}
+    data = _points(rows, seeds=(0, 1), freqs=freqs)
+    data["prediction"]["fingerprint"] = fp
+    (out / "model-ii-y").mkdir()
+    (out / "model-ii-y" / "points.json").write_text(json.dumps(data))
+    runs = out / "runs"
+    for r in rows[:-1]:
+        d = runs / "model-ii-y" / f"seed-{r['seed']}" / f"f{r['frequency_hz']:.3f}Hz"
+        d.mkdir(parents=True)
+        if r["seed"] == 0:
+            (d / "frames.npz").touch()      # seed 0: raw runs here
+        else:                                # seed 1: pooled, its analyses beside the receipt
+            (d / ps.POOL_TRUNCATED).write_text(json.dumps(
+                {f"{n}": _row(1, r["frequency_hz"], 0.5) for n in ps.TRUNCATED_CYCLES}))
+    seen = []
+
+    def fake_row(seed, f, run_dir, cycles):
+        seen.append((seed, f, cycles))
+        return _row(seed, f, 0.25)
+
+    monkeypatch.setattr(ps, "truncated_row", fake_row)
+    n_pts = len(freqs)
+    assert ps.record_truncated(out, runs, "model-ii-y", plan, fp, log=lambda s: None) == \
+        2 * n_pts - 1
+    assert len(seen) == n_pts * len(ps.TRUNCATED_CYCLES)      # seed 0 only, every N
+    assert ps.record_truncated(out, runs, "model-ii-y", plan, fp, log=lambda s: None) == 0
+    stored = ps.stored_truncated(out, "model-ii-y", fp, 20)
+    assert len(stored) == 2 * n_pts - 1
+    assert stored[(1, freqs[0])]["amplification"]["ds"] == 0.5
+    assert ps.stored_truncated(out, "model-ii-y", "another", 20) == {}
+    # the raw runs are lost (a new checkout): the check still compares every finished point
+    for f in runs.rglob("frames.npz"):
+        f.unlink()
+    seen.clear()
+    chk = ps.cycles_check(out, runs, "model-ii-y", 20)
+    assert not seen and chk["left_out_no_raw_run"] == [] and chk["n_runs"] == 2 * n_pts - 1
+    assert [r["amplification"]["ds"] for r in chk["rows"][:2]] == [0.25, 0.25]
+    # a cycles count that was not kept needs the raw runs: left out now
+    assert len(ps.cycles_check(out, runs, "model-ii-y", 15)["left_out_no_raw_run"]) == \
+        2 * n_pts - 1
+
+
 def test_a_cut_in_cycles_needs_model_ii_y_in_full_and_its_cycles_check(tmp_path, monkeypatch,
                                                                        capsys):
     """issue 13 step 3: fewer cycles only after Model II y ran in full and its cycles check says
