@@ -640,7 +640,7 @@ def run_sweep_point(out: Path, runs: Path, name: str, plan: dict, workers: int |
     # what this machine's run directories hold, merged, before anything runs
     data = update_points(dest, name, plan, case, case_file, fp,
                          collect_rows(sweep_dir, seeds, freqs), 0.0, 0.0, None, True)
-    record_truncated(out, runs, name, plan, fp, log)
+    record_truncated(out, runs, name, fp, log)
     cpu_all, refused = 0.0, False
     for s in my_seeds:
         if dem_child.stopped() or (drain_file is not None and drain_file.exists()):
@@ -670,7 +670,7 @@ def run_sweep_point(out: Path, runs: Path, name: str, plan: dict, workers: int |
             break
         data = update_points(dest, name, plan, case, case_file, fp, fresh, cpu, wall, rc,
                              False)
-        record_truncated(out, runs, name, plan, fp, log)
+        record_truncated(out, runs, name, fp, log)
         if rc != 0 and (dem_child.stopped() or
                         (drain_file is not None and drain_file.exists())):
             break
@@ -1063,8 +1063,7 @@ def stored_truncated(out: Path, name: str, fp: str, cycles: float) -> dict:
 POOL_TRUNCATED = "truncated-rows.json"   # a point_pool run's analyses of its first N cycles
 
 
-def record_truncated(out: Path, runs: Path, name: str, plan: dict, fp: str,
-                     log=print) -> int:
+def record_truncated(out: Path, runs: Path, name: str, fp: str, log=print) -> int:
     """Analyse every finished point of the sweep's points.json over its first N cycles, for each
     N of TRUNCATED_CYCLES below the sweep's cycles, while its raw run is here (or take the
     analyses a point_pool machine made, ``<point>/truncated-rows.json``), and merge them into the
@@ -1075,9 +1074,11 @@ def record_truncated(out: Path, runs: Path, name: str, plan: dict, fp: str,
     from dem.output.atomic import write_json
     from dem.run.sweep import point_name
 
-    ns = [n for n in TRUNCATED_CYCLES if 2 <= n < sweep_cycles(plan, name)]
     data = _read(points_path(out, name))
-    if not ns or not data or (data.get("prediction") or {}).get("fingerprint") != fp:
+    if not data or (data.get("prediction") or {}).get("fingerprint") != fp:
+        return 0
+    ns = [n for n in TRUNCATED_CYCLES if 2 <= n < data["prediction"]["cycles"]]
+    if not ns:
         return 0
     have = stored_truncated(out, name, fp, ns[0])
     new: dict[str, list] = {f"{n:g}": [] for n in ns}
@@ -1116,9 +1117,11 @@ def record_truncated(out: Path, runs: Path, name: str, plan: dict, fp: str,
 
 
 def cycles_check(out: Path, runs: Path, name: str, cycles: float) -> dict:
-    """Re-analyse the finished runs of a sweep over their first ``cycles`` cycles (no
-    simulation), compare with the full cycles (:func:`cycles_verdict`) and write
-    ``<out>/<sweep>/cycles-check-<N>.json`` (committed, like points.json); returns it.
+    """Compare the finished runs of a sweep over their first ``cycles`` cycles (the kept
+    analyses of truncated.json, after :func:`record_truncated` has added those of the raw runs
+    here; else analysed now from a raw run; no simulation) with the full cycles
+    (:func:`cycles_verdict`) and write ``<out>/<sweep>/cycles-check-<N>.json`` (committed, like
+    points.json); returns it.
     PredictionInputError without the sweep's points.json or with ``cycles`` not in
     [2, the sweep's cycles)."""
     from dem.output.atomic import write_json
@@ -1130,7 +1133,9 @@ def cycles_check(out: Path, runs: Path, name: str, cycles: float) -> dict:
     if not 2 <= cycles < full_cycles:
         raise PredictionInputError(f"--cycles-check {cycles:g}: must lie in [2, {full_cycles:g}) "
                                    f"(the sweep ran {full_cycles:g} cycles; cycle 1 is dropped)")
-    stored = stored_truncated(out, name, data["prediction"].get("fingerprint"), cycles)
+    fp = data["prediction"].get("fingerprint")
+    record_truncated(out, runs, name, fp, log=lambda m: print(m, file=sys.stderr))
+    stored = stored_truncated(out, name, fp, cycles)
     full, short, left_out = truncated_points(data, Path(runs) / name, cycles, stored)
     full_sw, short_sw = analyse_sweep(name, full), analyse_sweep(name, short)
     res = {"kind": "prediction-cycles-check", "sweep": name, "cycles": cycles,

@@ -644,7 +644,10 @@ def test_cycles_check_reanalyses_the_finished_runs_and_reports(tmp_path, monkeyp
     monkeypatch.setattr(ps, "truncated_row", fake_row)
     assert ps.main(["--frozen", str(path), "--out", str(out), "--only", "model-ii-y",
                     "--cycles-check", "10"]) == 0
-    assert len(seen) == 23 and seen[0] == (1, 1.8, "f1.800Hz", "seed-1", 10.0)
+    # every kept cycles count of the 23 points with raw runs, made once and committed
+    assert len(seen) == 23 * len(ps.TRUNCATED_CYCLES)
+    assert seen[0] == (1, 1.8, "f1.800Hz", "seed-1", 10.0)
+    assert ps.truncated_path(out, "model-ii-y").is_file()
     assert "model-ii-y: 10 cycles: unchanged" in capsys.readouterr().err
     chk = json.loads((out / "model-ii-y" / "cycles-check-10.json").read_text())
     assert chk["cycles"] == 10 and chk["full_cycles"] == 50 and chk["verdict"]["unchanged"]
@@ -694,10 +697,10 @@ def test_truncated_analyses_are_kept_as_points_finish_and_outlive_the_raw_runs(t
 
     monkeypatch.setattr(ps, "truncated_row", fake_row)
     n_pts = len(freqs)
-    assert ps.record_truncated(out, runs, "model-ii-y", plan, fp, log=lambda s: None) == \
+    assert ps.record_truncated(out, runs, "model-ii-y", fp, log=lambda s: None) == \
         2 * n_pts - 1
     assert len(seen) == n_pts * len(ps.TRUNCATED_CYCLES)      # seed 0 only, every N
-    assert ps.record_truncated(out, runs, "model-ii-y", plan, fp, log=lambda s: None) == 0
+    assert ps.record_truncated(out, runs, "model-ii-y", fp, log=lambda s: None) == 0
     stored = ps.stored_truncated(out, "model-ii-y", fp, 20)
     assert len(stored) == 2 * n_pts - 1
     assert stored[(1, freqs[0])]["amplification"]["ds"] == 0.5
