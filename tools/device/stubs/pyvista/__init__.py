@@ -1,4 +1,4 @@
-"""Device-only stand-in for pyvista (not installed on the device machine; never committed).
+"""Device-only stand-in for pyvista (not installed on the borrowed machine; never on the path here).
 Rendering raises, so dem.output.snapshot falls back to matplotlib; a grid keeps its cell data
 and saves an empty file (excited.vtu is not brought back from the device)."""
 
