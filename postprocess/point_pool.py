@@ -60,16 +60,11 @@ def point_cases(out: Path, runs: Path, name: str, plan: dict, points) -> list[tu
     from dem.case import load_case
     from dem.run.sweep import realisation_cases, sweep_cases
 
-    import yaml
-
     sweep = plan["sweeps"].get(name)
     if sweep is None:
         raise ps.PredictionInputError(f"--sweep {name}: not in {out}/plan.json")
-    case_file = Path(runs) / f"{name}.yaml"
-    case_file.parent.mkdir(parents=True, exist_ok=True)
-    case = ps.sweep_case(name, plan["frozen"]["parameters"])
-    case_file.write_text(yaml.safe_dump(case.model_dump(mode="json"), sort_keys=False))
-    loaded = load_case(case_file)
+    loaded = load_case(ps.write_run_case(runs, name,
+                                         ps.sweep_case(name, plan["frozen"]["parameters"])))
     cycles = ps.sweep_cycles(plan, name)
     res = []
     for s, f in points:
@@ -112,7 +107,7 @@ def main(argv=None) -> int:
     ap.add_argument("--points", required=True, metavar="S:F,S:F,...")
     ap.add_argument("--workers", type=int, default=None, help="processes (default: one per core)")
     ap.add_argument("--list", action="store_true",
-                    help="print the finished points' summary/case/analysis.json and exit")
+                    help="print the finished points' JSON files (RECEIPT) and exit")
     args = ap.parse_args(argv)
     from dem.commands.sweep import finished_run
 

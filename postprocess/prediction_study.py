@@ -608,6 +608,14 @@ def update_points(dest: Path, name: str, plan: dict, case, case_file: Path, fp: 
     return data
 
 
+def write_run_case(runs: Path, name: str, case) -> Path:
+    """``<runs>/<sweep>.yaml``: the sweep's case as dem sweep reads it (also point_pool's)."""
+    case_file = Path(runs) / f"{name}.yaml"
+    case_file.parent.mkdir(parents=True, exist_ok=True)
+    case_file.write_text(yaml.safe_dump(case.model_dump(mode="json"), sort_keys=False))
+    return case_file
+
+
 def run_sweep_point(out: Path, runs: Path, name: str, plan: dict, workers: int | None = None,
                     log=print, drain_file: Path | None = None, only_seeds=None,
                     only_freqs=None) -> str:
@@ -628,9 +636,7 @@ def run_sweep_point(out: Path, runs: Path, name: str, plan: dict, workers: int |
     if sweep_finished(_read(dest), fp):
         return "skipped"
     sweep_dir = Path(runs) / name
-    case_file = Path(runs) / f"{name}.yaml"
-    case_file.parent.mkdir(parents=True, exist_ok=True)
-    case_file.write_text(yaml.safe_dump(case.model_dump(mode="json"), sort_keys=False))
+    case_file = write_run_case(runs, name, case)
     my_seeds = [s for s in seeds if only_seeds is None or s in set(only_seeds)]
     my_freqs = [f for f in freqs if only_freqs is None or
                 any(abs(f - g) < 1e-9 for g in only_freqs)]

@@ -96,7 +96,6 @@ def test_serial_and_parallel_kernels_agree_to_round_off():
     """Both kernels sum contact forces per body in the same order (no atomics): through a
     landing impact they agree to round-off (the bounds and what was measured:
     engine_helpers.ROUND_OFF_*)."""
-
     blocks = stretcher_wall(4, 4)
     drop = {"size": BRICK, "position": [0.2, 0.0, 4 * 0.035 + 0.03], "rotation": [5, 10, 0],
             "mass": M_BRICK}  # lowest corner ~3 mm above the wall: it lands within the run
