@@ -8,8 +8,10 @@ A failed case never stops the others: its record carries ``status: "failed"`` an
 Draining: with ``drain`` (a check, e.g. :func:`drain_file_check`: "does OUT/DRAIN exist?") the
 cases are handed to the cluster no faster than it has threads, and once the check says yes no
 further case starts: the runs in flight finish and are kept, then :class:`Drained` names the cases
-that never started.  It ends a long study at a chosen moment without losing the runs in flight,
-which a signal (SIGTERM: stop now) does lose, as no run can resume from its middle.
+that never started.  It ends a long study at a chosen moment without losing the runs in flight.
+A signal (SIGTERM: stop now) loses what they did since their last checkpoint (at most
+dem.run.write.CHECKPOINT_SECONDS): the next batch into the same directories resumes them from it
+(dem.run.resume), or starts them over where they cannot resume.
 
 Each case writes its own output directory (summary.json, frames.npz, ...) under ``out_root``.
 """
@@ -67,10 +69,13 @@ def _run_one(name: str, case_json: str, out_dir: str, threads: int, max_steps: i
     case = Case.model_validate_json(case_json)
     rd = None
     try:
-        # the point's own directory: a lock against a second sweep writing into it, and the
-        # leftovers of an unfinished earlier attempt cleared (the sweep owns its point dirs)
-        rd = claim(out_dir, case.model_dump_json(indent=1), force=True, what="point")
-        res = run_case(case, out_dir, progress=False, max_steps=max_steps, analyses=analyses)
+        # the point's own directory: a lock against a second sweep writing into it; an
+        # unfinished earlier attempt goes on from its restart point (dem.run.resume), or its
+        # leftovers are cleared (the sweep owns its point dirs)
+        rd = claim(out_dir, case.model_dump_json(indent=1), force=True, what="point",
+                   resume=True)
+        res = run_case(case, out_dir, progress=False, max_steps=max_steps, analyses=analyses,
+                       resume=True)
         record = {"name": name, "status": "ok", "out_dir": out_dir, "summary": res.summary}
         if post is not None:
             record["post"] = post(case, res, out_dir)

@@ -116,9 +116,15 @@ def run(
     force: bool = typer.Option(False, "--force",
                                help="clear OUT if it holds a different run (or a sweep)"),
     max_blocks: int = typer.Option(None, "--max-blocks", help=MAX_BLOCKS_HELP),
+    resume: bool = typer.Option(
+        False, "--resume",
+        help="if OUT holds an unfinished run of the same case (killed, stopped) with a restart "
+             "point (restart.npz, written at each checkpoint), go on from it instead of "
+             "starting over"),
 ) -> None:
     """Run one case and write summary.json, frames.npz (and VTK) into OUT.  OUT must be new,
-    empty, or hold a run of the same case (replaced); another run is refused unless --force.
+    empty, or hold a run of the same case (replaced, or with --resume continued); another run
+    is refused unless --force.
     SIGTERM / SIGHUP stop the run like Ctrl-C.  A two-body case (``rocking:``) runs the two-body
     model, as ``dem rocking``.  Exit 0 ok, 1 failed or stopped, 2 bad input."""
     if _is_rocking_file(case):
@@ -127,7 +133,7 @@ def run(
     from dem.commands.run import run_case_file
 
     raise typer.Exit(run_case_file(case, out, progress=progress, force=force,
-                                   max_blocks=max_blocks))
+                                   max_blocks=max_blocks, resume=resume))
 
 
 def _rocking(case: Path, out: Path, plots: bool, force: bool) -> int:

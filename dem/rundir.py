@@ -12,7 +12,8 @@ anything is written.  It
 3. looks at what the directory holds:
    * nothing (or only a stale lock): used as it is;
    * a run of the same case (``case.json`` equal to the new one): the old run's files are removed
-     (a rerun; a stale ``analysis.json`` would otherwise survive);
+     (a rerun; a stale ``analysis.json`` would otherwise survive), unless ``resume`` and it left
+     a restart point (dem.run.resume): then they are kept for the run to go on from;
    * a different run, a sweep, or anything else: refused, unless ``force``, which removes the
      directory's contents - but only where it holds a dem run or sweep (``case.json``,
      ``summary.json``, ``sweep.json`` or ``run.lock``); a directory of other files is never
@@ -34,6 +35,7 @@ import shutil
 from pathlib import Path
 
 LOCK = "run.lock"
+RESTART_FILE = "restart.npz"  # dem.run.resume.RESTART_FILE (this module imports no engine)
 RUN_MARKERS = ("case.json", "summary.json", "sweep.json", LOCK)
 
 
@@ -69,6 +71,12 @@ def _lock(out: Path) -> int:
             os.write(fd, f"{os.getpid()}\n".encode())
             return fd
         os.close(fd)
+
+
+def clear(out: Path) -> None:
+    """Remove everything in a claimed run directory but its lock (a resume that could not go
+    on: dem.run.loop.run_case)."""
+    _clear(Path(out))
 
 
 def _clear(out: Path, keep: str = LOCK) -> None:
@@ -108,10 +116,13 @@ class RunDir:
 
 
 def claim(out: str | Path, case_json: str | None, force: bool = False,
-          what: str = "--out", rerun_marker: str | None = None) -> RunDir:
+          what: str = "--out", rerun_marker: str | None = None,
+          resume: bool = False) -> RunDir:
     """Claim ``out`` for a run of the case whose validated JSON is ``case_json`` (module
     docstring).  ``rerun_marker``: for runs without a case.json (the two-body model), a file
     whose presence (with no case.json) marks a run of the same kind, replaced like a rerun.
+    ``resume``: a run of the same case that left a restart point (dem.run.resume.RESTART_FILE)
+    is kept, not cleared, for dem.run.run_case(resume=True) to go on from (or clear).
     Raises RunDirError (exit code 2)."""
     out = Path(out)
     if out.exists() and not out.is_dir():
@@ -138,6 +149,8 @@ def claim(out: str | Path, case_json: str | None, force: bool = False,
                 and not old_case.exists():
             same = True
         is_run = any((out / m).exists() for m in RUN_MARKERS if m != LOCK)
+        if same and resume and (out / RESTART_FILE).is_file():
+            return rd
         if same or (force and is_run):
             _clear(out)
             return rd

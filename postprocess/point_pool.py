@@ -22,6 +22,10 @@ Taichi runtime end with it.  After a run, its analyses over the first N cycles
 study's cycles checks take them (the raw run stays on that machine).  ``--list`` prints the
 ``<runs>``-relative paths of the finished points' JSON files (to pack them).  Exit 0 every
 point ok, 1 one failed or was cut short.
+
+A point cut short (SIGTERM, e.g. the ``timeout`` of a device call: the workers are terminated
+with this process, none is left holding its directory) keeps its last restart point
+(dem.run.resume, every 30 s after settling); the same command on the same machine resumes it.
 """
 
 from __future__ import annotations
@@ -138,11 +142,24 @@ def main(argv=None) -> int:
     bad = 0
     t0 = time.perf_counter()
     if todo:
-        with mp.get_context("spawn").Pool(n, maxtasksperchild=1) as pool:
-            for r in pool.imap_unordered(_task, todo):
-                bad += r["status"] != "ok"
-                print(f"[{time.perf_counter() - t0:6.0f} s] {json.dumps(r)}", file=sys.stderr,
-                      flush=True)
+        from dem.signals import stop_on_signals
+
+        try:
+            # a stop signal (the `timeout` of a device call: SIGTERM) leaves the `with`, which
+            # terminates the workers: none is left running (and holding its directory) after
+            # this process; each keeps its last restart point, and the same command resumes it
+            with stop_on_signals(), mp.get_context("spawn").Pool(n, maxtasksperchild=1) as pool:
+                for r in pool.imap_unordered(_task, todo):
+                    bad += r["status"] != "ok"
+                    print(f"[{time.perf_counter() - t0:6.0f} s] {json.dumps(r)}",
+                          file=sys.stderr, flush=True)
+        except KeyboardInterrupt as err:
+            from dem.signals import signal_name
+
+            print(f"[{time.perf_counter() - t0:6.0f} s] stopped by {signal_name(err)}: the "
+                  f"points in flight keep their restart points (dem.run.resume); the same "
+                  f"command resumes them", file=sys.stderr, flush=True)
+            return 1
     return 1 if bad else 0
 
 

@@ -49,8 +49,10 @@ The protocol (issue 13: calibrate -> freeze -> predict, in this order in the git
   process tree) add up over sessions in points.json (a point_pool machine's are not in it:
   its record says what they were).
 * Ending a session: ``touch <runs>/DRAIN`` (``--drain-file``) lets the runs in flight finish,
-  starts no new one and writes the report (dem.batch, "Draining"); SIGTERM stops at once and
-  loses the runs in flight, as no run resumes from its middle.
+  starts no new one and writes the report (dem.batch, "Draining"); SIGTERM (or the end of a
+  session) stops at once, and the runs in flight keep their last restart point (every 30 s
+  after settling): the next call resumes them where their run directories are still there
+  (dem.run.resume).
 * points.json is the committed analysis record of a sweep: one row per (seed, frequency) with
   the numbers of the point's analysis.json (postprocess.shake via postprocess.sweep.compact):
   amplification of ds, dsr, da, a (unfiltered), a_lp (low-passed, below), a_front, a_front_lp,
@@ -1737,7 +1739,8 @@ def main(argv=None) -> int:
     ap.add_argument("--drain-file", type=Path, default=None,
                     help="once this file exists no new run starts, the runs in flight finish, "
                          "then the report is written (default <runs>/DRAIN); SIGTERM instead "
-                         "stops at once and loses the runs in flight")
+                         "stops at once: the runs in flight resume from their last restart "
+                         "point on the next call")
     args = ap.parse_args(argv)
     try:
         only_seeds = _subset(args.seeds, int, "--seeds")

@@ -1,7 +1,8 @@
 """Draining a long batch (dem.batch, "Draining"): once the drain check says stop, no new run
 starts, the runs in flight finish and are kept, and the caller learns which never started.  A
-signal stops at once and loses the runs in flight (no run resumes from its middle); draining is
-how a session ends a multi-hour study without throwing away up to one run per worker."""
+signal stops at once and loses what the runs in flight did since their last checkpoint (they
+resume from it: tests/test_resume.py); draining is how a session ends a multi-hour study without
+throwing away any of it."""
 
 from __future__ import annotations
 

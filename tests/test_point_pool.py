@@ -57,3 +57,40 @@ def test_a_pooled_point_is_taken_by_the_study_without_a_rerun(tmp_path, monkeypa
     assert [(r["seed"], r["run_status"]) for r in rows] == [(0, "pending"), (1, "ok")]
     kept = json.loads(ps.truncated_path(out, "model-ii-y").read_text())["rows"]
     assert [(r["seed"], r["frequency_hz"]) for r in kept["20"]] == [(1, 2.8)]
+
+
+def test_a_stopped_pool_leaves_no_worker_holding_a_point(tmp_path):
+    """SIGTERM to the pool (the device call's ``timeout``) ends its workers with it: the point's
+    directory is free again (a second call can resume it), not held by an orphaned worker."""
+    import fcntl
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    _, path = _repo(tmp_path)
+    out = tmp_path / "out"
+    plan = ps.make_plan(ps.load_frozen(path), ["model-ii-y"], 1, 50, 10 ** 6)  # a long run
+    plan["sweeps"]["model-ii-y"]["frequencies_hz"] = [2.8]
+    ps.write_plan(out, plan)
+    env = {**os.environ, "DEM_THREADS": "1", "PYTHONPATH": str(pp.ps.ROOT)}
+    proc = subprocess.Popen([sys.executable, "-m", "postprocess.point_pool", "--out", str(out),
+                             "--sweep", "model-ii-y", "--points", "0:2.8", "--workers", "1"],
+                            cwd=tmp_path, env=env, stderr=subprocess.PIPE, text=True)
+    lock = out / "runs" / "model-ii-y" / "seed-0" / "f2.800Hz" / "run.lock"
+    deadline = time.monotonic() + 240
+    while not lock.exists():                     # the worker has claimed the point
+        assert proc.poll() is None and time.monotonic() < deadline, proc.stderr.read()
+        time.sleep(0.2)
+    time.sleep(1.0)
+    proc.send_signal(signal.SIGTERM)
+    assert proc.wait(timeout=60) == 1
+    assert "stopped by SIGTERM" in proc.stderr.read()
+    time.sleep(1.0)
+    if lock.exists():                            # a lock file left behind must be stale
+        fd = os.open(lock, os.O_RDWR)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)   # raises if a worker still holds it
+        finally:
+            os.close(fd)

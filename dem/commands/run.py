@@ -53,7 +53,7 @@ def result_line(summary: dict, arrays: dict | None = None) -> str:
 
 
 def run_case_file(path: str | Path, out: str | Path, progress: bool = True, force: bool = False,
-                  max_blocks: int | None = None) -> int:
+                  max_blocks: int | None = None, resume: bool = False) -> int:
     """Body of ``dem run``: returns the exit code (0 ok, 1 run failed or stopped, 2 bad
     input; docs/failures.md).  SIGTERM and SIGHUP stop the run like Ctrl-C (dem.signals)."""
     import typer
@@ -62,14 +62,14 @@ def run_case_file(path: str | Path, out: str | Path, progress: bool = True, forc
 
     with stop_on_signals():
         try:
-            return _run_case_file(path, out, progress, force, max_blocks)
+            return _run_case_file(path, out, progress, force, max_blocks, resume)
         except KeyboardInterrupt as err:  # before the output directory was claimed
             typer.echo(f"interrupted by {signal_name(err)} before the run started; nothing "
                        f"written", err=True)
             return exit_code_for(err)
 
 
-def _run_case_file(path, out, progress, force, max_blocks) -> int:
+def _run_case_file(path, out, progress, force, max_blocks, resume=False) -> int:
     import typer
 
     from dem.engine import SimulationError
@@ -85,13 +85,14 @@ def _run_case_file(path, out, progress, force, max_blocks) -> int:
         return ExitCode.BAD_INPUT
     case = checked.case
     try:
-        rd = claim(out, case.model_dump_json(indent=1), force=force)
+        rd = claim(out, case.model_dump_json(indent=1), force=force, resume=resume)
     except RunDirError as e:
         err(f"error: {e}")
         return exit_code_for(e)
     out = Path(out)
     try:
-        res = run_case(case, out, progress=progress, scene=checked.scene, analyses=RUN_ANALYSES)
+        res = run_case(case, out, progress=progress, scene=checked.scene, analyses=RUN_ANALYSES,
+                       resume=resume)
     except ValueError as e:  # InputError: bad input the engine found before the first step
         rd.abandon()
         err(f"error: {path}: {e}")

@@ -12,6 +12,7 @@ rounding in t.
 
 from __future__ import annotations
 
+import json
 import os
 import time
 from typing import Callable
@@ -308,6 +309,53 @@ class Simulation:
         self.contacts.n_pairs = point["n_pairs"]
         for k, a in point["energy"].items():
             getattr(self.control, k)[...] = a
+
+    # what evolves on the host beside the containers' arrays: the clock, the time step and the
+    # area caps behind it, counters, the energy at t = 0 (saved by snapshot)
+    EVOLVING = ("step_count", "_t_anchor", "_step_anchor", "dt", "dt_crit", "n_rebuilds",
+                "_deepest_time", "energy_initial", "area_cap", "_face_area")
+
+    def snapshot(self) -> dict[str, np.ndarray]:
+        """Everything that evolves, as named arrays (an npz file's content): every array of
+        State, Contacts and Control, the pair count, :attr:`EVOLVING`, ``dt_changes`` and the
+        kernel in use.  :meth:`restore` on a Simulation built from the same scene and options
+        goes on bit for bit as this one would (tests/test_resume.py).  The Model is static,
+        rebuilt from the scene, never saved."""
+        out = {f"{name}.{k}": a.copy() for name, box in self._boxes()
+               for k, a in box.arrays().items()}
+        out["contacts.n_pairs"] = np.array(self.contacts.n_pairs)
+        out.update({f"sim.{k}": np.array(getattr(self, k)) for k in self.EVOLVING})
+        out["sim.dt_changes"] = np.array(json.dumps(self.dt_changes))
+        out["sim.mode"] = np.array(self.mode)
+        return out
+
+    def restore(self, snap) -> None:
+        """Put a :meth:`snapshot` back (the arrays in place: the cached launches hold them).
+        Raises ValueError, naming the entry, where it does not fit this simulation (another
+        kernel, precision, scene size or pair capacity); nothing is changed then."""
+        if str(snap["sim.mode"]) != self.mode:
+            raise ValueError(f"the snapshot was taken with the {snap['sim.mode']} kernel, this "
+                             f"simulation runs the {self.mode} one")
+        for name, box in self._boxes():
+            for k, a in box.arrays().items():
+                key = f"{name}.{k}"
+                if key not in snap:
+                    raise ValueError(f"the snapshot has no {key}")
+                b = snap[key]
+                if b.shape != a.shape or b.dtype != a.dtype:
+                    raise ValueError(f"{key}: {b.dtype} {b.shape} in the snapshot, {a.dtype} "
+                                     f"{a.shape} in this simulation")
+        for name, box in self._boxes():
+            for k, a in box.arrays().items():
+                a[...] = snap[f"{name}.{k}"]
+        self.contacts.n_pairs = int(snap["contacts.n_pairs"])
+        for k in self.EVOLVING:
+            v = np.asarray(snap[f"sim.{k}"])
+            setattr(self, k, v.copy() if v.ndim else v.item())
+        self.dt_changes = json.loads(str(snap["sim.dt_changes"]))
+
+    def _boxes(self) -> tuple:
+        return (("state", self.state), ("contacts", self.contacts), ("control", self.control))
 
     def deepest_penetration(self) -> tuple[float, float]:
         """(depth in m, time in s) of the deepest penetration of any contact point at any step

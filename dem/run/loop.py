@@ -14,6 +14,7 @@ itself never imports the analysis.  One that raises is recorded in summary.json
 
 from __future__ import annotations
 
+import json
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -25,6 +26,7 @@ from dem.case import Case
 from dem.loading import HeldTilt
 from dem.run.build import build, joint_summary
 from dem.run.progress import Progress
+from dem.run import resume as resume_mod
 from dem.run.quasi_static import QuasiStaticTilt
 from dem.run.record import FRAME_KEYS, Recording
 from dem.run.settle import settle
@@ -35,6 +37,27 @@ from dem.scene import Scene
 from dem.signals import raise_if_stopped
 
 Analysis = Callable[[Case, Scene, dict, dict], dict]
+
+
+def _restart_point(case: Case, out: Path, why_not: str | None, max_steps: int | None
+                   ) -> tuple[dict | None, str | None]:
+    """(restart.npz's arrays, None) if ``out`` holds a restart point this run can go on from,
+    else (None, why not: None where there was none) with the directory cleared of the earlier
+    attempt (dem.run.resume).  Called before anything of this run is written."""
+    from dem.rundir import clear
+
+    if not (out / resume_mod.RESTART_FILE).exists():
+        return None, None  # the claim cleared any earlier attempt
+    if why_not is not None:
+        arrays, reason = None, f"this run cannot resume: {why_not}"
+    else:
+        arrays, reason = resume_mod.load_restart(out, case)
+        if arrays is not None and json.loads(str(arrays["summary"])).get("step_limit") != \
+                max_steps:
+            arrays, reason = None, "the step limit (--max-steps) differs from the checkpoint's"
+    if arrays is None:
+        clear(out)
+    return arrays, reason
 
 
 @dataclass
@@ -51,8 +74,13 @@ class RunResult:
 
 def run_case(case: Case, out_dir: str | Path | None = None, progress: bool = False,
              max_steps: int | None = None, scene: Scene | None = None,
-             analyses: Sequence[Analysis] = ()) -> RunResult:
+             analyses: Sequence[Analysis] = (), resume: bool = False) -> RunResult:
     """Run a validated case.  Writes the output directory (dem.run.write) if ``out_dir`` given.
+
+    ``resume``: ``out_dir`` may hold an unfinished run of this case with a restart point
+    (dem.run.resume); go on from it, else clear the directory and start over (summary.json
+    ``resume.refused`` says why).  The caller holds the directory (dem.rundir.claim with
+    ``resume=True``, which kept those files).
 
     Raises dem.engine.InputError (bad scene/settings) before anything is written,
     SimulationError when the run fails, KeyboardInterrupt (dem.signals.Interrupted for SIGTERM /
@@ -67,18 +95,45 @@ def run_case(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
     built = build(case, scene)                                        # build
     scene, loading, sim = built.scene, built.loading, built.sim
     raise_if_stopped()  # a stop signal Taichi swallowed while starting: nothing written yet
+    stop = StopRule(case, scene, loading, max_steps)                  # stop
+    why_not = resume_mod.unresumable_reason(case, loading, stop) if out is not None else \
+        "no output directory"
+    restart, refused = None, None
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
+        if resume:                                                    # resume
+            restart, refused = _restart_point(case, out, why_not, max_steps)
         write_case(out, case)
-    summary = initial_summary(case, scene, loading, sim)
-    summary["step_limit"] = max_steps  # a smoke run capped by --max-steps is not a finished run
-    summary["joints"] = joint_summary(case, scene, sim.joints)
-    if case.imperfections.any():
-        summary["imperfections"] = imperfection_record(out, case, scene)
     recording = Recording(case, scene, loading, sim, out)             # record
-    stop = StopRule(case, scene, loading, max_steps)                  # stop
     recording.listeners.append(stop.listen)
     writer = RunWriter(out, case, scene, recording)                   # write
+    summary = None
+    if restart is not None:
+        summary, refused = resume_mod.apply_restart(restart, sim, recording)
+        restart = None
+        if summary is None:  # nothing was changed: start over in a cleared directory
+            from dem.rundir import clear
+
+            clear(out)
+            write_case(out, case)
+    fresh = summary is None  # else: settled and recording already, go on from the restart
+    if fresh:
+        summary = initial_summary(case, scene, loading, sim)
+        summary["step_limit"] = max_steps  # a smoke run capped by --max-steps is not finished
+        summary["joints"] = joint_summary(case, scene, sim.joints)
+        if case.imperfections.any():
+            summary["imperfections"] = imperfection_record(out, case, scene)
+        summary["machine"] = resume_mod.machine()  # the CPU (results differ in the last bits)
+        summary["resume"] = {"restart_points": why_not is None, "why_not": why_not,
+                             "refused": refused}
+    else:
+        wall0 -= summary["wall_seconds"]  # wall and compile seconds count every process
+        summary["compile_seconds"] += sim.compile_seconds
+        summary.setdefault("resumed", []).append({
+            "step": sim.step_count, "sim_time": sim.t,
+            "wall_seconds_before": summary["wall_seconds"], "machine": resume_mod.machine()})
+    if why_not is None:
+        writer.restart = lambda: resume_mod.restart_arrays(case, sim, recording, summary)
 
     def finish(status: str, error: str | None = None) -> None:
         summary["status"], summary["error"] = status, error
@@ -100,10 +155,10 @@ def run_case(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
     def progressed(*_) -> None:
         raise_if_stopped()  # one swallowed by Taichi's compiler (dem.signals)
         bar.update(sim.t, sim.step_count / max(time.perf_counter() - run0, 1e-9))
-        writer.checkpoint(summary, sim)
+        writer.checkpoint(summary, sim, time.perf_counter() - wall0)
 
     try:
-        if case.imperfections.any():                                  # settle
+        if fresh and case.imperfections.any():                        # settle
             from dem.run.settle import MAX_TIME
 
             settling_bar = Progress(progress, MAX_TIME, f"{case.name} settling")
@@ -114,7 +169,8 @@ def run_case(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
                         sim.t, sim.step_count / max(time.perf_counter() - run0, 1e-9))))
             finally:
                 settling_bar.close()
-        recording.start()
+        if fresh:
+            recording.start()
         if isinstance(loading, HeldTilt):                             # load: quasi-static
             search = QuasiStaticTilt(case, scene, loading, sim, recording, progressed,
                                      max_steps)

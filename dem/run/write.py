@@ -29,6 +29,7 @@ from __future__ import annotations
 import contextlib
 import time
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
@@ -36,6 +37,7 @@ from dem.case import Case
 from dem.engine import RESULTS_REVISION
 from dem.output import atomic
 from dem.run.record import Recording
+from dem.run.resume import remove_restart, write_restart
 from dem.scene import Scene
 
 CHECKPOINT_SECONDS = 30.0
@@ -137,6 +139,8 @@ class RunWriter:
         self.recording = recording
         self.write_errors: dict[str, str] = {}
         self.last_flush = time.perf_counter()
+        # () -> restart.npz's arrays, for a run that can resume (set by dem.run.loop.run_case)
+        self.restart: Callable[[], dict] | None = None
 
     def guarded(self, name: str, fn, *args) -> bool:
         """Run one write; an OSError is recorded (the file is not there, or is the previous
@@ -149,13 +153,18 @@ class RunWriter:
                 if err.errno else str(err)
             return False
 
-    def checkpoint(self, summary: dict, sim) -> None:
-        """frames.npz and summary.json every CHECKPOINT_SECONDS of wall-clock time."""
+    def checkpoint(self, summary: dict, sim, wall_seconds: float) -> None:
+        """frames.npz, restart.npz (a run that can resume: ``restart`` set, dem.run.resume) and
+        summary.json, in that order, every CHECKPOINT_SECONDS of wall-clock time; called between
+        frames only."""
         now = time.perf_counter()
         if self.out is None or now - self.last_flush <= CHECKPOINT_SECONDS:
             return
         summary["steps"], summary["sim_time"] = sim.step_count, sim.t
+        summary["wall_seconds"] = wall_seconds
         self.recording.frames.write()
+        if self.restart is not None:
+            write_restart(self.out, self.restart())
         atomic.write_json(self.out / "summary.json", summary)
         self.last_flush = now
 
@@ -196,6 +205,8 @@ class RunWriter:
             small["write_errors"] = errors
             small["status"] = "failed"
             self.guarded("summary.json (minimal)", atomic.write_json, out / "summary.json", small)
+        if summary["status"] != "interrupted":
+            remove_restart(out)  # finished or failed: nothing to go on from
         if errors:
             first = next(iter(errors))
             raise OutputError(
