@@ -490,6 +490,11 @@ def row_from_point(seed: int, p: dict) -> dict:
            ("failed" if run_ok else None),
            "amplitude_m": p.get("amplitude_m"), "steps": p.get("steps"),
            "sim_time_s": p.get("sim_time"), "wall_seconds": p.get("wall_seconds")}
+    # the CPU (dem.run.resume.machine; rows before 2026-11-26 14:00 UTC have none) and those
+    # a resumed run went on with: results differ in the last bits from one CPU to another
+    for k in ("machine", "resumed_on"):
+        if p.get(k):
+            row[k] = p[k]
     if err:
         row["error"] = err[:300]
     if p.get("status") == "ok":

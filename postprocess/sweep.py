@@ -93,9 +93,11 @@ def point_record(f: float, case, rec: dict, out_root: Path) -> dict:
     if rec.get("status") == "failed":
         p["error"] = rec.get("error")
     summ = rec.get("summary") or {}
-    for k in ("sim_time", "steps", "wall_seconds"):
+    for k in ("sim_time", "steps", "wall_seconds", "machine"):
         if k in summ:
             p[k] = summ[k]
+    if summ.get("resumed"):  # the machines of the later processes of a resumed run
+        p["resumed_on"] = [r.get("machine") for r in summ["resumed"]]
     post = rec.get("post")
     if post is not None:
         # the analysis' own error must not replace the marked one below (or the run's)

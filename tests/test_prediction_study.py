@@ -540,6 +540,25 @@ def test_row_from_point_keeps_the_low_passed_and_front_accelerations():
     assert row["a_lowpass"] == {"raw": 6.3, "10": 2.6, "20": 3.1, "50": 4.6}
 
 
+def test_a_row_names_the_machines_its_run_ran_on():
+    """summary.json's machine and the machines of its resumptions (dem.run.resume) reach the
+    committed row through the sweep's point record."""
+    from types import SimpleNamespace
+
+    from postprocess.sweep import point_record
+
+    case = SimpleNamespace(loading=SimpleNamespace(displacement_amplitude=0.005, cycles=50),
+                           run=SimpleNamespace(duration=18.9))
+    summ = {"steps": 10, "sim_time": 1.0, "wall_seconds": 2.0, "machine": "CPU A",
+            "resumed": [{"step": 5, "machine": "CPU B"}]}
+    p = point_record(2.8, case, {"status": "ok", "summary": summ}, None)
+    row = ps.row_from_point(3, p)
+    assert row["machine"] == "CPU A" and row["resumed_on"] == ["CPU B"]
+    del summ["resumed"], summ["machine"]
+    row = ps.row_from_point(3, point_record(2.8, case, {"status": "ok", "summary": summ}, None))
+    assert "machine" not in row and "resumed_on" not in row
+
+
 def test_front_back_ratio_and_acceleration_cutoffs_are_reported_not_scored():
     rows = [_row_fb(s, f, CURVE[f] * (1 + 0.02 * s), front=0.3 + 0.05 * s) for s in range(5)
             for f in FREQS]
