@@ -201,3 +201,23 @@ def test_a_sweep_point_resumes_in_the_batch(tmp_path, monkeypatch):
     assert rec["status"] == "ok", rec
     assert len(rec["summary"]["resumed"]) == 1
     _assert_same_run(whole, cut)
+
+
+def test_dem_sweep_resumes_a_stopped_point_and_says_so(tmp_path, monkeypatch):
+    from dem.run.sweep import point_name, sweep_cases
+
+    path = tmp_path / "stack.yaml"
+    path.write_text(yaml.safe_dump(STACK))
+    out = tmp_path / "sweep"
+    ((name, case),) = sweep_cases(load_case(path), [5.0], 1, 0.05)
+    assert name == point_name(5.0)
+    with monkeypatch.context() as m:
+        _stop_after_checkpoints(m, 3)
+        with pytest.raises(KeyboardInterrupt):
+            run_case(case, out / name)
+    r = CliRunner().invoke(app, ["sweep", str(path), "--out", str(out), "--frequencies", "5",
+                                 "--cycles", "1", "--margin", "0.05", "--workers", "1"])
+    assert r.exit_code == 0, r.output
+    assert "5 Hz: ok" in r.output and "resumed at t = " in r.output
+    summ = json.loads((out / name / "summary.json").read_text())
+    assert summ["status"] == "ok" and len(summ["resumed"]) == 1

@@ -153,7 +153,9 @@ def run_sweep(case_path, out, frequencies: str | None = None, rng: str | None = 
             A = (p.get("amplification") or {}).get(MAIN_QUANTITY)
             a_txt = f"amplification {MAIN_QUANTITY} = {A:.3g}" if finite(A) else \
                 f"no amplification ({p.get('note') or 'no steady state'})"
-            say(f"{head}: ok, {a_txt} ({p.get('wall_seconds', 0):.1f} s wall)")
+            resumed = ((rec.get("summary") or {}).get("resumed") or [{}])[0].get("sim_time")
+            went_on = f", resumed at t = {resumed:.2f} s" if resumed is not None else ""
+            say(f"{head}: ok, {a_txt} ({p.get('wall_seconds', 0):.1f} s wall{went_on})")
         write_sweep(out, meta, list(points.values()), plots=False)
 
     where = f"scheduler {scheduler}" if scheduler else \
