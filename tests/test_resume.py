@@ -221,3 +221,21 @@ def test_dem_sweep_resumes_a_stopped_point_and_says_so(tmp_path, monkeypatch):
     assert "5 Hz: ok" in r.output and "resumed at t = " in r.output
     summ = json.loads((out / name / "summary.json").read_text())
     assert summ["status"] == "ok" and len(summ["resumed"]) == 1
+
+
+def test_a_run_stopped_twice_resumes_twice(tmp_path, monkeypatch):
+    case = _case(STACK)
+    whole = tmp_path / "whole"
+    run_case(case, whole)
+    cut = tmp_path / "cut"
+    for resume in (False, True):
+        with monkeypatch.context() as m:
+            _stop_after_checkpoints(m, 2)
+            with pytest.raises(KeyboardInterrupt):
+                run_case(case, cut, resume=resume)
+    res = run_case(case, cut, resume=True)
+    first, second = res.summary["resumed"]
+    assert first["step"] < second["step"] < res.summary["steps"]
+    assert first["wall_seconds_before"] < second["wall_seconds_before"] < \
+        res.summary["wall_seconds"]
+    _assert_same_run(whole, cut)
