@@ -97,8 +97,8 @@ def test_disk_full_at_the_final_frames(tmp_path, monkeypatch):
     import dem.output.atomic
 
     real = dem.output.atomic.save_npz
-    monkeypatch.setattr(dem.output.atomic, "save_npz", lambda path, arrays: _enospc()
-                        if Path(path).name == "frames.npz" else real(path, arrays))
+    monkeypatch.setattr(dem.output.atomic, "save_npz", lambda path, arrays, **kw: _enospc()
+                        if Path(path).name == "frames.npz" else real(path, arrays, **kw))
     out = tmp_path / "out"
     code, text = invoke("run", case_file(tmp_path), "--out", out, "--no-progress")
     assert code == 1, text

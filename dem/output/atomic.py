@@ -9,7 +9,7 @@ an interrupt) removes its temporary file and leaves the old file (or none) in pl
         write_somehow(tmp)
     write_text(path, text)                # str
     write_json(path, data)                # dict -> indented JSON (numpy scalars / arrays ok)
-    save_npz(path, arrays)                # np.savez_compressed
+    save_npz(path, arrays)                # np.savez_compressed (compressed=False: np.savez)
 
 Temporary names start with ``.`` and end with ``.tmp`` + the target's suffix (writers such as
 ``np.savez`` and ``savefig`` pick the format from the suffix), so a stray one is easy to spot
@@ -107,11 +107,12 @@ def write_json(path: str | Path, data, indent: int = 2, strict: bool = False) ->
     write_text(path, json.dumps(data, indent=indent, default=json_default) + "\n")
 
 
-def save_npz(path: str | Path, arrays: dict) -> None:
-    """np.savez_compressed through :func:`atomic_path`."""
+def save_npz(path: str | Path, arrays: dict, compressed: bool = True) -> None:
+    """np.savez_compressed (``compressed``, the default) or np.savez through
+    :func:`atomic_path`."""
     with atomic_path(path) as tmp:
         with open(tmp, "wb") as fh:
-            np.savez_compressed(fh, **arrays)
+            (np.savez_compressed if compressed else np.savez)(fh, **arrays)
 
 
 def savefig(fig, path: str | Path, **kwargs) -> None:

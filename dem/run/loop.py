@@ -196,7 +196,7 @@ def run_case(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
         raise
     except OSError as err:  # a checkpoint or a VTK frame could not be written
         bar.close()
-        writer.write_errors["checkpoint (frames.npz, summary.json or a VTK frame)"] = \
+        writer.write_errors["checkpoint (frames.npz, restart.npz, summary.json or a VTK frame)"] = \
             f"{err.strerror or err} (errno {err.errno})"
         finish("failed", None)
         raise OutputError(err.errno, str(err)) from None  # finish raises first if it can

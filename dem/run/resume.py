@@ -39,7 +39,7 @@ import numpy as np
 
 from dem.engine import RESULTS_REVISION
 from dem.loading import HeldTilt
-from dem.output.atomic import atomic_path
+from dem.output.atomic import save_npz
 from dem.rundir import RESTART_FILE  # the file's name is kept where claim() needs it
 
 FORMAT = 1
@@ -88,9 +88,7 @@ def restart_arrays(case, sim, recording, summary: dict) -> dict[str, np.ndarray]
 
 def write_restart(out: Path, arrays: dict[str, np.ndarray]) -> None:
     """OUT/restart.npz, atomically, uncompressed (it is rewritten at every checkpoint)."""
-    with atomic_path(Path(out) / RESTART_FILE) as tmp:
-        with open(tmp, "wb") as fh:
-            np.savez(fh, **arrays)
+    save_npz(Path(out) / RESTART_FILE, arrays, compressed=False)
 
 
 def remove_restart(out: Path | None) -> None:
