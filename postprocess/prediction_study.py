@@ -47,7 +47,9 @@ The protocol (issue 13: calibrate -> freeze -> predict, in this order in the git
   process pool without dask (a borrowed many-core machine), into the same run directories,
   from which the next call here merges them.  The child's CPU seconds (user + system of its
   process tree) add up over sessions in points.json (a point_pool machine's are not in it:
-  its record says what they were).
+  its record says what they were).  A call works seed by seed, so with ``--workers 2`` the
+  last run of a seed runs alone; two calls side by side, each ``--workers 1`` on its own
+  ``--seeds``, keep both cores busy (as on 2026-11-26).
 * Ending a session: ``touch <runs>/DRAIN`` (``--drain-file``) lets the runs in flight finish,
   starts no new one and writes the report (dem.batch, "Draining"); SIGTERM (or the end of a
   session) stops at once, and the runs in flight keep their last restart point (every 30 s
