@@ -31,6 +31,7 @@ from dem.run.quasi_static import QuasiStaticTilt
 from dem.run.record import FRAME_KEYS, Recording
 from dem.run.settle import settle
 from dem.run.stop import StopRule
+from dem.rundir import clear
 from dem.run.write import (OutputError, RunWriter, engine_results, imperfection_record,
                            initial_summary, write_case)
 from dem.scene import Scene
@@ -44,8 +45,6 @@ def _restart_point(case: Case, out: Path, why_not: str | None, max_steps: int | 
     """(restart.npz's arrays, None) if ``out`` holds a restart point this run can go on from,
     else (None, why not: None where there was none) with the directory cleared of the earlier
     attempt (dem.run.resume).  Called before anything of this run is written."""
-    from dem.rundir import clear
-
     if not (out / resume_mod.RESTART_FILE).exists():
         return None, None  # the claim cleared any earlier attempt
     if why_not is not None:
@@ -112,8 +111,6 @@ def run_case(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
         summary, refused = resume_mod.apply_restart(restart, sim, recording)
         restart = None
         if summary is None:  # nothing was changed: start over in a cleared directory
-            from dem.rundir import clear
-
             clear(out)
             write_case(out, case)
     fresh = summary is None  # else: settled and recording already, go on from the restart
