@@ -16,8 +16,8 @@ study's runs directory, is taken by the next ``prediction_study`` call as finish
 merged into points.json; nothing of points.json is written here.  A point already finished in
 its directory is skipped.
 
-Each task runs in a fresh process (``maxtasksperchild=1``, spawn), so a point's memory and
-Taichi runtime end with it.  After a run, its analyses over the first N cycles
+Each point runs in a fresh process (spawn; :func:`each_in_own_process`), so a point's memory
+and Taichi runtime end with it.  After a run, its analyses over the first N cycles
 (prediction_study.TRUNCATED_CYCLES) go to ``truncated-rows.json`` beside it, from which the
 study's cycles checks take them (the raw run stays on that machine).  ``--list`` prints the
 ``<runs>``-relative paths of the finished points' JSON files (to pack them).  Exit 0 every
@@ -83,6 +83,73 @@ def point_cases(out: Path, runs: Path, name: str, plan: dict, points) -> list[tu
     return res
 
 
+def _child(task, item, conn) -> None:
+    """Body of one point's process: ``task(item)`` sent back through ``conn`` as ("ok", result)
+    or ("error", traceback)."""
+    import traceback
+
+    try:
+        msg = ("ok", task(item))
+    except BaseException:                           # noqa: BLE001 - reported to the parent
+        msg = ("error", traceback.format_exc(limit=8))
+    conn.send(msg)
+    conn.close()
+
+
+def each_in_own_process(task, items, n: int, on_result, failed, grace_s: float = 30.0) -> None:
+    """``task(item)`` for every item, each in a fresh spawned process, at most ``n`` at once,
+    in order; ``on_result(result)`` in this process as each ends (``failed(item, message)``
+    stands in for the result of one that raised or died).
+
+    On a KeyboardInterrupt here (Ctrl-C, or SIGTERM inside dem.signals.stop_on_signals) the
+    processes in flight get SIGTERM (each point's run stops cleanly and keeps its restart
+    point), are waited for up to ``grace_s`` seconds, then killed, and the interrupt goes on
+    up.  Not multiprocessing.Pool: its terminate() waits for ever for the task queue's lock,
+    which an idle worker holds while it waits for work (CPython pool._help_stuff_finish); a
+    pool has idle workers as soon as some points have finished and fewer remain than workers,
+    and so a stopped device call hung until it was killed, before it could pack the points it
+    had finished."""
+    from multiprocessing.connection import wait
+
+    ctx = mp.get_context("spawn")
+    queue = list(items)
+    running = {}                                    # reader connection -> (process, item)
+    try:
+        while queue or running:
+            while queue and len(running) < n:
+                item = queue.pop(0)
+                reader, writer = ctx.Pipe(duplex=False)
+                proc = ctx.Process(target=_child, args=(task, item, writer), daemon=False)
+                proc.start()
+                writer.close()                      # the child holds the only writer now
+                running[reader] = (proc, item)
+            for reader in wait(list(running)):
+                proc, item = running.pop(reader)
+                try:
+                    kind, value = reader.recv()
+                except EOFError:                    # died without a word (killed, crashed)
+                    kind, value = "error", "the point's process ended without a result"
+                reader.close()
+                proc.join()
+                if kind == "ok":
+                    on_result(value)
+                else:
+                    if proc.exitcode:
+                        value += f" (exit code {proc.exitcode})"
+                    on_result(failed(item, value))
+    except BaseException:
+        procs = [p for p, _ in running.values()]
+        for p in procs:
+            p.terminate()
+        deadline = time.monotonic() + grace_s
+        for p in procs:
+            p.join(max(0.0, deadline - time.monotonic()))
+            if p.is_alive():
+                p.kill()
+                p.join()
+        raise
+
+
 def _task(args) -> dict:
     """One point in its own process (dem.batch._run_one with the sweep's analysis), then the
     analyses of its first N cycles for each N of ``ns`` (prediction_study.record_truncated
@@ -127,13 +194,14 @@ def main(argv=None) -> int:
         print(f"error: {err}", file=sys.stderr)
         return 2
     cap = plan["max_steps"]          # the plan's step cap (smoke plans), as the study runs it
-    if args.list:
+    ns = [n for n in ps.TRUNCATED_CYCLES if 2 <= n < ps.sweep_cycles(plan, args.sweep)]
+    if args.list:                    # only points whose receipt is complete (_task's last write)
         for *_, pcase, d in pts:
-            if finished_run(pcase, d, cap) is not None and (d / "analysis.json").is_file():
+            if (finished_run(pcase, d, cap) is not None and (d / "analysis.json").is_file()
+                    and (not ns or (d / ps.POOL_TRUNCATED).is_file())):
                 print("\n".join(str((d / f).relative_to(runs)) for f in RECEIPT
                                 if (d / f).is_file()))
         return 0
-    ns = [n for n in ps.TRUNCATED_CYCLES if 2 <= n < ps.sweep_cycles(plan, args.sweep)]
     todo = [(pname, pcase.model_dump_json(), str(d), cap, s, f, ns)
             for s, f, pname, pcase, d in pts if finished_run(pcase, d, cap) is None]
     n = min(len(todo), args.workers or mp.cpu_count()) if todo else 0
@@ -144,15 +212,20 @@ def main(argv=None) -> int:
     if todo:
         from dem.signals import stop_on_signals
 
+        def report(r):
+            nonlocal bad
+            bad += r["status"] != "ok"
+            print(f"[{time.perf_counter() - t0:6.0f} s] {json.dumps(r)}", file=sys.stderr,
+                  flush=True)
+
         try:
-            # a stop signal (the `timeout` of a device call: SIGTERM) leaves the `with`, which
-            # terminates the workers: none is left running (and holding its directory) after
-            # this process; each keeps its last restart point, and the same command resumes it
-            with stop_on_signals(), mp.get_context("spawn").Pool(n, maxtasksperchild=1) as pool:
-                for r in pool.imap_unordered(_task, todo):
-                    bad += r["status"] != "ok"
-                    print(f"[{time.perf_counter() - t0:6.0f} s] {json.dumps(r)}",
-                          file=sys.stderr, flush=True)
+            # a stop signal (the `timeout` of a device call: SIGTERM) terminates the points in
+            # flight: none is left running (and holding its directory) after this process; each
+            # keeps its last restart point, and the same command resumes it
+            with stop_on_signals():
+                each_in_own_process(_task, todo, n, report,
+                                    failed=lambda item, err: {"out_dir": item[2],
+                                                              "status": "error", "error": err})
         except KeyboardInterrupt as err:
             from dem.signals import signal_name
 

@@ -5,6 +5,7 @@ finished (dem.commands.sweep.finished_point) and merges them into points.json wi
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import pytest
 
@@ -94,3 +95,71 @@ def test_a_stopped_pool_leaves_no_worker_holding_a_point(tmp_path):
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)   # raises if a worker still holds it
         finally:
             os.close(fd)
+
+
+def _sleep_task(item) -> float:
+    """A stand-in point for each_in_own_process (module level: a spawned child imports it):
+    sleeps ``item`` seconds, or ``item[0]`` seconds after writing its pid to ``item[1]``."""
+    import os
+    import time
+
+    seconds = item
+    if isinstance(item, tuple):
+        seconds, pidfile = item
+        Path(pidfile).write_text(str(os.getpid()))
+    if seconds < 0:
+        raise ValueError("a failing point")
+    time.sleep(seconds)
+    return seconds
+
+
+def test_each_point_runs_in_its_own_process_and_failures_are_reported():
+    got = []
+    pp.each_in_own_process(_sleep_task, [0.1, -1.0, 0.2], 2, got.append,
+                           failed=lambda item, err: ("failed", item, err))
+    assert sorted(r for r in got if not isinstance(r, tuple)) == [0.1, 0.2]
+    (bad,) = [r for r in got if isinstance(r, tuple)]
+    assert bad[:2] == ("failed", -1.0) and "ValueError: a failing point" in bad[2]
+
+
+def test_a_pool_stopped_after_some_points_finished_ends_at_once(tmp_path):
+    """The device call that lost nine finished points (2026-11-26): multiprocessing.Pool's
+    terminate() hung for ever once a worker was idle, i.e. once points had finished and fewer
+    were left than workers.  Here two quick points finish, SIGTERM comes while a long one runs:
+    the call must end within seconds, the long point's process with it."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    pidfile = tmp_path / "long.pid"
+    script = (
+        "import sys, time\n"
+        "from dem.signals import stop_on_signals\n"
+        "from postprocess.point_pool import each_in_own_process\n"
+        "from tests.test_point_pool import _sleep_task\n"
+        "def show(r): print('done', r, flush=True)\n"
+        "try:\n"
+        "    with stop_on_signals():\n"
+        f"        each_in_own_process(_sleep_task, [0.1, 0.1, (120.0, {str(pidfile)!r})], 3,\n"
+        "                            show, lambda i, e: e)\n"
+        "except KeyboardInterrupt:\n"
+        "    print('stopped', flush=True)\n")
+    env = {**os.environ, "PYTHONPATH": str(pp.ps.ROOT)}
+    proc = subprocess.Popen([sys.executable, "-c", script], cwd=tmp_path, env=env,
+                            stdout=subprocess.PIPE, text=True)
+    assert proc.stdout.readline().startswith("done 0.1")
+    assert proc.stdout.readline().startswith("done 0.1")
+    deadline = time.monotonic() + 60
+    while not pidfile.is_file() or not pidfile.read_text():     # the long point has started
+        assert time.monotonic() < deadline
+        time.sleep(0.1)
+    t = time.monotonic()
+    proc.send_signal(signal.SIGTERM)
+    assert proc.wait(timeout=60) == 0
+    assert proc.stdout.read().strip() == "stopped"
+    assert time.monotonic() - t < 30             # the grace; the 120 s point did not run out
+    long_pid = int(pidfile.read_text())
+    with pytest.raises(ProcessLookupError):      # the long point's process has ended too
+        os.kill(long_pid, 0)
