@@ -303,6 +303,10 @@ def main(argv=None) -> int:
                 break
             rc, c = run_sweep(runs, frozen, name, args.seeds, args.cycles, drain_file=drain)
             codes.append(rc)
+            try:    # re-read: a call on another sweep may run beside this one
+                cpu = json.loads(cpu_path.read_text())
+            except (OSError, ValueError):
+                pass
             cpu[name] = cpu.get(name, 0.0) + c
             out.mkdir(parents=True, exist_ok=True)
             write_json(cpu_path, cpu, indent=1)
