@@ -29,6 +29,7 @@ LAYERS = [
                               "postprocess.qs_validation",
                               "postprocess.prediction_study",
                               "postprocess.unevenness_sensitivity",
+                              "postprocess.resonance_search",
                               "postprocess.point_pool",
                               "postprocess.rocking_report",
                               "postprocess.rocking_vs_dem_sweep")),
