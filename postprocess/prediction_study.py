@@ -158,6 +158,7 @@ ORDER = ("model-ii-y", "model-ii-x", "model-ii-xy", "model-i-y", "model-i-x", "m
 EXCITATION_CHECK = ("excitation as in the thesis (Appendix I peak accelerations, 50 cycles, or "
                     "fewer where shown not to change the answer)")
 FULL_SWEEP = ORDER[0]        # run in full; its cycles check is what may justify a cut elsewhere
+CHAPTER3_CHECK = "chapter3-check/check.json"  # under --out: postprocess.chapter3_check's record
 MEASURED_FRICTION = 0.81     # small bricks, thesis Tables 3.1-3.2 (REFERENCE.md, Bricks)
 SURVIVAL_MIN = 0.8           # issue 13: at least 80 % of the realisations survive
 FC_TOL_HZ = 0.3              # characteristic frequency within +-0.3 Hz
@@ -1243,8 +1244,10 @@ def survival_verdict(sw: dict, min_rate: float = SURVIVAL_MIN) -> dict:
                    f"({'>=' if ok else '<'} {min_rate:.0%}) in {_f(sw.get('cycles'), 'g')} cycles"}
 
 
-def criteria(summary: dict) -> list[dict]:
-    """The rows of issue 13 step 4 for every sweep in ``summary`` (sweep -> analyse_sweep)."""
+def criteria(summary: dict, chapter3: dict | None = None) -> list[dict]:
+    """The rows of issue 13 step 4 for every sweep in ``summary`` (sweep -> analyse_sweep);
+    ``chapter3``: the record of postprocess.chapter3_check (its check.json) for the last row,
+    pending without one."""
     rows = []
 
     def add(sweep, quantity, thesis_text, v):
@@ -1311,9 +1314,16 @@ def criteria(summary: dict) -> list[dict]:
     else:
         v = {"status": "pending", "why": "needs both sweeps finished"}
     add("model-iii-y vs model-ii-y", "III below II (y)", "2.4 < 2.8", v)
-    add("chapter 3", "calibrated tilt results unchanged within 5 %", "results/calibration",
-        {"status": "pending", "why": "judged by the calibration study on the engine that runs "
-                                     "the prediction (not by this harness)"})
+    if chapter3 and chapter3.get("verdict"):
+        src = chapter3.get("source") or {}
+        v = {**chapter3["verdict"], "why": chapter3["verdict"]["why"] + (
+            f"; seeds {chapter3.get('seeds')} re-run at commit {str(src.get('commit'))[:7]}"
+            f"{' (dirty tree)' if src.get('dirty') else ''}, engine results revision "
+            f"{chapter3.get('engine_results_revision')} (postprocess.chapter3_check)")}
+    else:
+        v = {"status": "pending", "why": "not checked yet: python -m postprocess.chapter3_check "
+                                         "re-runs the frozen set's tilts on this engine"}
+    add("chapter 3", "calibrated tilt results unchanged within 5 %", "results/calibration", v)
     return rows
 
 
@@ -1532,7 +1542,7 @@ def report(out: Path, frozen: dict, command: str, runs: Path | None = None) -> d
     out.mkdir(parents=True, exist_ok=True)
     plan = _read(out / "plan.json")
     summary = {n: analyse_sweep(n, _read(points_path(out, n))) for n in ORDER}
-    crit = criteria(summary)
+    crit = criteria(summary, _read(out / CHAPTER3_CHECK))
     checks = false_success_checks(plan, summary)
     cycles = read_cycles_checks(out)
     cpu = sum((s.get("cpu_seconds") or 0.0) for s in summary.values())

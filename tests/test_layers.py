@@ -28,6 +28,7 @@ LAYERS = [
                               "postprocess.shake_study", "postprocess.calibration_study",
                               "postprocess.qs_validation",
                               "postprocess.prediction_study",
+                              "postprocess.chapter3_check",
                               "postprocess.unevenness_sensitivity",
                               "postprocess.resonance_search",
                               "postprocess.point_pool",
