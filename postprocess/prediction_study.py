@@ -1251,6 +1251,12 @@ def criteria(summary: dict, chapter3: dict | None = None) -> list[dict]:
     rows = []
 
     def add(sweep, quantity, thesis_text, v):
+        sw = summary.get(sweep) or {}
+        if sw.get("status") == "pending" and sw.get("n_run") and v["status"] in ("pass", "fail"):
+            # no verdict before a sweep's last run: the partial one is shown as "so far"
+            v = {**v, "status": "pending", "so_far": v["status"],
+                 "why": f"unfinished ({sw['n_run']} of {sw.get('n_expected')} runs), so far "
+                        f"{v['status']}: {v['why']}"}
         rows.append({"sweep": sweep, "quantity": quantity, **v, "thesis": thesis_text})
 
     for name in ORDER:

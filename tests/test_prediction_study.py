@@ -809,3 +809,16 @@ def test_report_and_cycles_check_on_an_empty_out(tmp_path, capsys):
     assert "nothing to check" in capsys.readouterr().err
     assert ps.main(["--frozen", str(path), "--out", str(out), "--report"]) == 0
     assert (out / "summary.json").is_file() and (out / "README.md").is_file()
+
+
+def test_an_unfinished_sweep_gets_no_verdict_only_what_it_reads_so_far():
+    lag = {"n": 2, "median": 0.01, "q10": 0.01, "q90": 0.01}  # far from the thesis' 0.18 s
+    def lag_row(status):
+        sw = {"status": status, "n_run": 2, "n_expected": 50,
+              "inside_outside": {"thesis_range": {"lag_ds_inside_s": lag}}}
+        return [r for r in ps.criteria({"model-i-y": sw}) if r["sweep"] == "model-i-y"
+                and r["quantity"].startswith("lag")][0]
+    partial = lag_row("pending")
+    assert partial["status"] == "pending" and partial["so_far"] == "fail"
+    assert partial["why"].startswith("unfinished (2 of 50 runs), so far fail")
+    assert lag_row("finished")["status"] == "fail"
