@@ -1687,7 +1687,8 @@ def plot_sweep(path: Path, name: str, sw: dict) -> bool:
 def copy_excited(out: Path, name: str, sw: dict, runs: Path | None = None) -> str | None:
     """Copy the excited-portion drawing (postprocess.excited_output, excited.png) of the
     realisation whose excited-brick count is nearest the median, at the frequency of
-    ``excited_at_hz``, from the raw runs to ``<out>/<sweep>/``; its path relative to out."""
+    ``excited_at_hz``, from the raw runs to ``<out>/<sweep>/``; its path relative to out.  The
+    drawings of other realisations copied there before (the median moved) are removed."""
     import shutil
 
     f, med = sw.get("excited_at_hz"), (sw.get("excited_bricks") or {}).get("median")
@@ -1705,6 +1706,9 @@ def copy_excited(out: Path, name: str, sw: dict, runs: Path | None = None) -> st
         return None
     dst = Path(out) / name / f"excited-{f:g}Hz-seed{r['seed']}.png"
     shutil.copyfile(src, dst)
+    for old in dst.parent.glob("excited-*Hz-seed*.png"):
+        if old != dst:
+            old.unlink()
     return str(dst.relative_to(out))
 
 

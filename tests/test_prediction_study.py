@@ -822,3 +822,26 @@ def test_an_unfinished_sweep_gets_no_verdict_only_what_it_reads_so_far():
     assert partial["status"] == "pending" and partial["so_far"] == "fail"
     assert partial["why"].startswith("unfinished (2 of 50 runs), so far fail")
     assert lag_row("finished")["status"] == "fail"
+
+
+def test_the_excited_drawing_follows_the_median_realisation_and_the_old_one_goes(tmp_path):
+    from dem.run.sweep import point_name
+
+    out, runs, name, f = tmp_path / "out", tmp_path / "runs", "model-ii-y", 2.8
+    rows = [{"seed": s, "frequency_hz": f, "run_status": "ok", "analysis_status": "ok",
+             "collapse_suspected": False, "excited": {"n_excited": n}}
+            for s, n in ((0, 40), (1, 50))]
+    (out / name).mkdir(parents=True)
+    (out / name / "points.json").write_text(json.dumps({"rows": rows}))
+    for s in (0, 1):
+        d = runs / name / f"seed-{s}" / point_name(f)
+        d.mkdir(parents=True)
+        (d / "excited.png").write_bytes(b"seed %d" % s)
+    first = ps.copy_excited(out, name, {"excited_at_hz": f, "excited_bricks": {"median": 41}},
+                            runs)
+    assert first == f"{name}/excited-2.8Hz-seed0.png"
+    second = ps.copy_excited(out, name, {"excited_at_hz": f, "excited_bricks": {"median": 49}},
+                             runs)
+    assert second == f"{name}/excited-2.8Hz-seed1.png"
+    assert sorted(p.name for p in (out / name).glob("excited-*.png")) == ["excited-2.8Hz-seed1.png"]
+    assert (out / second).read_bytes() == b"seed 1"
