@@ -1217,7 +1217,7 @@ def fc_verdict(sw: dict, thesis_fc: float | None) -> dict:
         return {"status": "n/a", "why": "the thesis gives no characteristic frequency"}
     fc = sw.get("characteristic_frequency_hz")
     if fc is None:
-        return {"status": "fail" if sw.get("status") == "finished" else "pending",
+        return {"status": "fail",
                 "why": f"no characteristic frequency: {sw.get('characteristic_frequency_note')}"}
     n_null = sw.get("realisations_without_characteristic_frequency", 0)
     if n_null * 2 > len(sw.get("seeds") or []):
@@ -1225,9 +1225,7 @@ def fc_verdict(sw: dict, thesis_fc: float | None) -> dict:
                                          f"characteristic frequency", "median_curve_fc": fc}
     band = dict(sw.get("characteristic_frequency_band") or {})
     band["median"] = fc  # judged on the peak of the median curve
-    v = band_verdict(band, thesis_fc, tol_abs=FC_TOL_HZ)
-    return v if sw.get("status") == "finished" or v["status"] == "fail" else \
-        {**v, "status": "pending", "why": "unfinished: " + v["why"]}
+    return band_verdict(band, thesis_fc, tol_abs=FC_TOL_HZ)
 
 
 def survival_verdict(sw: dict, min_rate: float = SURVIVAL_MIN) -> dict:
@@ -1236,10 +1234,7 @@ def survival_verdict(sw: dict, min_rate: float = SURVIVAL_MIN) -> dict:
     if r is None:
         return {"status": "pending", "why": "no realisation finished"}
     ok = r >= min_rate - 1e-12
-    status = "pass" if ok else "fail"
-    if ok and sw.get("status") != "finished":
-        status = "pending"
-    return {"status": status, "min_rate": r, "threshold": min_rate,
+    return {"status": "pass" if ok else "fail", "min_rate": r, "threshold": min_rate,
             "why": f"lowest survival over the frequencies {r:.0%} "
                    f"({'>=' if ok else '<'} {min_rate:.0%}) in {_f(sw.get('cycles'), 'g')} cycles"}
 
