@@ -323,6 +323,34 @@ def test_false_success_checks_catch_lowered_friction_raised_excitation_and_drift
     assert checks["no per-model or per-frequency parameters or seeds"]["status"] == "fail"
 
 
+def test_the_rocking_check_without_a_dem_range_looks_inside_the_thesis_range():
+    """Every finished DEM sweep so far rose to its top frequency (no DEM effective range): the
+    rocking check (step 5) then checks the runs whose amplification the criteria compare, the
+    thesis' range, and passes or fails instead of staying pending for ever."""
+    rising = {f: 0.1 * f ** 2 for f in FREQS}
+    plan = {"seeds": [0, 1, 2, 3, 4], "cycles": 50, "max_steps": None,
+            "frozen": {"commit": "abc", "path": "cases/x.yaml"},
+            "sweeps": {"model-ii-y": {"friction": 0.81, "peak_acceleration_m_s2": 1.53}}}
+    name = "amplification is rocking, not drift or a sliding ratchet (da, dsr)"
+
+    def check(rows):
+        sw = ps.analyse_sweep("model-ii-y", _points(rows))
+        assert sw["status"] == "finished" and sw["effective_range_hz"] is None
+        return {c["check"]: c for c in ps.false_success_checks(plan, {"model-ii-y": sw})}[name]
+
+    rows = [_row(s, f, rising[f]) for s in range(5) for f in FREQS]
+    ok = check(rows)
+    assert ok["status"] == "pass" and "thesis range" in ok["why"]
+    # a rigid slide (dsr ~ 0) at 2.8 Hz, inside the thesis' 2.4-3.2 Hz: caught
+    rows[3] = _row(0, 2.8, rising[2.8], dsr=0.001)
+    bad = check(rows)
+    assert bad["status"] == "fail" and "2.8 Hz seed 0" in bad["why"]
+    # the same slide at 1.8 Hz, outside the compared range, is not an amplification claimed
+    rows = [_row(s, f, rising[f]) for s in range(5) for f in FREQS]
+    rows[0] = _row(0, 1.8, rising[1.8], dsr=0.001)
+    assert check(rows)["status"] == "pass"
+
+
 def test_an_edge_peak_fails_the_characteristic_frequency_criterion():
     rising = {f: 0.1 * f ** 2 for f in FREQS}  # the elastic f^2 rise of results/shake
     rows = [_row(s, f, rising[f]) for s in range(5) for f in FREQS]
