@@ -1310,8 +1310,10 @@ def criteria(summary: dict, chapter3: dict | None = None) -> list[dict]:
     ii, iii = summary.get("model-ii-y") or {}, summary.get("model-iii-y") or {}
     f2, f3 = ii.get("characteristic_frequency_hz"), iii.get("characteristic_frequency_hz")
     if ii.get("status") == "finished" and iii.get("status") == "finished":
+        def fc(x):
+            return f"{x:g} Hz" if x is not None else "none (no characteristic frequency)"
         v = {"status": "pass" if (f2 is not None and f3 is not None and f3 < f2) else "fail",
-             "why": f"III {f3} Hz, II {f2} Hz"}
+             "why": f"III {fc(f3)}, II {fc(f2)}"}
     else:
         v = {"status": "pending", "why": "needs both sweeps finished"}
     add("model-iii-y vs model-ii-y", "III below II (y)", "2.4 < 2.8", v)

@@ -873,3 +873,18 @@ def test_the_excited_drawing_follows_the_median_realisation_and_the_old_one_goes
     assert second == f"{name}/excited-2.8Hz-seed1.png"
     assert sorted(p.name for p in (out / name).glob("excited-*.png")) == ["excited-2.8Hz-seed1.png"]
     assert (out / second).read_bytes() == b"seed 1"
+
+
+def test_iii_below_ii_needs_both_characteristic_frequencies():
+    """"III below II (y)" passes only with both sweeps finished and III's frequency below II's;
+    a sweep without a characteristic frequency (edge peak) fails it and is named as such."""
+    def verdict(f2, f3, status="finished"):
+        s = {"model-ii-y": {"status": "finished", "characteristic_frequency_hz": f2},
+             "model-iii-y": {"status": status, "characteristic_frequency_hz": f3}}
+        return next(c for c in ps.criteria(s) if c["quantity"] == "III below II (y)")
+
+    assert verdict(2.8, 2.4)["status"] == "pass"
+    assert verdict(2.8, 3.2)["status"] == "fail"
+    v = verdict(None, None)
+    assert v["status"] == "fail" and "none" in v["why"]
+    assert verdict(2.8, 2.4, status="running")["status"] == "pending"
