@@ -1390,21 +1390,20 @@ def false_success_checks(plan: dict | None, summary: dict) -> list[dict]:
     bad, scopes, pend = [], [], False
     for n in sweeps:
         sw = summary.get(n) or {}
-        th = THESIS.get(n) or {}
         if sw.get("status") != "finished":
             pend = True
+        rr = sw.get("rocking_rows") or {}
+        if not rr.get("n"):
+            continue
         rng, where = sw.get("effective_range_hz"), "DEM range"
-        if not rng:
-            rng = th.get("range") or ([th["fc"]] * 2 if th.get("fc") else None)
+        if not rng:   # analyse_sweep's thesis range (its fc alone where it gives no range)
+            rng = ((sw.get("inside_outside") or {}).get("thesis_range") or {}).get("range_hz")
             where = "thesis range"
         if not rng:
             rng, where = [-math.inf, math.inf], "whole sweep"
-        if not (sw.get("rocking_rows") or {}).get("n"):
-            continue
-        for r in (sw.get("rocking_rows") or {}).get("not_rocking", []):
+        for r in rr.get("not_rocking", []):
             if rng[0] - 1e-9 <= r["frequency_hz"] <= rng[1] + 1e-9:
                 bad.append(f"{n} {r['frequency_hz']:g} Hz seed {r['seed']}: {r['why']}")
-        rr = sw["rocking_rows"]
         scopes.append(f"{n} ({where}; {rr['rocking']} of {rr['n']} runs rock over the sweep)")
     rows.append({"check": "amplification is rocking, not drift or a sliding ratchet (da, dsr)",
                  "status": "fail" if bad else ("pending" if pend or not scopes else "pass"),
