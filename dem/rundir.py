@@ -13,7 +13,9 @@ anything is written.  It
    * nothing (or only a stale lock): used as it is;
    * a run of the same case (``case.json`` equal to the new one): the old run's files are removed
      (a rerun; a stale ``analysis.json`` would otherwise survive), unless ``resume`` and it left
-     a restart point (dem.run.resume): then they are kept for the run to go on from;
+     a restart point (dem.run.resume): then the run's own files are kept for the run to go on
+     from, and the analysis of the stopped run (analysis.json, PNGs: :func:`drop_analysis`)
+     is removed;
    * a different run, a sweep, or anything else: refused, unless ``force``, which removes the
      directory's contents - but only where it holds a dem run or sweep (``case.json``,
      ``summary.json``, ``sweep.json`` or ``run.lock``); a directory of other files is never
@@ -37,6 +39,11 @@ from pathlib import Path
 LOCK = "run.lock"
 RESTART_FILE = "restart.npz"  # dem.run.resume.RESTART_FILE (this module imports no engine)
 RUN_MARKERS = ("case.json", "summary.json", "sweep.json", LOCK)
+# what a run itself writes and a resumed run goes on from (dem.run.write, dem.run.resume); the
+# rest of a run directory (analysis.json, the PNGs and excited.vtu of ``dem post``, lean.png)
+# describes the run as it was when analysed and is dropped when it is resumed
+RUN_FILES = ("case.json", "summary.json", "frames.npz", RESTART_FILE, "instruments.npz",
+             "imperfections.npz", "vtk", LOCK)
 
 
 class RunDirError(ValueError):
@@ -87,6 +94,23 @@ def _clear(out: Path, keep: str = LOCK) -> None:
             shutil.rmtree(p)
         else:
             p.unlink()
+
+
+def drop_analysis(out: Path) -> list[str]:
+    """Remove what is not the run's own (RUN_FILES) from a run directory about to be resumed:
+    an analysis of the killed run (``dem post``: analysis.json saying ``running``, PNGs ending
+    at the kill time) would otherwise sit next to the finished run's summary.json (issue 36
+    defect 2).  Returns the names removed."""
+    removed = []
+    for p in Path(out).iterdir():
+        if p.name in RUN_FILES:
+            continue
+        if p.is_dir() and not p.is_symlink():
+            shutil.rmtree(p)
+        else:
+            p.unlink()
+        removed.append(p.name)
+    return sorted(removed)
 
 
 class RunDir:
@@ -150,6 +174,7 @@ def claim(out: str | Path, case_json: str | None, force: bool = False,
             same = True
         is_run = any((out / m).exists() for m in RUN_MARKERS if m != LOCK)
         if same and resume and (out / RESTART_FILE).is_file():
+            drop_analysis(out)
             return rd
         if same or (force and is_run):
             _clear(out)

@@ -84,12 +84,15 @@ def _run_case_file(path, out, progress, force, max_blocks, resume=False) -> int:
     if checked is None:
         return ExitCode.BAD_INPUT
     case = checked.case
+    before = _previous_status(Path(out)) if resume else None
     try:
         rd = claim(out, case.model_dump_json(indent=1), force=force, resume=resume)
     except RunDirError as e:
         err(f"error: {e}")
         return exit_code_for(e)
     out = Path(out)
+    if resume:
+        err(_resume_line(out, case, before))
     try:
         res = run_case(case, out, progress=progress, scene=checked.scene, analyses=RUN_ANALYSES,
                        resume=resume)
@@ -119,6 +122,10 @@ def _run_case_file(path, out, progress, force, max_blocks, resume=False) -> int:
     finally:
         rd.release()
     s = res.summary
+    refused = (s.get("resume") or {}).get("refused") if resume and not s.get("resumed") else None
+    if refused and (out / "summary.json").is_file():
+        err(f"resume: could not go on from the checkpoint after all ({refused}); the run "
+            f"started over from t = 0")
     if case.loading.type == "tilt":
         _plot_lean(out, err)
     typer.echo(
@@ -128,6 +135,28 @@ def _run_case_file(path, out, progress, force, max_blocks, resume=False) -> int:
         f"output in {out}")
     typer.echo(result_line(s, {"t": res.t, "pos": res.pos}))
     return ExitCode.OK
+
+
+def _previous_status(out: Path) -> str | None:
+    """summary.json's status in OUT before the claim (which may clear it), for the resume
+    message."""
+    try:
+        return json.loads((out / "summary.json").read_text()).get("status")
+    except (OSError, ValueError, AttributeError):
+        return None
+
+
+def _resume_line(out: Path, case, before: str | None) -> str:
+    """One line on what --resume does (dem.run.resume.resume_outlook)."""
+    from dem.rundir import RESTART_FILE
+
+    if not (out / RESTART_FILE).is_file():
+        why = (f"the run in {out} finished ('{before}')" if before in ("ok", "failed") else
+               f"no restart point ({RESTART_FILE}) in {out}")
+        return f"cannot resume: {why}; starting over from t = 0"
+    from dem.run.resume import resume_outlook
+
+    return resume_outlook(out, case)
 
 
 def _plot_lean(out: Path, err) -> None:

@@ -155,3 +155,17 @@ def apply_restart(arrays: dict, sim, recording) -> tuple[dict | None, str]:
     recording.next_frame = float(arrays["rec.next_frame"])
     recording.next_sample = float(arrays["rec.next_sample"])
     return json.loads(str(arrays["summary"])), ""
+
+
+def resume_outlook(out: Path, case) -> str:
+    """What ``dem run --resume`` will do with ``out`` (claimed, before the run starts), in one
+    line: "resuming from t = ... s (step ..., checkpoint of ...)" or "cannot resume: why;
+    starting over from t = 0" (issue 36 defect 2: --resume said nothing).  The run loop has
+    the last word (dem.run.loop: an engine that does not fit the checkpoint); the command
+    reports a late refusal after the run from summary.json ``resume.refused``."""
+    arrays, why = load_restart(out, case)
+    if arrays is None:
+        return f"cannot resume: {why}; starting over from t = 0"
+    s = json.loads(str(arrays["summary"]))
+    return (f"resuming from t = {float(s.get('sim_time', 0.0)):.6g} s (step "
+            f"{int(s.get('steps', 0))}, the last checkpoint in {out})")
