@@ -16,7 +16,12 @@ u(t) = A sin(2 pi f t) of dem.table_motion (shared with the two-body model): a(t
 it shakes (0 <= t < T = cycles / f); after T, a = 0 and the table keeps its final velocity
 (u, v the exact integrals of the applied a(t); see dem.table_motion for why it is not stopped).
 The velocity jump to A w at t = 0 is not applied as an impulse: the blocks, in the table frame,
-feel only -m a(t).
+feel only -m a(t) (``start: table-frame``, the default).  ``start: lab`` applies it: at t = 0
+every free block takes the velocity -A w d relative to the table (:meth:`Loading.
+initial_relative_velocity`, applied once after settling by dem.run.table_start); ``start: ramp``
+raises the amplitude smoothly so that there is no jump (dem.table_motion).
+Stepped shake (SteppedShake): the frequency steps through a list on one specimen
+(dem.table_motion.SteppedSineMotion), base quantities along d as for the shake.
 A shake whose period is shorter than 20 time steps, or a record that ends before the run with
 the table still moving, is refused by dem.validate.
 """
@@ -26,7 +31,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from dem.case import Case, NoLoading, RecordLoading, ShakeLoading, TiltLoading
+from dem.case import (Case, NoLoading, RecordLoading, ShakeLoading, SteppedShakeLoading,
+                      TiltLoading)
 from dem.table_motion import SineMotion
 
 AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "-x": (-1.0, 0.0, 0.0), "-y": (0.0, -1.0, 0.0)}
@@ -49,6 +55,12 @@ class Loading:
 
     def base_vel(self, t: np.ndarray) -> np.ndarray:
         return np.zeros((len(np.atleast_1d(t)), 3))
+
+    def initial_relative_velocity(self) -> np.ndarray:
+        """[3] m/s: the velocity every free block takes relative to the table at t = 0, when
+        the loading starts (after settling): minus the table's velocity jump at t = 0, which a
+        body at rest in the lab keeps through that instant (``start: lab``); zero otherwise."""
+        return np.zeros(3)
 
     def __call__(self, t: np.ndarray):
         """(gravity [K,3], base acceleration [K,3]) at times t: the engine's load callback."""
@@ -137,10 +149,15 @@ class Shake(Loading):
 
     kind = "shake"
 
-    def __init__(self, g0, direction, frequency: float, amplitude: float, cycles: float):
+    def __init__(self, g0, direction, frequency: float, amplitude: float, cycles: float,
+                 start: str = "table-frame", ramp_cycles: float | None = None):
         super().__init__(g0)
         self.direction = np.asarray(direction, dtype=float)
-        self.motion = SineMotion(amplitude, frequency, cycles)
+        self.motion = SineMotion(amplitude, frequency, cycles, start, ramp_cycles)
+
+    def initial_relative_velocity(self) -> np.ndarray:
+        """-v_jump d, m/s: v_jump = A w for a ``lab`` start (dem.table_motion), else 0."""
+        return -self.motion.velocity_jump * self.direction
 
     @property
     def t_end(self) -> float:
@@ -161,6 +178,22 @@ class Shake(Loading):
 
     def describe(self):
         return {"type": "shake", "direction": self.direction.tolist(), **self.motion.describe()}
+
+
+class SteppedShake(Shake):
+    """The table shaking along ``direction`` with stepped frequencies (SteppedSineMotion x
+    direction; a Shake for everything that asks for one: instruments, analysis of the axes)."""
+
+    kind = "stepped_shake"
+
+    def __init__(self, g0, direction, motion):
+        Loading.__init__(self, g0)
+        self.direction = np.asarray(direction, dtype=float)
+        self.motion = motion
+
+    def describe(self):
+        return {"type": "stepped_shake", "direction": self.direction.tolist(),
+                **self.motion.describe()}
 
 
 class Record(Loading):
@@ -224,9 +257,27 @@ def loading_from_case(case: Case) -> Loading:
         return Tilt(g0, ld.axis, ld.rate, ld.max_angle, ld.start_angle, ld.step, ld.hold,
                     ld.start_time)
     if isinstance(ld, ShakeLoading):
-        return Shake(g0, ld.direction, ld.frequency, ld.displacement_amplitude, ld.cycles)
+        return Shake(g0, ld.direction, ld.frequency, ld.displacement_amplitude, ld.cycles,
+                     ld.start, ld.ramp_cycles)
+    if isinstance(ld, SteppedShakeLoading):
+        return SteppedShake(g0, ld.direction, ld.motion())
     if isinstance(ld, RecordLoading):
         return Record(g0, *ld.samples())
     if isinstance(ld, NoLoading):
         return Loading(g0)
     raise TypeError(f"unknown loading {type(ld).__name__}")
+
+
+def stepped_shake_errors(ld, dt: float, min_steps: int, where) -> list[str]:
+    """dem check's errors of a stepped shake (dem.validate): every step's period must span
+    ``min_steps`` time steps of ``dt`` (s), as a shake's; ``where(loc)`` gives the
+    ``file:line: field`` prefix."""
+    out = []
+    for k, st in enumerate(ld.steps):
+        if 1.0 / st.frequency < min_steps * dt:
+            out.append(
+                f"{where(('loading', 'steps', k, 'frequency'))}: {st.frequency:g} Hz has a "
+                f"period of {1.0 / st.frequency:.3g} s, shorter than {min_steps} time steps "
+                f"({min_steps} x {dt:.3g} s): the table motion cannot be resolved (highest "
+                f"frequency for this scene: {1.0 / (min_steps * dt):.4g} Hz)")
+    return out

@@ -1,4 +1,5 @@
-"""``loading:`` of a case file: tilt (constant rate or quasi-static), shake, record, none.
+"""``loading:`` of a case file: tilt (constant rate or quasi-static), shake, stepped shake, record,
+none.
 
 The loads against time they give are dem.loading's.
 """
@@ -8,7 +9,7 @@ from __future__ import annotations
 import math
 from typing import Annotated, Literal, Union
 
-from pydantic import Field, field_validator, model_validator
+from pydantic import Field, field_validator, model_serializer, model_validator
 
 from dem.case.base import Vec3, _Strict
 
@@ -135,6 +136,38 @@ class TiltLoading(_Strict):
         return self
 
 
+StartMode = Literal["table-frame", "lab", "ramp"]
+START_DESCRIPTION = (
+    "how the table starts (dem.table_motion): table-frame (the default): the shake in the "
+    "table's frame, the table moving at A w from t = 0, the blocks never feel the jump from rest; "
+    "lab: the table at rest before t = 0, so at t = 0 every block takes a velocity -A w relative "
+    "to it along the direction (an impulse; a real table started from rest); ramp: the "
+    "amplitude rises smoothly over ramp_cycles cycles (displacement, velocity and acceleration "
+    "continuous from rest), then holds")
+RAMP_DESCRIPTION = ("cycles over which a ramp start raises the amplitude (quintic taper), -; "
+                    "only with start: ramp; they count among the (first step's) cycles")
+
+
+def _check_start(start: str, ramp_cycles: float | None, cycles: float, cycles_name: str) -> None:
+    if start == "ramp" and ramp_cycles is None:
+        raise ValueError("ramp_cycles: start: ramp needs ramp_cycles (the cycles over which the "
+                         "amplitude rises)")
+    if start != "ramp" and ramp_cycles is not None:
+        raise ValueError(f"ramp_cycles: only with start: ramp (start is {start})")
+    if ramp_cycles is not None and ramp_cycles > cycles:
+        raise ValueError(f"ramp_cycles: {ramp_cycles:g} is more than {cycles_name} = "
+                         f"{cycles:g} (the ramp's cycles count among them)")
+
+
+def _omit_start_defaults(model, data):
+    if isinstance(data, dict):
+        if model.start == "table-frame":
+            data.pop("start", None)
+        if model.ramp_cycles is None:
+            data.pop("ramp_cycles", None)
+    return data
+
+
 class ShakeLoading(_Strict):
     """Sinusoidal table displacement u(t) = A * direction * sin(2 pi f t) for ``cycles`` cycles.
 
@@ -151,6 +184,8 @@ class ShakeLoading(_Strict):
     amplitude: float | None = Field(default=None, gt=0.0, description="displacement amplitude, m")
     peak_acceleration: float | None = Field(default=None, gt=0.0, description="m/s2")
     cycles: float = Field(default=50.0, gt=0.0, description="number of cycles")
+    start: StartMode = Field(default="table-frame", description=START_DESCRIPTION)
+    ramp_cycles: float | None = Field(default=None, gt=0.0, description=RAMP_DESCRIPTION)
 
     @field_validator("direction")
     @classmethod
@@ -163,7 +198,14 @@ class ShakeLoading(_Strict):
     def _one_of(self) -> "ShakeLoading":
         if (self.amplitude is None) == (self.peak_acceleration is None):
             raise ValueError("give exactly one of amplitude (m) or peak_acceleration (m/s2)")
+        _check_start(self.start, self.ramp_cycles, self.cycles, "cycles")
         return self
+
+    @model_serializer(mode="wrap")
+    def _omit_default_start(self, handler):
+        """A shake with the default start is written as before the start existed (case.json
+        of every shipped run stays the same, byte for byte)."""
+        return _omit_start_defaults(self, handler(self))
 
     @property
     def displacement_amplitude(self) -> float:
@@ -176,6 +218,70 @@ class ShakeLoading(_Strict):
     def axis_amplitude(self) -> float:
         """Displacement amplitude along the direction, m (= A * |direction|)."""
         return self.displacement_amplitude * math.sqrt(sum(x * x for x in self.direction))
+
+
+class FrequencyStep(_Strict):
+    """One step of a stepped shake: a frequency and its cycles."""
+
+    frequency: float = Field(gt=0.0, description="Hz")
+    cycles: float = Field(gt=0.0, description="cycles at this frequency (run on to the next "
+                          "displacement extreme: at most half a period more)")
+
+
+class SteppedShakeLoading(_Strict):
+    """A sine whose frequency steps through ``steps`` on one specimen, never settled again
+    between steps (issue 32 item 2; the table motion: dem.table_motion.SteppedSineMotion).
+
+    The steps run in the order given: rising frequencies are an up pass, falling a down pass
+    (give both in one list for an up-and-down run).  Every step has the same
+    ``peak_acceleration`` (m/s2; amplitude a_p / (2 pi f)^2) or the same ``amplitude`` (m).
+    Each step runs its cycles, then on to the next displacement extreme (table velocity zero),
+    where the next step starts from that extreme: the velocity is continuous, and at constant
+    peak acceleration the acceleration too (the displacement keeps an offset, a shift of the
+    table); the last step ends at an extreme with the table at rest.  ``start`` applies to the
+    first step, as for a shake.  ``direction`` as for a shake (used as given).
+    """
+
+    type: Literal["stepped_shake"]
+    direction: Vec3 = Field(description="displacement direction, multiplied by the amplitude")
+    steps: list[FrequencyStep] = Field(min_length=1, description="frequencies and cycles, in "
+                                       "the order run")
+    amplitude: float | None = Field(default=None, gt=0.0,
+                                    description="displacement amplitude of every step, m")
+    peak_acceleration: float | None = Field(default=None, gt=0.0,
+                                            description="peak acceleration of every step, m/s2")
+    start: StartMode = Field(default="table-frame", description=START_DESCRIPTION)
+    ramp_cycles: float | None = Field(default=None, gt=0.0, description=RAMP_DESCRIPTION)
+
+    @field_validator("direction")
+    @classmethod
+    def _nonzero(cls, v):
+        if math.sqrt(sum(x * x for x in v)) == 0.0 or any(not math.isfinite(x) for x in v):
+            raise ValueError(f"direction must be a finite non-zero vector, got {v}")
+        return v
+
+    @model_validator(mode="after")
+    def _one_of(self) -> "SteppedShakeLoading":
+        if (self.amplitude is None) == (self.peak_acceleration is None):
+            raise ValueError("give exactly one of amplitude (m) or peak_acceleration (m/s2)")
+        _check_start(self.start, self.ramp_cycles, self.steps[0].cycles, "steps[0].cycles")
+        return self
+
+    @property
+    def frequencies(self) -> list[float]:
+        return [s.frequency for s in self.steps]
+
+    def motion(self, scale: float = 1.0):
+        """The table motion (dem.table_motion.SteppedSineMotion) along the direction, with the
+        displacement amplitude times ``scale``."""
+        from dem.table_motion import SteppedSineMotion
+
+        return SteppedSineMotion(
+            [(s.frequency, s.cycles) for s in self.steps],
+            amplitude=None if self.amplitude is None else self.amplitude * scale,
+            peak_acceleration=None if self.peak_acceleration is None
+            else self.peak_acceleration * scale,
+            start=self.start, ramp_cycles=self.ramp_cycles)
 
 
 class RecordLoading(_Strict):
@@ -301,5 +407,6 @@ class NoLoading(_Strict):
     type: Literal["none"]
 
 
-Loading = Annotated[Union[TiltLoading, ShakeLoading, RecordLoading, NoLoading],
+Loading = Annotated[Union[TiltLoading, ShakeLoading, SteppedShakeLoading, RecordLoading,
+                          NoLoading],
                     Field(discriminator="type")]

@@ -154,6 +154,15 @@ class ShakeLoading(DemShakeLoading):
             raise ValueError(f"must be horizontal (z = 0) for the rocking model, got {v}")
         return v
 
+    @model_validator(mode="after")
+    def _table_frame_start(self) -> "ShakeLoading":
+        """The DEM's ``start: lab`` / ``ramp`` (issue 32) are not taken by the two-body model:
+        it starts in the table's frame (dem.table_motion), as it always has."""
+        if self.start != "table-frame":
+            raise ValueError(f"start: the two-body model takes only start: table-frame, got "
+                             f"{self.start}")
+        return self
+
 
 class NoneSpec(_Strict):
     type: Literal["none"]

@@ -31,6 +31,7 @@ from dem.run.quasi_static import QuasiStaticTilt
 from dem.run.record import FRAME_KEYS, Recording
 from dem.run.settle import settle
 from dem.run.stop import StopRule
+from dem.run.table_start import apply_table_start
 from dem.rundir import clear
 from dem.run.write import (OutputError, RunWriter, engine_results, imperfection_record,
                            initial_summary, write_case)
@@ -167,6 +168,9 @@ def run_case(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
             finally:
                 settling_bar.close()
         if fresh:
+            started = apply_table_start(sim, loading)  # lab start: the impulse, once
+            if started is not None:
+                summary["table_start"] = started
             recording.start()
         if isinstance(loading, HeldTilt):                             # load: quasi-static
             search = QuasiStaticTilt(case, scene, loading, sim, recording, progressed,
