@@ -51,7 +51,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dem.case import Case, RecordLoading, ShakeLoading
+from dem.case import Case, RecordLoading, ShakeLoading, SteppedShakeLoading
 
 DEFAULT_MAX_BLOCKS = 20_000
 MIN_STEPS_PER_PERIOD = 20
@@ -355,6 +355,10 @@ def check_case(case: Case, source: str | Path | None = None,
                 f"{period:.3g} s, shorter than {MIN_STEPS_PER_PERIOD} time steps "
                 f"({MIN_STEPS_PER_PERIOD} x {dt:.3g} s): the table motion cannot be resolved "
                 f"(highest frequency for this scene: {1.0 / (MIN_STEPS_PER_PERIOD * dt):.4g} Hz)")
+    elif isinstance(ld, SteppedShakeLoading):  # issue 32: each step as a shake (dem.loading)
+        from dem.loading import stepped_shake_errors
+
+        out.errors += stepped_shake_errors(ld, dt, MIN_STEPS_PER_PERIOD, where)
     elif isinstance(ld, RecordLoading):
         try:
             t, acc = ld.samples()
