@@ -14,7 +14,11 @@ Recorded (``instruments.npz``), K samples every ``run.instrument_interval`` seco
                                    interval: (v_abs(t_k) - v_abs(t_k-1)) / dt_sample, with
                                    v_abs = v_rel + v_table (a band-limited reading, as a real
                                    accelerometer; the raw contact forces chatter at kHz)
-    table_disp   [K,3], table_acc [K,3]   the excitation
+    table_disp   [K,3], table_acc [K,3]   the excitation (table_acc: the mean over the sample
+                                   interval, (v_table(t_k) - v_table(t_k-1)) / dt_sample)
+    table_vel    [K,3]      m/s    the table's velocity at t_k (only where the loading asks for
+                                   it: the starts and stepped shakes of issue 32; a default
+                                   shake's instruments.npz is as before)
     names [n], kind [n], block [n], point [n,3], direction [n,3], group [n] (block group name)
 
 Thesis placement (Fig 4.4, Section 4.2.5), used for box models under shaking: all instruments on
@@ -105,7 +109,8 @@ def thesis_instruments(scene: Scene, axis: str) -> list[Instrument]:
 class InstrumentRecorder:
     """Samples instruments from the engine state (see module docstring for the arrays)."""
 
-    def __init__(self, instruments: list[Instrument], scene: Scene):
+    def __init__(self, instruments: list[Instrument], scene: Scene,
+                 table_velocity: bool = False):
         self.instruments = instruments
         self.blocks = np.array([i.block for i in instruments], dtype=int)
         self.points = np.array([i.point for i in instruments], dtype=float).reshape(-1, 3)
@@ -115,6 +120,8 @@ class InstrumentRecorder:
         self.group = [scene.group_names[scene.group[b]] for b in self.blocks]
         self.rows: dict[str, list] = {k: [] for k in ("t", "disp", "vel", "acc", "table_disp",
                                                        "table_acc")}
+        if table_velocity:
+            self.rows["table_vel"] = []
         self._last = None  # (t, absolute velocity [n,3])
 
     def sample(self, t: float, pos, quat, vel, omega, table_disp, table_vel) -> None:
@@ -140,6 +147,8 @@ class InstrumentRecorder:
         self.rows["acc"].append(acc)
         self.rows["table_disp"].append(np.asarray(table_disp, float))
         self.rows["table_acc"].append(table_acc)
+        if "table_vel" in self.rows:
+            self.rows["table_vel"].append(table_vel)
 
     def arrays(self) -> dict[str, np.ndarray]:
         out = {k: np.asarray(v) for k, v in self.rows.items()}

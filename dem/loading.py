@@ -62,6 +62,11 @@ class Loading:
         body at rest in the lab keeps through that instant (``start: lab``); zero otherwise."""
         return np.zeros(3)
 
+    def records_table_velocity(self) -> bool:
+        """Whether the instruments also record the table's velocity (``table_vel``): for the
+        starts and stepped shakes of issue 32 (a default shake's instruments.npz is as before)."""
+        return False
+
     def __call__(self, t: np.ndarray):
         """(gravity [K,3], base acceleration [K,3]) at times t: the engine's load callback."""
         return self.gravity(t), self.base_accel(t)
@@ -158,6 +163,9 @@ class Shake(Loading):
     def initial_relative_velocity(self) -> np.ndarray:
         """-v_jump d, m/s: v_jump = A w for a ``lab`` start (dem.table_motion), else 0."""
         return -self.motion.velocity_jump * self.direction
+
+    def records_table_velocity(self) -> bool:
+        return self.motion.start != "table-frame" or isinstance(self, SteppedShake)
 
     @property
     def t_end(self) -> float:

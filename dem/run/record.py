@@ -85,7 +85,8 @@ def choose_instruments(case: Case, scene: Scene, loading: Loading) -> Instrument
         choice = "thesis" if boxy and isinstance(loading, (Shake, Record)) else "none"
     if choice != "thesis":
         return None
-    return InstrumentRecorder(thesis_instruments(scene, thesis_instrument_axis(loading)), scene)
+    return InstrumentRecorder(thesis_instruments(scene, thesis_instrument_axis(loading)), scene,
+                              table_velocity=loading.records_table_velocity())
 
 
 def steps_to(sim, t_target: float) -> int:
