@@ -162,3 +162,32 @@ def test_a_default_shake_writes_its_case_as_before():
     lab = _case({"amplitude": A, "start": "lab"}, 0.1, 0.01)
     assert lab.loading.model_dump()["start"] == "lab"
     assert type(lab).model_validate_json(lab.model_dump_json()).loading.start == "lab"
+
+
+def test_a_resumed_lab_start_run_does_not_take_the_impulse_again(tmp_path, monkeypatch):
+    """Stopped after its third checkpoint and resumed, a lab-start run is the run never
+    stopped, bit for bit (the impulse belongs to t = 0, not to the resumption)."""
+    import dem.run.write
+    from dem.run import run_case
+    from dem.run.write import RunWriter
+
+    case = _case({"amplitude": A, "cycles": 2, "start": "lab"}, 0.03, 0.002)
+    whole = run_case(case, tmp_path / "whole")
+    monkeypatch.setattr(dem.run.write, "CHECKPOINT_SECONDS", -1.0)   # one at every frame
+    calls, original = [0], RunWriter.checkpoint
+
+    def checkpoint(self, *args):
+        calls[0] += 1
+        if calls[0] > 3:
+            raise KeyboardInterrupt
+        original(self, *args)
+
+    monkeypatch.setattr(RunWriter, "checkpoint", checkpoint)
+    with pytest.raises(KeyboardInterrupt):
+        run_case(case, tmp_path / "cut")
+    monkeypatch.setattr(RunWriter, "checkpoint", original)
+    again = run_case(case, tmp_path / "cut", resume=True)
+    assert again.summary.get("resumed"), again.summary.get("resume")
+    np.testing.assert_array_equal(again.vel, whole.vel)
+    np.testing.assert_array_equal(again.pos, whole.pos)
+    assert again.summary["table_start"] == whole.summary["table_start"]
