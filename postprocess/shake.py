@@ -17,7 +17,9 @@ Per measuring axis, in order (one function each below):
   1. the quantities' amplification, lag and spectrum over the steady window (analyze_signals),
      the low-passed accelerations a_lp, a_front_lp among them (an assumed instrument,
      postprocess.shake_signals) and a's amplification at several cutoffs
-     (a_lowpass_sensitivity);
+     (a_lowpass_sensitivity); beside them the accelerations relative to the table (a_rel,
+     da_rel, a_rel_lp, a_front_rel ... and the front / back ratios: ``relative_to_table``,
+     issue 32 item 5), which the thesis' a and da almost certainly are;
   2. the standing check: a centre that moved by more than the brick's own thickness along e has
      tipped past a rigid block's overturning point (collapse, not a steady response: a warning);
   3. the excited portion (needs frames.npz) and its mass m_e (the reference block's mass without
@@ -52,8 +54,9 @@ from postprocess.shake_signals import (KIND_OF, LOWPASS_HZ, LOWPASS_ORDER,
                                        derived_quantities, load_run, lowpass, lowpass_resolved,
                                        read_signals, truncate, truncate_frames)
 from postprocess.signal_analysis import (STEADY_TOL, SteadyWindow, amplification, cycle_peak_mean,
-                                         kinetic_energy_eq44, loop_energy, n_complete_cycles,
-                                         phase_lag, spectral_peaks, spectrum, steady_window)
+                                         drift_free_integral, kinetic_energy_eq44, loop_energy,
+                                         n_complete_cycles, phase_lag, spectral_peaks, spectrum,
+                                         steady_window)
 
 __all__ = ["ShakeAnalysisError", "analyze_run", "analyze_signals", "load_run"]
 
@@ -105,6 +108,75 @@ def a_lowpass_sensitivity(sig: ShakeSignals, a: np.ndarray, win: SteadyWindow) -
     return {"cutoffs_hz": list(LOWPASS_SENSITIVITY_HZ), "order": LOWPASS_ORDER,
             "amplification": out}
 
+
+
+#: the relative accelerations (issue 32 item 5): quantity -> (kind of the table input it is
+#: compared with, what it is)
+RELATIVE_QUANTITIES = {
+    "a_rel": ("acceleration", "a - a_table: the centre accelerometer relative to the table"),
+    "da_rel": ("displacement", "a_rel integrated twice without drift (as da)"),
+    "a_rel_lp": ("acceleration", "a_rel through the assumed instrument low-pass (as a_lp)"),
+    "a_front_rel": ("acceleration", "a_front - a_table: the front facade's centre, relative"),
+    "da_front_rel": ("displacement", "a_front_rel integrated twice without drift"),
+    "a_front_rel_lp": ("acceleration", "a_front_rel through the assumed low-pass"),
+}
+
+
+def relative_accelerations(sig: ShakeSignals) -> dict[str, np.ndarray]:
+    """The accelerations relative to the table (issue 32 item 5), [K] m/s2 (and the doubly
+    integrated m): a_rel = a - a_table with a_table the table's acceleration as the same
+    instruments read it (``sig.excitation["acceleration"]``: instruments.npz's table_acc, the
+    same mean over the sample interval as a; from frames, the same differences), da_rel its
+    drift-free double integral (postprocess.signal_analysis.drift_free_integral, as da), and
+    a_rel_lp through the same assumed instrument low-pass as a_lp (the filter is linear:
+    a_rel_lp = a_lp - lowpass(a_table)); likewise for the front facade's a_front.  A body
+    carried by the table reads 0; the thesis' a and da are almost certainly these (its
+    "all amplifications decrease to a level below 0.5" outside the effective range, line 1017,
+    is impossible for an absolute acceleration of a body the table carries, and ds = da at
+    1.9 Hz, line 1059)."""
+    t, a_tab = sig.t, sig.excitation["acceleration"]
+    out = {}
+    for name, acc in (("a", sig.a_centre), ("a_front", sig.a_front)):
+        if acc is None:
+            continue
+        rel = acc - a_tab
+        out[f"{name}_rel"] = rel
+        out[f"d{name}_rel"] = drift_free_integral(rel, t, sig.f, sig.t_end, 2)
+        if lowpass_resolved(t):
+            out[f"{name}_rel_lp"] = lowpass(rel, t)
+    return out
+
+
+def relative_to_table(sig: ShakeSignals, win: SteadyWindow | None) -> dict | None:
+    """analysis.json's ``relative_to_table`` of one axis: amplification (against the table's
+    acceleration or displacement, the same kind) and lag of each relative quantity over the
+    steady window, and the front / back ratios of the relative and of the absolute
+    accelerations (thesis Tables 4.9 - 4.11 give front / back amplification ratios: 0.359 Model
+    II y, 0.618 Model II x, 0.587 Model III y).  None without a steady window or an
+    accelerometer."""
+    if win is None or sig.a_centre is None:
+        return None
+    rel = relative_accelerations(sig)
+    quantities, amp = {}, {}
+    for name, y in rel.items():
+        kind = RELATIVE_QUANTITIES[name][0]
+        exc = sig.excitation[kind]
+        a = amplification(sig.t, y, exc, win)
+        p = phase_lag(sig.t, y, exc, sig.f, win)
+        quantities[name] = {"kind": kind, "frame": "relative", **a, **p}
+        amp[name] = a["amplification"]
+    ratios = {}
+    for front, back in (("a_front_rel", "a_rel"), ("a_front_rel_lp", "a_rel_lp"),
+                        ("da_front_rel", "da_rel")):
+        if front in amp and back in amp and amp[back] > 0:
+            ratios[f"{front}/{back}"] = amp[front] / amp[back]
+    if sig.a_front is not None:
+        exc = sig.excitation["acceleration"]
+        a_back = amplification(sig.t, sig.a_centre, exc, win)["amplification"]
+        a_front = amplification(sig.t, sig.a_front, exc, win)["amplification"]
+        ratios["a_front/a (absolute)"] = a_front / a_back if a_back > 0 else None
+    return {"amplification": amp, "quantities": quantities, "front_back_ratio": ratios,
+            "definitions": {k: v[1] for k, v in RELATIVE_QUANTITIES.items() if k in rel}}
 
 
 def analyze_run(run_dir, plots: bool = True, write: bool = True,
@@ -187,6 +259,9 @@ def _analyze_axis(sig: ShakeSignals, case, scene, frames, out: dict, run_dir: Pa
     Warnings, plot and VTU file names are appended to ``out``."""
     res, arr = analyze_signals(sig)
     win, q = arr["window"], arr["q"]
+    relative = relative_to_table(sig, win)   # issue 32 item 5
+    if relative is not None:
+        res["relative_to_table"] = relative
     _check_standing(res, sig, scene, out["warnings"])
     portion = None
     if frames is not None and win is not None:
