@@ -237,6 +237,17 @@ def _side_walls(facade: str) -> tuple:
     return ("T1", "T2") if facade in ("L1", "L2") else ("L1", "L2")
 
 
+def excitation_timing(ld) -> dict:
+    """{"f": Hz, "t_end": s} of a shake loading: its frequency and the end of its cycles; for a
+    stepped shake (issue 32) the first step's frequency and the end of the last step (the
+    per-step analysis, postprocess.stepped, cuts the record into steps with their own)."""
+    from dem.case import SteppedShakeLoading
+
+    if isinstance(ld, SteppedShakeLoading):
+        return {"f": ld.steps[0].frequency, "t_end": ld.motion().t_end}
+    return {"f": ld.frequency, "t_end": ld.cycles / ld.frequency}
+
+
 def signals_from_instruments(npz, case) -> list[ShakeSignals]:
     """Signals per axis from ``instruments.npz`` (layout in :mod:`dem.instruments`)."""
     ld = case.loading
@@ -268,7 +279,7 @@ def signals_from_instruments(npz, case) -> list[ShakeSignals]:
                   if i is not None}
         facade = groups[i_c]
         out.append(ShakeSignals(
-            t=tu, f=ld.frequency, t_end=ld.cycles / ld.frequency, direction=e, axis=axis,
+            t=tu, **excitation_timing(ld), direction=e, axis=axis,
             excitation=exc, ds_centre=proj(disp, i_c), ds_corner=proj(disp, i_ca),
             ds_corner_b=proj(disp, i_cb), a_centre=proj(acc, i_a), a_corner=proj(acc, i_ac),
             a_front=proj(acc, i_af), source="instruments.npz", blocks=blocks, facade=facade,
@@ -328,7 +339,7 @@ def signals_from_frames(frames, case, scene) -> list[ShakeSignals]:
         col = {r: k for k, r in enumerate(blocks)}
         get = lambda arr, r: arr[:, col[r]] if r in col else None  # noqa: E731
         out.append(ShakeSignals(
-            t=t, f=ld.frequency, t_end=ld.cycles / ld.frequency, direction=np.asarray(e, float),
+            t=t, **excitation_timing(ld), direction=np.asarray(e, float),
             axis=axis, excitation=exc, ds_centre=get(rel, "centre"),
             ds_corner=get(rel, "corner_a"), ds_corner_b=get(rel, "corner_b"),
             a_centre=get(a_abs, "centre"), a_corner=get(a_abs, "corner_a"),

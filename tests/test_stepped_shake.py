@@ -1,0 +1,106 @@
+"""Stepped frequencies on one specimen (issue 32 item 2; dem.table_motion.SteppedSineMotion,
+postprocess.stepped).
+
+The table record is continuous through the steps: each step ends at a displacement extreme
+(v = 0) and the next starts there, with the offset c_k+1 = c_k + (A_k - A_k+1) s_k; at constant
+peak acceleration a is continuous too (-a_p s_k on both sides).  A block that does not move
+(squat, mu = 0.8, 1.5 m/s2: sliding at 7.8, tipping at 19.6 m/s2) is a linear system with no
+memory, so each step's analysis equals a separate run at that frequency; tolerances: frames
+5 ms apart (per-cycle peaks of a sine: 1 - cos(pi f dt) = 1.1e-3 at 3 Hz; the frame-based
+accelerometer's two differences: 2 (w dt)^2 / 6 = 3e-3, the same in both records).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from dem.table_motion import SteppedSineMotion
+
+A_P = 1.5   # m/s2
+STEPS = [(2.0, 3), (3.0, 3)]
+
+
+def _jumps(motion, q, t):
+    y = getattr(motion, q)(t)
+    return np.abs(np.diff(y))
+
+
+@pytest.mark.parametrize("steps", [[(2.0, 3), (2.5, 3.3), (3.1, 2)],     # up
+                                   [(3.1, 2.2), (2.5, 3), (2.0, 1.7)]])  # down
+def test_the_table_record_is_continuous_through_the_steps(steps):
+    m = SteppedSineMotion(steps, peak_acceleration=A_P)
+    h = 1e-5
+    for k in range(1, len(steps)):
+        tk = m.t0[k]
+        t = np.array([tk - h, tk, tk + h])
+        u, v, a = m.displacement(t), m.velocity(t), m.acceleration(t)
+        # across a switch: u changes by v h (v = 0 there: by a h^2 / 2), v by a h, a by ~0
+        assert abs(u[2] - u[0]) < A_P * h**2 + 1e-15, k
+        assert abs(v[1]) < 1e-12 and abs(v[2] - v[0]) < 2.5 * A_P * h, k
+        assert abs(a[2] - a[0]) < 1e-3 * A_P, k          # jerk * 2h
+        assert m.steps_run()[k - 1]["cycles_run"] >= steps[k - 1][1]
+        assert m.steps_run()[k - 1]["cycles_run"] < steps[k - 1][1] + 0.5 + 1e-9
+    # each step is the sine of its frequency at the common peak acceleration
+    for st in m.steps_run():
+        w = 2 * np.pi * st["frequency_hz"]
+        assert st["amplitude_m"] * w**2 == pytest.approx(A_P)
+    t = np.linspace(1e-6, m.t_end - 1e-6, 200001)
+    np.testing.assert_allclose(np.gradient(m.displacement(t), t), m.velocity(t),
+                               atol=1e-5 * A_P)
+    # the end: at an extreme, at rest
+    assert float(m.velocity(m.t_end + 0.1)) == 0.0
+    assert float(m.displacement(m.t_end + 1.0)) == pytest.approx(m.u_end)
+
+
+def test_constant_amplitude_keeps_the_table_centred_and_steps_its_acceleration():
+    m = SteppedSineMotion(STEPS, amplitude=0.01)
+    assert np.all(m.offset == 0.0)
+    t1 = m.t0[1]
+    a = m.acceleration(np.array([t1 - 1e-9, t1 + 1e-9]))
+    s = m.sign[0]
+    np.testing.assert_allclose(a, -0.01 * (2 * np.pi * np.array([2.0, 3.0])) ** 2 * s,
+                               rtol=1e-6)
+
+
+def _case(loading, duration):
+    from dem.case import parse_case
+
+    return parse_case({
+        "name": "bolted-stepped",
+        "scene": {"blocks": [{"size": [0.2, 0.2, 0.1], "position": [0, 0, 0.05],
+                              "mass": 4.0}]},
+        # kn 5e8 Pa/m: a 3x longer time step; the contact's give m a / (ks area) = 0.8 um
+        "material": {"friction": 0.8, "normal_stiffness": 5e8},
+        "loading": {"direction": [0, 1, 0], **loading},
+        "run": {"duration": duration, "output_interval": 0.005, "vtk": False,
+                "snapshot": False}})
+
+
+def test_a_block_that_does_not_move_gives_each_step_the_analysis_of_a_separate_run(tmp_path):
+    from dem.run import run_case
+    from postprocess.shake import analyze_run
+    from postprocess.stepped import analyze_stepped_run
+
+    stepped = _case({"type": "stepped_shake", "peak_acceleration": A_P,
+                     "steps": [{"frequency": f, "cycles": n} for f, n in STEPS]}, 2.7)
+    run_case(stepped, tmp_path / "stepped")
+    res = analyze_stepped_run(tmp_path / "stepped")
+    assert (tmp_path / "stepped" / "stepped.json").is_file()
+    assert (tmp_path / "stepped" / "stepped.png").stat().st_size > 1000
+    assert [s["pass"] for s in res["steps"]] == ["up", "up"]
+    # the recorded table displacement is continuous through the switch
+    with np.load(tmp_path / "stepped" / "frames.npz") as z:
+        u = z["base_disp"][:, 1]
+    assert np.abs(np.diff(u)).max() < 1.01 * 0.005 * A_P / (2 * np.pi * 2.0)  # <= v_max dt
+    for (f, n), step in zip(STEPS, res["steps"]):
+        run_case(_case({"type": "shake", "frequency": f, "peak_acceleration": A_P,
+                        "cycles": n}, n / f + 0.05), tmp_path / f"f{f}")
+        alone = analyze_run(tmp_path / f"f{f}", plots=False, write=False)
+        for name in ("a", "va", "da"):
+            assert step["amplification"][name] == pytest.approx(
+                alone["amplification"][name], abs=3e-3), (f, name)
+            assert step["lag"][name]["s"] == pytest.approx(alone["lag"][name]["s"],
+                                                            abs=1e-3), (f, name)
+        assert step["amplification"]["ds"] < 1e-3 and alone["amplification"]["ds"] < 1e-3
+        assert step["relative_to_table"]["amplification"]["a_rel"] < 1e-2
