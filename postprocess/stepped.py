@@ -155,3 +155,13 @@ def analyze_stepped_run(run_dir, plots: bool = True, write: bool = True) -> dict
             out["plots"].append("stepped.png")
         write_json(run_dir / "stepped.json", out, indent=1, strict=True)
     return out
+
+
+def steps_line(res: dict) -> str:
+    """One line for the command line: each step's frequency, pass and ds amplification."""
+    parts = []
+    for s in res["steps"]:
+        a = s["amplification"].get("ds")
+        parts.append(f"{s['frequency_hz']:g} Hz {s['pass']} "
+                     + (f"ds {a:.3g}" if a is not None and np.isfinite(a) else "no steady window"))
+    return f"{len(res['steps'])} steps: " + "; ".join(parts)

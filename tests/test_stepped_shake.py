@@ -89,6 +89,12 @@ def test_a_block_that_does_not_move_gives_each_step_the_analysis_of_a_separate_r
     assert (tmp_path / "stepped" / "stepped.json").is_file()
     assert (tmp_path / "stepped" / "stepped.png").stat().st_size > 1000
     assert [s["pass"] for s in res["steps"]] == ["up", "up"]
+    from typer.testing import CliRunner
+
+    from dem.cli import app
+
+    r = CliRunner().invoke(app, ["post", str(tmp_path / "stepped")])
+    assert r.exit_code == 0 and "stepped.json: 2 steps: 2 Hz up" in r.output, r.output
     # the recorded table displacement is continuous through the switch
     with np.load(tmp_path / "stepped" / "frames.npz") as z:
         u = z["base_disp"][:, 1]
@@ -104,3 +110,28 @@ def test_a_block_that_does_not_move_gives_each_step_the_analysis_of_a_separate_r
                                                             abs=1e-3), (f, name)
         assert step["amplification"]["ds"] < 1e-3 and alone["amplification"]["ds"] < 1e-3
         assert step["relative_to_table"]["amplification"]["a_rel"] < 1e-2
+
+
+@pytest.mark.parametrize("change,message", [
+    ({"steps": []}, "loading.steps: List should have at least 1 item"),
+    ({"steps": [{"frequency": 0.0, "cycles": 3}]}, "loading.steps[0].frequency: Input should be"),
+    ({"steps": [{"frequency": 2.0}]}, "loading.steps[0].cycles: missing required field"),
+    ({"amplitude": 0.01}, "give exactly one of amplitude"),
+    ({"start": "ramp", "ramp_cycles": 5}, "ramp_cycles: 5 is more than steps[0].cycles = 3"),
+    ({"steps": [{"frequency": 2.0, "cycles": 3}, {"frequency": 5000.0, "cycles": 3}]},
+     "loading.steps[1].frequency: 5000 Hz has a period"),
+])
+def test_dem_check_names_a_bad_stepped_field(tmp_path, change, message):
+    import yaml
+    from typer.testing import CliRunner
+
+    from dem.cli import app
+
+    case = _case({"type": "stepped_shake", "peak_acceleration": A_P,
+                  "steps": [{"frequency": f, "cycles": n} for f, n in STEPS]}, 2.7).model_dump()
+    case["loading"].update(change)
+    path = tmp_path / "case.yaml"
+    path.write_text(yaml.safe_dump(case))
+    r = CliRunner().invoke(app, ["check", str(path)])
+    assert r.exit_code == 2, r.output
+    assert f"{path}:" in r.output and message in r.output, r.output

@@ -155,6 +155,10 @@ def post_run(path: Path) -> int:
             f"{mech.get('mechanism') or mech.get('kind')}"
             + (f", {n_col} blocks collapsed" if n_col is not None else ""))
         say(f"{plot_lean(path, col)}: lean against the table angle")
+    elif case.loading.type == "stepped_shake":   # issue 32 item 2: postprocess.stepped
+        from postprocess.stepped import analyze_stepped_run, steps_line
+
+        say(f"{path}/stepped.json: {steps_line(analyze_stepped_run(path))}")
     else:
         say(f"{path}: loading '{case.loading.type}': no analysis defined")
     return ExitCode.OK
