@@ -25,7 +25,12 @@ _NUMBER_ERRORS = {"float_parsing", "float_type", "int_parsing", "int_type", "int
 
 
 class DuplicateKeyError(ValueError):
-    pass
+    """A key given twice in one mapping; ``line`` (1-based) of the second, ``message`` without
+    the line."""
+
+    def __init__(self, message: str, line: int | None = None):
+        super().__init__(f"line {line}: {message}" if line else message)
+        self.message, self.line = message, line
 
 
 def compose(text: str) -> yaml.Node | None:
@@ -44,8 +49,9 @@ def _no_duplicates(node) -> None:
             if isinstance(key, str):
                 if key in seen:
                     raise DuplicateKeyError(
-                        f"line {k.start_mark.line + 1}: duplicate key '{key}' (first given on line {seen[key]})"
-                    )
+                        f"duplicate key '{key}' (line {k.start_mark.line + 1}; first given "
+                        f"on line {seen[key]})",
+                        k.start_mark.line + 1)
                 seen[key] = k.start_mark.line + 1
             _no_duplicates(v)
     elif isinstance(node, yaml.SequenceNode):

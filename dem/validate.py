@@ -23,6 +23,11 @@ time step
 initial state
     a block whose initial speed |v| + |omega| r (r = half its diagonal: the engine's measure)
     reaches ``solver.max_speed`` would stop the run at step 1: refused.
+plausibility (issue 36 defect 3)
+    block densities, a block far from all others (:func:`scene_plausibility`), the table's
+    g-level, stroke and speed (:func:`table_plausibility`): warnings (``IMPLAUSIBLE``) for what
+    no masonry experiment would do, errors for the impossible; thresholds and their
+    justification at the top of this module.
 loading
     shake: the period must span at least :data:`MIN_STEPS_PER_PERIOD` = 20 time steps.  With 20
     samples per cycle the sampled table acceleration reaches its peak within 1 - cos(pi/20) =
@@ -52,6 +57,31 @@ from pathlib import Path
 import numpy as np
 
 from dem.case import Case, RecordLoading, ShakeLoading, SteppedShakeLoading
+
+# --- plausibility (issue 36 defect 3): warn loudly on the implausible, refuse the impossible ---
+# density of a block, kg/m3.  Plausible: what masonry, timber and steel span, from the lightest
+# timber (balsa, ~ 150 kg/m3; aerated concrete 300-800, brick 1600-2000, stone 2000-3000) to
+# steel (7850; stainless 8000): outside it the case most likely mixes units (sizes in mm with
+# masses in kg, masses in g).  Impossible: lighter than air (1.2 kg/m3: even silica aerogel,
+# the lightest solid, is ~ 1-3 kg/m3) or denser than osmium (22 590 kg/m3, the densest material
+# at ambient conditions).
+DENSITY_PLAUSIBLE_KG_M3 = (150.0, 8100.0)
+DENSITY_POSSIBLE_KG_M3 = (1.2, 22_590.0)
+# table motion.  Plausible: peak acceleration up to 5 g (the strongest building shaking tables
+# reach ~ 1-4.7 g bare: E-Defense 0.9 g loaded, UCSD LHPOST 4.7 g bare) and a stroke up to 1 m
+# (E-Defense +-1 m, LHPOST +-0.75 m).  Impossible (refused): a peak table velocity above
+# 100 m/s, fifty times the fastest tables' (~ 2 m/s, E-Defense and LHPOST 1.8-2 m/s) - and
+# in the DEM a table faster than solver.max_speed with blocks that slide on it (peak
+# acceleration above mu g) stops the run as a runaway once a block slides, so it is refused
+# as well.
+G_STANDARD = 9.80665
+TABLE_ACCELERATION_PLAUSIBLE_G = 5.0
+TABLE_STROKE_PLAUSIBLE_M = 1.0
+TABLE_SPEED_POSSIBLE_M_S = 100.0
+# a block whose gap to its nearest neighbour exceeds this many times the scene's largest block
+# dimension cannot meet the others during a run (a block moves a few table strokes at most): it
+# is almost always a typo (mm for m, a sign), and it stretches the neighbour grid.
+FAR_BLOCK_FACTOR = 100.0
 
 DEFAULT_MAX_BLOCKS = 20_000
 MIN_STEPS_PER_PERIOD = 20
@@ -201,6 +231,89 @@ def critical_step(case: Case, scene) -> float:
                                        face))
 
 
+def table_plausibility(peak_acceleration: float, stroke: float, frequency: float | None,
+                       where_freq: str, where: str) -> tuple[list[str], list[str]]:
+    """(warnings, errors) on a sinusoidal table motion of peak acceleration a_p (m/s2) and
+    displacement amplitude A (m) at f (Hz): peak velocity v_p = A 2 pi f = a_p / (2 pi f);
+    thresholds above (TABLE_*).  Used by the DEM (check_case) and the two-body model
+    (dem.rocking.schema.rocking_plausibility)."""
+    warnings, errors = [], []
+    g = peak_acceleration / G_STANDARD
+    if frequency:
+        v = stroke * 2.0 * math.pi * frequency
+        if v > TABLE_SPEED_POSSIBLE_M_S:
+            errors.append(
+                f"{where}: the table would move at up to {v:.3g} m/s (amplitude {stroke:.3g} m "
+                f"at {frequency:g} Hz, {g:.3g} g), above {TABLE_SPEED_POSSIBLE_M_S:g} m/s, "
+                f"fifty times the fastest shaking tables (~ 2 m/s): impossible; check the units "
+                f"of amplitude (m), peak_acceleration (m/s2) and frequency (Hz)")
+            return warnings, errors
+    if g > TABLE_ACCELERATION_PLAUSIBLE_G:
+        warnings.append(
+            f"{where}: IMPLAUSIBLE: peak table acceleration {peak_acceleration:.3g} m/s2 = "
+            f"{g:.3g} g, far above any shaking table (the strongest reach ~ 1-4.7 g); check "
+            f"the units (m, m/s2, Hz)")
+    if stroke > TABLE_STROKE_PLAUSIBLE_M:
+        warnings.append(
+            f"{where}: IMPLAUSIBLE: table displacement amplitude {stroke:.3g} m, beyond any "
+            f"shaking table's stroke (~ +-1 m); check the units (m)")
+    return warnings, errors
+
+
+def _block_loc(i: int, n_listed: int) -> tuple:
+    return ("scene", "blocks", i) if i < n_listed else ("scene",)
+
+
+def scene_plausibility(scene, where, n_listed: int = 0) -> tuple[list[str], list[str]]:
+    """(warnings, errors): block densities (DENSITY_*) and blocks far from all others
+    (FAR_BLOCK_FACTOR); ``where(loc)`` prefixes FILE:LINE: field; ``n_listed``: the scene's
+    first blocks are the case's ``scene.blocks`` (their line is named)."""
+    warnings, errors = [], []
+    size = np.asarray(scene.size, dtype=float)
+    n = len(size)
+    if n == 0:
+        return warnings, errors
+    rho = np.asarray(scene.mass, dtype=float) / np.prod(size, axis=1)
+    lo, hi = DENSITY_POSSIBLE_KG_M3
+    plo, phi = DENSITY_PLAUSIBLE_KG_M3
+    bad = np.flatnonzero((rho < lo) | (rho > hi))
+    odd = np.flatnonzero((rho < plo) | (rho > phi))
+    if len(bad):
+        i = int(bad[0])
+        errors.append(
+            f"{where(_block_loc(i, n_listed))}: block {i} has a density of {rho[i]:.3g} kg/m3 (mass "
+            f"{scene.mass[i]:.3g} kg, size {' x '.join(f'{x:.3g}' for x in size[i])} m)"
+            + (f" ({len(bad)} blocks like it)" if len(bad) > 1 else "")
+            + f": impossible (outside {lo:g} - {hi:g} kg/m3, air to osmium); sizes are in m, "
+              f"masses in kg, densities in kg/m3")
+    elif len(odd):
+        i = int(odd[0])
+        warnings.append(
+            f"{where(_block_loc(i, n_listed))}: IMPLAUSIBLE: block {i} has a density of {rho[i]:.3g} kg/m3"
+            + (f" ({len(odd)} blocks outside the range)" if len(odd) > 1 else "")
+            + f", outside what masonry, timber and steel span ({plo:g} - {phi:g} kg/m3); check "
+              f"the units (m, kg, kg/m3)")
+    if n >= 2:
+        from scipy.spatial import cKDTree
+
+        centre = np.asarray(scene.position, dtype=float)
+        radius = 0.5 * np.linalg.norm(size, axis=1)
+        dist, idx = cKDTree(centre).query(centre, k=2)
+        gap = dist[:, 1] - radius - radius[idx[:, 1]]  # a lower bound of the true gap
+        limit = FAR_BLOCK_FACTOR * float(size.max())
+        far = np.flatnonzero(gap > limit)
+        if len(far):
+            # of two far-apart groups, name the block farthest from the median of all centres
+            off = np.linalg.norm(centre[far] - np.median(centre, axis=0), axis=1)
+            i = int(far[int(np.argmax(off))])
+            warnings.append(
+                f"{where(_block_loc(i, n_listed))}: IMPLAUSIBLE: block {i} at "
+                f"[{', '.join(f'{x:.3g}' for x in centre[i])}] m is {gap[i]:.3g} m from the "
+                f"nearest other block (more than {FAR_BLOCK_FACTOR:g} x the largest block, "
+                f"{limit:.3g} m): it can never meet the others; check its position (m)")
+    return warnings, errors
+
+
 class _Where:
     """``FILE:LINE: field`` prefixes from the case file's YAML nodes."""
 
@@ -293,6 +406,9 @@ def check_case(case: Case, source: str | Path | None = None,
                          allow_floating=case.scene.allow_floating,
                          settle_gap=6.0 * max(case.imperfections.size_scatter))
     out.report = report
+    w, e = scene_plausibility(scene, where, len(case.scene.blocks))
+    out.warnings += w
+    out.errors += e
     if not report.ok:
         out.errors.append(f"{where(('scene',))}: the scene cannot be run:\n{report.format()}")
 
@@ -348,6 +464,22 @@ def check_case(case: Case, source: str | Path | None = None,
     # loading
     ld = case.loading
     if isinstance(ld, ShakeLoading):
+        stroke = ld.axis_amplitude
+        a_peak = stroke * (2.0 * math.pi * ld.frequency) ** 2
+        w, e = table_plausibility(a_peak, stroke, ld.frequency, "",
+                                  where(("loading", "amplitude" if ld.amplitude is not None
+                                         else "peak_acceleration")))
+        out.warnings += w
+        out.errors += e
+        v_peak = stroke * 2.0 * math.pi * ld.frequency
+        if not e and v_peak >= sv.max_speed and a_peak > case.material.friction * \
+                float(np.linalg.norm(case.gravity_vector())):
+            out.errors.append(
+                f"{where(('loading',))}: the table moves at up to {v_peak:.3g} m/s, at or above "
+                f"solver.max_speed = {sv.max_speed:g} m/s, and its peak acceleration "
+                f"{a_peak:.3g} m/s2 exceeds mu g: a block that slides reaches that speed "
+                f"relative to the table and stops the run as a runaway; lower the motion or "
+                f"raise solver.max_speed")
         period = 1.0 / ld.frequency
         if period < MIN_STEPS_PER_PERIOD * dt:
             out.errors.append(
@@ -368,6 +500,11 @@ def check_case(case: Case, source: str | Path | None = None,
             from dem.loading import Record
 
             rec = Record(case.gravity_vector(), t, acc)
+            w, e = table_plausibility(float(np.linalg.norm(rec.acc, axis=1).max()),
+                                      float(np.linalg.norm(rec.disp, axis=1).max()), None,
+                                      "", where(("loading",)))
+            out.warnings += w
+            out.errors += e
             if t[-1] < run.duration:
                 v_end = rec.vel[-1]
                 v_peak = float(np.linalg.norm(rec.vel, axis=1).max())

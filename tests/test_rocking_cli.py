@@ -57,7 +57,7 @@ def test_design_example_is_accepted_as_written():
     (("rocking", "restitution"), 1.5, "rocking.restitution: must be 'housner' or a number"),
     (("rocking", "top_friction"), -0.1, "rocking.top_friction: must be >= 0"),
     (("rocking", "colour"), "red", "rocking.colour: unknown key"),
-    (("loading", "frequency"), -2.0, "loading.shake.frequency: Input should be greater than 0"),
+    (("loading", "frequency"), -2.0, "loading.frequency: Input should be greater than 0"),
     (("run", "output_interval"), 50.0, "run: output_interval must not exceed duration"),
 ])
 def test_bad_case_names_the_field_and_exits_2(tmp_path, path, value, message):

@@ -126,3 +126,193 @@ def test_resume_drops_the_stopped_runs_analysis_and_says_where_it_goes_on(tmp_pa
     r = _invoke("run", path, "--out", out, "--resume", "--no-progress")
     assert r.exit_code == 0, r.output
     assert "cannot resume: the run in" in r.output and "starting over" in r.output
+
+
+# ------------------------------------------------------------------------------------------
+# defect 3: absurd but well-formed input
+# ------------------------------------------------------------------------------------------
+def _brick_case(tmp_path, density=2000.0, loading=None, extra_block=None):
+    blocks = [{"size": [0.2, 0.1, 0.05], "position": [0, 0, 0.025], "density": density}]
+    blocks += extra_block or []
+    data = {"name": "brick", "scene": {"blocks": blocks}, "material": {"friction": 0.6},
+            "loading": loading or {"type": "none"},
+            "run": {"duration": 0.5, "output_interval": 0.01, "vtk": False}}
+    path = tmp_path / "case.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+@pytest.mark.parametrize("density", [1e-6, 1.8e6])
+def test_an_impossible_density_is_refused(tmp_path, density):
+    """Sizes in mm with masses in g give 1e-6 kg/m3; the reverse 1.8e6 kg/m3: lighter than air
+    or denser than osmium is no material."""
+    res = _invoke("check", _brick_case(tmp_path, density))
+    assert res.exit_code == 2, res.output
+    assert "density" in res.output and "impossible" in res.output
+
+
+@pytest.mark.parametrize("density", [50.0, 11_000.0])
+def test_an_implausible_density_warns_loudly(tmp_path, density):
+    res = _invoke("check", _brick_case(tmp_path, density))
+    assert res.exit_code == 0, res.output
+    assert "warning:" in res.output and "IMPLAUSIBLE" in res.output and "density" in res.output
+
+
+@pytest.mark.parametrize("motion", [{"amplitude": 10.0}, {"peak_acceleration": 1e4}])
+def test_an_impossible_table_motion_is_refused(tmp_path, motion):
+    """10 m at 2 Hz: v = 2 pi f A = 126 m/s; 1e4 m/s2 at 2 Hz: v = a / (2 pi f) = 796 m/s."""
+    path = _brick_case(tmp_path, loading={"type": "shake", "direction": [0, 1, 0],
+                                          "frequency": 2.0, "cycles": 2, **motion})
+    res = _invoke("check", path)
+    assert res.exit_code == 2, res.output
+    assert "m/s" in res.output and "impossible" in res.output
+    v = (motion.get("amplitude") or motion.get("peak_acceleration", 0) / (2 * np.pi * 2.0) ** 2) \
+        * 2 * np.pi * 2.0
+    assert f"{v:.3g} m/s" in res.output
+
+
+def test_a_table_far_above_any_shaking_table_warns(tmp_path):
+    """8 g at 2 Hz: A = a / (2 pi f)^2 = 0.50 m, v = 6.2 m/s: possible, but no table does it."""
+    path = _brick_case(tmp_path, loading={"type": "shake", "direction": [0, 1, 0],
+                                          "frequency": 2.0, "cycles": 2,
+                                          "peak_acceleration": 8 * 9.80665})
+    res = _invoke("check", path)
+    assert res.exit_code == 0, res.output
+    assert "IMPLAUSIBLE" in res.output and "8 g" in res.output
+
+
+def test_a_block_far_from_all_others_warns(tmp_path):
+    """Two bricks side by side and a third 1000 km away (the issue's case)."""
+    near = {"size": [0.2, 0.1, 0.05], "position": [0.3, 0, 0.025], "density": 2000.0}
+    far = {"size": [0.2, 0.1, 0.05], "position": [1e6, 0, 0.025], "density": 2000.0}
+    res = _invoke("check", _brick_case(tmp_path, extra_block=[near, far]))
+    assert res.exit_code == 0, res.output
+    assert "IMPLAUSIBLE" in res.output and "block 2" in res.output and "nearest" in res.output
+    assert "scene.blocks[2]" in res.output
+
+
+def _rocking_case(tmp_path, text=None, **loading):
+    base = (CASES / "rocking" / "model-ii-2.8hz.yaml").read_text()
+    data = yaml.safe_load(base)
+    if loading:
+        data["loading"] = {"type": "shake", "direction": [0, 1, 0], "cycles": 2, **loading}
+    data["run"] = {"duration": 0.5, "output_interval": 0.002}
+    path = tmp_path / "rocking.yaml"
+    path.write_text(text if text is not None else yaml.safe_dump(data))
+    return path
+
+
+def test_a_two_body_case_at_an_impossible_frequency_is_refused(tmp_path):
+    """2.8e5 Hz at 4.69 mm: v = 2 pi f A = 8.3 km/s (the issue's case printed 'nan mm', exit 0)."""
+    path = _rocking_case(tmp_path, frequency=2.8e5, amplitude=0.00469)
+    for cmd in (["check", path], ["rocking", path, "--out", tmp_path / "o"]):
+        res = _invoke(*cmd)
+        assert res.exit_code == 2, res.output
+        assert "impossible" in res.output and "m/s" in res.output
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_nan_in_a_two_body_result_is_a_failed_run(tmp_path, monkeypatch):
+    """A NaN anywhere in the state is a failed run (exit 1, summary.json 'failed'), never ok."""
+    import dem.rocking.runner as runner
+
+    original = runner.integrate_rocking
+
+    def poisoned(*args, **kw):
+        res = original(*args, **kw)
+        res.theta2[len(res.theta2) // 2:] = np.nan
+        return res
+
+    monkeypatch.setattr(runner, "integrate_rocking", poisoned)
+    path = _rocking_case(tmp_path, frequency=2.8, amplitude=0.00469)
+    res = _invoke("rocking", path, "--out", tmp_path / "o", "--no-plots")
+    assert res.exit_code == 1, res.output
+    assert "non-finite" in res.output and "theta2" in res.output
+    summ = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert summ["status"] == "failed"
+
+
+# ------------------------------------------------------------------------------------------
+# defect 4: no tracebacks; one writer, one exit-code mapping
+# ------------------------------------------------------------------------------------------
+def test_schema_out_into_a_missing_directory_exits_2_in_one_line(tmp_path):
+    res = _invoke("schema", "--out", tmp_path / "nodir" / "x.json")
+    assert res.exit_code == 2
+    assert res.exception is None or isinstance(res.exception, SystemExit)
+    assert res.output.strip().count("\n") == 0 and "does not exist" in res.output
+
+
+def test_rocking_on_a_full_disk_fails_cleanly(tmp_path, monkeypatch):
+    """ENOSPC on rocking.npz: exit 1, one message, summary.json says failed with write_errors
+    (the issue: a 55-line traceback, rocking.npz without summary.json)."""
+    import errno
+    import os
+
+    import dem.output.atomic as atomic
+
+    original = atomic.atomic_path
+
+    def full(path):
+        if str(path).endswith(".npz"):
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+        return original(path)
+
+    monkeypatch.setattr(atomic, "atomic_path", full)
+    path = _rocking_case(tmp_path, frequency=2.8, amplitude=0.00469)
+    res = _invoke("rocking", path, "--out", tmp_path / "o", "--no-plots")
+    assert res.exit_code == 1, res.output
+    assert "Traceback" not in res.output and "No space left" in res.output
+    summ = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert summ["status"] == "failed" and "rocking.npz" in summ["write_errors"]
+
+
+# ------------------------------------------------------------------------------------------
+# defect 5 / issue 34 item 5: one dialect for the two-body cases
+# ------------------------------------------------------------------------------------------
+def test_two_body_errors_name_file_and_line(tmp_path):
+    text = (CASES / "rocking" / "model-ii-2.8hz.yaml").read_text().replace(
+        "mass: 6.05", "mass: -6.05")
+    path = _rocking_case(tmp_path, text=text)
+    line = next(i for i, s in enumerate(text.splitlines(), 1) if "-6.05" in s)
+    for cmd in (["check", path], ["rocking", path, "--out", tmp_path / "o"],
+                ["run", path, "--out", tmp_path / "o"]):
+        res = _invoke(*cmd)
+        assert res.exit_code == 2, res.output
+        assert f"{path}:{line}: rocking.lower.mass: must be > 0 kg" in res.output
+        assert not (tmp_path / "o").exists()  # no empty --out left behind
+
+
+@pytest.mark.parametrize("bad, message", [
+    ("top_load: 58.8", "top_load: .nan"),
+    ("top_friction: 0.81", "top_friction: 0.81\n  top_friction: 0.5"),
+])
+def test_two_body_cases_refuse_nan_and_duplicate_keys(tmp_path, bad, message):
+    text = (CASES / "rocking" / "model-ii-2.8hz.yaml").read_text()
+    assert bad in text
+    path = _rocking_case(tmp_path, text=text.replace(bad, message, 1))
+    res = _invoke("check", path)
+    assert res.exit_code == 2, res.output
+    assert ("finite number" in res.output) or ("duplicate key 'top_friction'" in res.output)
+    assert f"{path}:" in res.output
+
+
+def test_a_case_with_both_rocking_and_scene_says_so(tmp_path):
+    text = (CASES / "rocking" / "model-ii-2.8hz.yaml").read_text() + \
+        "scene:\n  blocks: [{size: [0.2, 0.1, 0.05], position: [0, 0, 0.025], mass: 2}]\n"
+    path = _rocking_case(tmp_path, text=text)
+    for cmd in (["check", path], ["run", path, "--out", tmp_path / "o"]):
+        res = _invoke(*cmd)
+        assert res.exit_code == 2, res.output
+        assert "unknown key" not in res.output
+        assert "not both" in res.output and "rocking:" in res.output and "scene:" in res.output
+
+
+def test_schema_has_a_two_body_part_and_one_solver_spec_name(tmp_path):
+    out = tmp_path / "r.json"
+    res = _invoke("schema", "--rocking", "--out", out)
+    assert res.exit_code == 0, res.output
+    schema = json.loads(out.read_text())
+    assert {"rocking", "loading", "run", "solver"} <= set(schema["properties"])
+    assert "RockingSolverSpec" in schema["$defs"] and "SolverSpec" not in schema["$defs"]
+    committed = CASES / "rocking" / "rocking.schema.json"
+    assert json.loads(committed.read_text()) == schema  # the committed file is up to date

@@ -13,3 +13,8 @@ class _Strict(BaseModel):
     # NaN and inf are refused in every number ("Input should be a finite number"), before any
     # range check could give a misleading message about them
     model_config = ConfigDict(extra="forbid", validate_assignment=True, allow_inf_nan=False)
+
+
+# the public name of the base (the two-body case format, dem.rocking.schema, builds on it: one
+# dialect, issue 34 item 5)
+StrictModel = _Strict

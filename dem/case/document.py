@@ -66,6 +66,14 @@ class Case(_Strict):
                     f"smallest brick dimension ({smallest:g} m)")
         return self
 
+    @model_validator(mode="after")
+    def _material_names_known(self) -> "Case":
+        """Every material a block or builder part names is declared (dem.case.material)."""
+        from dem.case.material import check_material_names
+
+        check_material_names(self)
+        return self
+
     def smallest_brick_dimension(self) -> float:
         """The smallest edge (m) of the scene's movable explicit blocks and builder bricks."""
         from dem.builders import brick
@@ -108,25 +116,63 @@ def parse_case(data: dict, node=None, source: str | None = None) -> Case:
         raise CaseError(format_validation_error(err, data=data, node=node, source=source)) from None
 
 
-def load_case(path: str | Path) -> Case:
+_YAML_KIND = {list: "a list", str: "a single text value", int: "a single number",
+              float: "a single number", bool: "a single true/false"}
+
+
+def read_case_yaml(path: str | Path, error: type[Exception] = None):
+    """(data, YAML node tree) of a case file: the one reader of both case kinds (the DEM's and
+    the two-body model's, dem.rocking.schema; issue 34 item 5).  Refused with ``error`` (default
+    CaseError), each message ``FILE[:LINE]: what``: a file that cannot be read, YAML that does
+    not parse, a key given twice in one mapping (yaml.safe_load would keep the last one), an
+    empty file, a document that is not a mapping.  NaN and inf are refused by the models
+    (dem.case.base.StrictModel)."""
     from dem.case_errors import DuplicateKeyError, compose
 
+    error = error or CaseError
     path = Path(path)
     try:
         text = path.read_text()
     except (OSError, UnicodeDecodeError) as err:
-        raise CaseError(f"{path}: cannot read: {getattr(err, 'strerror', None) or err}") from None
+        raise error(f"{path}: cannot read: {getattr(err, 'strerror', None) or err}") from None
     try:
         node = compose(text)
         data = yaml.safe_load(text)
     except yaml.YAMLError as err:
         mark = getattr(err, "problem_mark", None)
         where = f"{path}:{mark.line + 1}" if mark is not None else f"{path}"
-        raise CaseError(f"{where}: not valid YAML: {err}") from None
+        raise error(f"{where}: not valid YAML: {err}") from None
     except DuplicateKeyError as err:
-        raise CaseError(f"{path}: {err}") from None
+        where = f"{path}:{err.line}" if getattr(err, "line", None) else f"{path}"
+        raise error(f"{where}: {err.message if hasattr(err, 'message') else err}") from None
+    if data is None:
+        raise error(f"{path}: the case file is empty (or only comments); a case is a YAML "
+                    f"mapping: name:, scene:, material:, loading:, run: (cases/README.md)")
     if not isinstance(data, dict):
-        raise CaseError(f"{path}: the case must be a YAML mapping, got {type(data).__name__}")
+        kind = _YAML_KIND.get(type(data), type(data).__name__)
+        raise error(f"{path}:{node.start_mark.line + 1}: the case must be a YAML mapping "
+                    f"(key: value lines), got {kind}")
+    return data, node
+
+
+def key_line(node, key: str) -> int | None:
+    """1-based line of a top-level key in a case file's node tree."""
+    if isinstance(node, yaml.MappingNode):
+        for k, _ in node.value:
+            if getattr(k, "value", None) == key:
+                return k.start_mark.line + 1
+    return None
+
+
+def load_case(path: str | Path) -> Case:
+    path = Path(path)
+    data, node = read_case_yaml(path)
+    if "rocking" in data and "scene" in data:
+        line = key_line(node, "rocking")
+        raise CaseError(
+            f"{path}:{line}: rocking: a case is either a DEM case (scene:, material:, ...; "
+            f"dem run) or a two-body case (rocking:; dem rocking), not both: remove one of "
+            f"'rocking:' and 'scene:' (line {key_line(node, 'scene')})")
     case = parse_case(data, node=node, source=str(path))
     ld = case.loading
     if isinstance(ld, RecordLoading) and ld.file is not None:

@@ -29,3 +29,24 @@ def exit_code_for(err: BaseException) -> ExitCode:
     if isinstance(err, (ValueError, CaseError)):
         return ExitCode.BAD_INPUT
     return ExitCode.RUN_FAILED
+
+
+def write_output_file(path, text: str, echo=print, err=print) -> ExitCode:
+    """A file a command writes where ``--out`` says (``dem schema --out``), through the atomic
+    writer (dem.output.atomic); a path that cannot be written is bad input (exit 2), in one
+    line (issue 36 defect 4: a 34-line traceback, exit 1)."""
+    from pathlib import Path
+
+    from dem.output.atomic import write_text
+
+    path = Path(path)
+    try:
+        write_text(path, text)
+    except OSError as e:
+        why = e.strerror or str(e)
+        if not path.parent.is_dir():
+            why = f"the directory {path.parent} does not exist"
+        err(f"error: --out {path}: cannot write: {why}")
+        return ExitCode.BAD_INPUT
+    echo(f"wrote {path}")
+    return ExitCode.OK

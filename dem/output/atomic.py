@@ -29,6 +29,11 @@ from typing import Iterator
 import numpy as np
 
 
+class OutputError(OSError):
+    """An output file could not be written (disk full, I/O error, read-only file system): exit
+    code 1 for every command (dem.commands.exit_codes); ``dem.run.OutputError`` is this class."""
+
+
 @contextlib.contextmanager
 def atomic_path(path: str | Path) -> Iterator[Path]:
     """Yield a temporary path next to ``path``; on a clean exit fsync it and move it onto

@@ -77,8 +77,8 @@ def summarize(case: RockingCase, P, exc, res: RockingResult, wall: float) -> tup
     uplift = next((e["t"] for e in res.events if e["before"] == "rest"), None)
     # steady state: the second half of the shaking cycles
     amp = {}
-    if len(ci) and res.status == "ok":
-        half = ci >= (ci.max() + 1) / 2
+    half = ci >= (ci.max() + 1) / 2 if len(ci) else np.zeros(0, bool)
+    if half.any() and res.status == "ok":  # none: the run ended before the second half
         amp = {
             "positive_mean_m": float(np.mean(cmax[half])),
             "negative_mean_m": float(np.mean(cmin[half])),
@@ -139,16 +139,59 @@ def summarize(case: RockingCase, P, exc, res: RockingResult, wall: float) -> tup
     return summary, arrays
 
 
+def nonfinite_fields(data, prefix: str = "") -> list[str]:
+    """The paths of the NaN / inf numbers in a (nested) summary dict."""
+    bad = []
+    if isinstance(data, dict):
+        for k, v in data.items():
+            bad += nonfinite_fields(v, f"{prefix}.{k}" if prefix else str(k))
+    elif isinstance(data, (list, tuple)):
+        for i, v in enumerate(data):
+            bad += nonfinite_fields(v, f"{prefix}[{i}]")
+    elif isinstance(data, (float, np.floating)) and not np.isfinite(data):
+        bad.append(prefix)
+    return bad
+
+
+def _fail_nonfinite(summary: dict, res: RockingResult) -> None:
+    """A NaN or inf anywhere in the state or the summary is a failed run, never ``ok`` (issue
+    36 defect 3: a two-body case at 2.8e5 Hz printed 'nan mm' and exited 0)."""
+    bad = [k for k in ("theta1", "theta2", "omega1", "omega2")
+           if len(getattr(res, k)) and not np.all(np.isfinite(getattr(res, k)))]
+    bad += nonfinite_fields({k: summary.get(k) for k in ("response", "closed_form",
+                                                         "sim_time")})
+    if bad:
+        summary["status"] = "failed"
+        summary["message"] = (f"non-finite result (NaN or inf) in {', '.join(bad[:5])}"
+                              + (f" and {len(bad) - 5} more" if len(bad) > 5 else "")
+                              + (f"; before: {res.status}: {res.message}" if res.message
+                                 else ""))
+
+
 def write_outputs(out: Path, case: RockingCase, P, exc, res: RockingResult, wall: float,
                   plots: bool = True) -> dict:
+    """Every output file (module docstring), each through dem.output.atomic.  A write that
+    fails (a full disk) does not stop the others; summary.json then says ``failed`` with
+    ``write_errors`` (a minimal one if the full one cannot be written) and
+    dem.output.atomic.OutputError is raised (exit 1), as for a DEM run (dem.run.write)."""
     out.mkdir(parents=True, exist_ok=True)
     summary, arrays = summarize(case, P, exc, res, wall)
+    _fail_nonfinite(summary, res)
+    errors: dict[str, str] = {}
+
+    def guarded(name, fn, *args) -> None:
+        try:
+            fn(*args)
+        except OSError as err:
+            errors[name] = f"{err.strerror or err}" + (f" (errno {err.errno})" if err.errno
+                                                       else "")
+
     d = an.top_displacement(P, res.theta1, res.theta2)
     ke, v = energy_arrays(P, res.theta1, res.theta2, res.omega1, res.omega2,
                           res.mode[:, 0], res.mode[:, 1], res.mode[:, 3]) if len(res.t) else \
         (np.zeros(0), np.zeros(0))
     ev = res.events
-    atomic.save_npz(out / "rocking.npz", dict(
+    guarded("rocking.npz", atomic.save_npz, out / "rocking.npz", dict(
         t=res.t, theta1=res.theta1, theta2=res.theta2, omega1=res.omega1, omega2=res.omega2,
         pattern=res.pattern.astype("<U4"), top_disp=d, top_stick=res.top_stick, mode=res.mode,
         base_disp=exc.displacement(res.t), base_acc=exc.acceleration(res.t),
@@ -159,14 +202,35 @@ def write_outputs(out: Path, case: RockingCase, P, exc, res: RockingResult, wall
         event_after=np.array([e["after"] for e in ev], dtype="<U4"),
         **arrays,
     ))
-    atomic.write_text(out / "events.csv", "t_s,kind,before,after\n" + "".join(
-        f"{e['t']:.12g},{e['kind']},{e['before']},{e['after']}\n" for e in ev))
-    if plots and len(res.t):
+    guarded("events.csv", atomic.write_text, out / "events.csv",
+            "t_s,kind,before,after\n" + "".join(
+                f"{e['t']:.12g},{e['kind']},{e['before']},{e['after']}\n" for e in ev))
+    if plots and len(res.t) and not errors:
         try:
             plot_results(out, case, P, exc, res, d, arrays)
+        except OSError as err:
+            errors["plots"] = f"{err.strerror or err}"
         except Exception as err:  # a plot must never lose the run's data
             summary["plot_error"] = f"{type(err).__name__}: {err}"
-    atomic.write_json(out / "summary.json", summary)
+    if errors:
+        summary["status"] = "failed"
+        summary["write_errors"] = dict(errors)
+    try:
+        atomic.write_json(out / "summary.json", summary)
+    except OSError as err:
+        errors["summary.json"] = f"{err.strerror or err}"
+        small = {k: summary.get(k) for k in ("name", "status", "message", "sim_time")}
+        small["write_errors"] = dict(errors)
+        try:
+            atomic.write_json(out / "summary.json", small)
+        except OSError:
+            pass
+    if errors:
+        first = next(iter(errors))
+        raise atomic.OutputError(
+            None, f"cannot write the output in {out}: {first}: {errors[first]}"
+            + ("; summary.json says failed" if (out / "summary.json").is_file()
+               else "; no summary.json could be written"))
     return summary
 
 

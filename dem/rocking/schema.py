@@ -40,17 +40,19 @@ from pathlib import Path
 from typing import Annotated, Literal, Union
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import Field, ValidationError, field_validator, model_validator
 
 from dem.case import ShakeLoading as DemShakeLoading
+from dem.case.base import StrictModel
 
 
 class RockingCaseError(ValueError):
     """A rocking case that cannot be used; the message names the bad field(s)."""
 
 
-class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+class _Strict(StrictModel):
+    """The DEM case's base (one dialect, issue 34 item 5): unknown keys refused, NaN and inf
+    refused in every number."""
 
 
 def _positive(unit: str):
@@ -198,8 +200,9 @@ class RockingRunSpec(_Strict):
         return self
 
 
-class SolverSpec(_Strict):
-    """Integration settings; defaults justified in docs/rocking_results.md (convergence)."""
+class RockingSolverSpec(_Strict):
+    """``solver:`` of a two-body case: integration settings (solve_ivp; not the DEM's
+    dem.case.SolverSpec); defaults justified in docs/rocking_results.md (convergence)."""
 
     method: Literal["DOP853", "RK45", "Radau", "LSODA", "BDF"] = "DOP853"
     rtol: float = 1e-10
@@ -220,53 +223,72 @@ class RockingCase(_Strict):
     rocking: RockingSpec
     loading: LoadingSpec = Field(default_factory=lambda: NoneSpec(type="none"))
     run: RockingRunSpec
-    solver: SolverSpec = Field(default_factory=SolverSpec)
+    solver: RockingSolverSpec = Field(default_factory=RockingSolverSpec)
     gravity: float = Field(default=9.81, description="m/s2")
 
     _g = field_validator("gravity")(lambda cls, v: _non_negative("m/s2")(v))
 
 
-def _format(err: ValidationError) -> str:
-    lines = []
-    for e in err.errors():
-        loc = ".".join(str(p) for p in e["loc"] if not str(p).startswith("function-"))
-        msg = e["msg"].removeprefix("Value error, ")
-        if e["type"] == "extra_forbidden":
-            msg = "unknown key"
-        elif e["type"] == "missing":
-            msg = "required field missing"
-        lines.append(f"{loc or '<case>'}: {msg}")
-    return "\n".join(lines)
+def parse_rocking_case(data: dict, node=None, source: str | None = None) -> RockingCase:
+    """Validate a two-body case; errors in the DEM's dialect (dem.case_errors.format_errors:
+    ``FILE:LINE: field.path: message`` when the YAML node tree and the file are given)."""
+    from dem.case_errors import format_errors
 
-
-def parse_rocking_case(data: dict) -> RockingCase:
     try:
         return RockingCase.model_validate(data)
     except ValidationError as err:
-        raise RockingCaseError(_format(err)) from None
+        raise RockingCaseError(format_errors(err, RockingCase, data=data, node=node,
+                                             source=source)) from None
 
 
 def load_rocking_case(path: str | Path, overrides: dict | None = None) -> RockingCase:
-    """Read and validate a rocking case file (``overrides`` are merged into the top level)."""
+    """Read and validate a rocking case file (``overrides`` are merged into the top level)
+    through the DEM's reader (dem.case.document.read_case_yaml: duplicate keys refused, empty
+    files and non-mappings named)."""
+    from dem.case.document import key_line, read_case_yaml
+
     path = Path(path)
-    try:
-        text = path.read_text()
-    except OSError as err:
-        raise RockingCaseError(f"{path}: cannot read: {err.strerror}") from None
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as err:
-        raise RockingCaseError(f"{path}: not valid YAML: {err}") from None
-    if not isinstance(data, dict):
-        raise RockingCaseError(f"{path}: the case must be a YAML mapping")
+    data, node = read_case_yaml(path, RockingCaseError)
     if "rocking" not in data:
-        raise RockingCaseError("rocking: required field missing (this is not a rocking case)")
+        raise RockingCaseError(f"{path}: rocking: required field missing (this is not a "
+                               f"rocking case)")
+    if "scene" in data:
+        raise RockingCaseError(
+            f"{path}:{key_line(node, 'scene')}: scene: a case is either a two-body case "
+            f"(rocking:; dem rocking) or a DEM case (scene:, material:, ...; dem run), not both: "
+            f"remove one of 'rocking:' (line {key_line(node, 'rocking')}) and 'scene:'")
     for k, v in (overrides or {}).items():
         if isinstance(v, dict) and isinstance(data.get(k), dict):
             data[k] = {**data[k], **v}
         else:
             data[k] = v
-    return parse_rocking_case(data)
+    return parse_rocking_case(data, node=node, source=str(path))
+
+
+def rocking_case_json_schema() -> str:
+    """JSON schema of two-body case files (``dem schema --rocking``; committed as
+    ``cases/rocking/rocking.schema.json``, for editor completion)."""
+    import json
+
+    schema = RockingCase.model_json_schema()
+    schema = {"$schema": "https://json-schema.org/draft/2020-12/schema", **schema,
+              "title": "dem-masonry two-body rocking case file"}
+    return json.dumps(schema, indent=2) + "\n"
+
+
+def rocking_plausibility(case: RockingCase, source=None) -> tuple[list[str], list[str]]:
+    """(warnings, errors) on the table motion of a two-body case: the DEM's thresholds
+    (dem.validate.table_plausibility: g-level, stroke, table speed, justified there)."""
+    from dem.validate import table_plausibility
+
+    L = case.loading
+    if L.type != "shake":
+        return [], []
+    stroke = L.axis_amplitude
+    a_peak = stroke * (2.0 * math.pi * L.frequency) ** 2
+    field = "amplitude" if L.amplitude is not None else "peak_acceleration"
+    return table_plausibility(a_peak, stroke, L.frequency, "",
+                              f"{source}: loading.{field}" if source else f"loading.{field}")
 
 
 # ------------------------------------------------------------------------------------------
