@@ -71,12 +71,10 @@ def check(
     print block count, mass, bounding box, time step and size.  A two-body case (``rocking:``)
     is checked against the two-body schema.  Exit 0 ok, 2 bad input."""
     if _is_rocking_file(case):
-        from dem.rocking.schema import RockingCaseError, load_rocking_case
+        from dem.commands.rocking import load_checked
 
-        try:
-            rc = load_rocking_case(case)
-        except RockingCaseError as err:
-            _err(f"error: {err}" if str(err).startswith(str(case)) else f"error: {case}: {err}")
+        rc = load_checked(case, _err)
+        if rc is None:
             raise typer.Exit(ExitCode.BAD_INPUT)
         typer.echo(f"{case}: ok: '{rc.name}': a two-body rocking case (thesis Chapter 5); run it "
                    f"with `dem rocking {case} --out DIR`")
@@ -96,16 +94,23 @@ def schema(
     out: Path = typer.Option(
         None, "--out", "-o", help="write the JSON schema here (default: print it)"
     ),
+    rocking: bool = typer.Option(
+        False, "--rocking",
+        help="the schema of two-body cases (dem rocking; cases/rocking/rocking.schema.json)"),
 ) -> None:
-    """Export the JSON schema of case files (for editor completion and validation)."""
-    from dem.case import case_json_schema
+    """Export the JSON schema of case files (for editor completion and validation).
+    Exit 0 ok, 2 --out cannot be written."""
+    from dem.commands.exit_codes import write_output_file
 
-    text = case_json_schema()
+    if rocking:
+        from dem.rocking.schema import rocking_case_json_schema as make
+    else:
+        from dem.case import case_json_schema as make
+    text = make()
     if out is None:
         typer.echo(text)
     else:
-        out.write_text(text)
-        typer.echo(f"wrote {out}")
+        raise typer.Exit(write_output_file(out, text, typer.echo, _err))
 
 
 @app.command()
@@ -137,18 +142,9 @@ def run(
 
 
 def _rocking(case: Path, out: Path, plots: bool, force: bool) -> int:
-    from dem.commands.rocking import run_rocking_case_file
-    from dem.rundir import RunDirError, claim
+    from dem.commands.rocking import rocking_command
 
-    try:
-        rd = claim(out, None, force=force, rerun_marker="rocking.npz")
-    except RunDirError as err:
-        _err(f"error: {err}")
-        return ExitCode.BAD_INPUT
-    try:
-        return run_rocking_case_file(case, out, plots=plots, echo=typer.echo, err=_err)
-    finally:
-        rd.release()
+    return rocking_command(case, out, plots=plots, force=force, echo=typer.echo, err=_err)
 
 
 @app.command()

@@ -43,8 +43,7 @@ from dem.scene import Scene
 CHECKPOINT_SECONDS = 30.0
 
 
-class OutputError(OSError):
-    """An output file could not be written (disk full, I/O error, read-only file system)."""
+from dem.output.atomic import OutputError  # noqa: E402,F401 - one class for every command
 
 
 def write_case(out: Path, case: Case) -> None:
