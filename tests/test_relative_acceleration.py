@@ -97,3 +97,25 @@ def test_a_real_bolted_block_reads_zero_relative_and_one_absolute(tmp_path):
     written = json.loads((tmp_path / "analysis.json").read_text())
     assert written["axes"]["y"]["relative_to_table"]["amplification"]["a_rel"] == \
         pytest.approx(rel["a_rel"])
+
+
+def test_first_harmonic_estimate_from_an_absolute_entry_is_the_relative_amplitude():
+    """analysis.json files older than issue 32 hold only the absolute a: its phasor against the
+    table's acceleration is 1 + (R / A) e^(-i phi), so |phasor - 1| = R / A (the relative one,
+    postprocess.relative_thesis)."""
+    from postprocess.relative_thesis import first_harmonic_relative, relative_row
+
+    R, phi, R_f, phi_f = 1.8 * A, np.radians(60.0), 0.7 * A, np.radians(40.0)
+    sig, win = _signals(R, phi, R_f, phi_f)
+    res, _ = sh.analyze_signals(sig)
+    assert first_harmonic_relative(res["quantities"]["a"]) == pytest.approx(R / A, rel=1e-6)
+    assert first_harmonic_relative(res["quantities"]["a_front"]) == pytest.approx(R_f / A,
+                                                                                   rel=1e-6)
+    row = relative_row({"primary_axis": "y", "axes": {"y": res}})
+    assert row["source"] == "first-harmonic estimate"
+    assert row["front_back"] == pytest.approx(R_f / R, rel=1e-6)
+    # with the recorded relative quantities the row reads them
+    res["relative_to_table"] = sh.relative_to_table(sig, win)
+    row = relative_row({"primary_axis": "y", "axes": {"y": res}})
+    assert row["source"] == "relative_to_table"
+    assert row["a_rel"] == pytest.approx(R / A, rel=1e-3)
