@@ -20,6 +20,9 @@ length N (blocks, in case order: explicit blocks first, then builder blocks).
 | face_offset      | [N,6,4]| m      | imperfect faces: offset of each face's corners along   |
 |                  |        |        | its outward normal (> 0 stands out); zero: flat faces  |
 | arris            | [N]    | m      | radius of the rounded edges (contact patches inset)    |
+| material         | [N]    | int    | index into ``material_names`` (default 0, "brick"):    |
+|                  |        |        | the joint properties per pair of materials             |
+|                  |        |        | (dem.engine.pair, the case's ``material.pairs``)       |
 
 Faces and corners (``face_offset[b, f, c]``, dem.imperfections, docs/imperfections.md): face
 f = 2 k + (0 for the +e_k face, 1 for the -e_k face) of the block's own axis k; corner
@@ -38,6 +41,8 @@ import numpy as np
 
 from dem import quaternion
 
+DEFAULT_MATERIAL = "brick"  # the material of a block that names none
+
 
 @dataclass
 class Scene:
@@ -54,9 +59,13 @@ class Scene:
     layout: dict[str, dict] = field(default_factory=dict)
     face_offset: np.ndarray | None = None
     arris: np.ndarray | None = None
+    material: np.ndarray | None = None
+    material_names: list[str] = field(default_factory=lambda: [DEFAULT_MATERIAL])
 
     def __post_init__(self) -> None:
         n = len(self.size)
+        self.material = np.zeros(n, dtype=np.int32) if self.material is None else \
+            np.asarray(self.material, dtype=np.int32).reshape(n)
         self.face_offset = np.zeros((n, 6, 4)) if self.face_offset is None else \
             np.asarray(self.face_offset, dtype=np.float64).reshape(n, 6, 4)
         self.arris = np.zeros(n) if self.arris is None else \
@@ -106,6 +115,8 @@ class Scene:
     def concatenate(scenes: list["Scene"]) -> "Scene":
         names: list[str] = []
         groups = []
+        mat_names: list[str] = []
+        mats = []
         for s in scenes:
             remap = []
             for g in s.group_names:
@@ -113,6 +124,12 @@ class Scene:
                     names.append(g)
                 remap.append(names.index(g))
             groups.append(np.asarray(remap, dtype=np.int32)[s.group])
+            remap = []
+            for g in s.material_names:
+                if g not in mat_names:
+                    mat_names.append(g)
+                remap.append(mat_names.index(g))
+            mats.append(np.asarray(remap, dtype=np.int32)[s.material])
         cat = lambda attr: np.concatenate([getattr(s, attr) for s in scenes])  # noqa: E731
         return Scene(
             size=cat("size"), position=cat("position"), quat=cat("quat"), mass=cat("mass"),
@@ -120,7 +137,20 @@ class Scene:
             group=np.concatenate(groups), course=cat("course"), group_names=names,
             layout={k: v for s in scenes for k, v in s.layout.items()},
             face_offset=cat("face_offset"), arris=cat("arris"),
+            material=np.concatenate(mats), material_names=mat_names,
         )
+
+    def set_materials(self, by_group: dict[str, str]) -> None:
+        """Give the blocks of the named groups the named materials (``{group: material}``; the
+        other blocks keep theirs).  Raises ValueError for a group the scene does not have."""
+        for group, mat in by_group.items():
+            if group not in self.group_names:
+                raise ValueError(f"no group {group!r} in the scene (groups: "
+                                 f"{', '.join(self.group_names)})")
+            if mat not in self.material_names:
+                self.material_names.append(mat)
+            self.material[self.group == self.group_names.index(group)] = \
+                self.material_names.index(mat)
 
     @property
     def imperfect(self) -> np.ndarray:
@@ -141,6 +171,8 @@ def scene_to_blocks(scene: Scene, groups: bool = True) -> list[dict]:
             b["group"] = scene.group_names[scene.group[i]]
         if scene.fixed[i]:
             b["fixed"] = True
+        if scene.material_names[scene.material[i]] != DEFAULT_MATERIAL:
+            b["material"] = scene.material_names[scene.material[i]]
         out.append(b)
     return out
 
@@ -151,6 +183,10 @@ def blocks_to_scene(blocks) -> Scene:
     for b in blocks:
         if b.group not in names:
             names.append(b.group)
+    materials: list[str] = []
+    for b in blocks:
+        if getattr(b, "material", DEFAULT_MATERIAL) not in materials:
+            materials.append(getattr(b, "material", DEFAULT_MATERIAL))
     return Scene(
         size=np.array([b.size for b in blocks], dtype=np.float64),
         position=np.array([b.position for b in blocks], dtype=np.float64),
@@ -162,4 +198,7 @@ def blocks_to_scene(blocks) -> Scene:
         group=np.array([names.index(b.group) for b in blocks]),
         course=np.full(len(blocks), -1),
         group_names=names,
+        material=np.array([materials.index(getattr(b, "material", DEFAULT_MATERIAL))
+                           for b in blocks]),
+        material_names=materials,
     )

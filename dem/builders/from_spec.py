@@ -14,7 +14,15 @@ def _placement(spec) -> dict:
 
 
 def build_from_spec(spec: WallSpec | FacadeSpec | BoxModelSpec) -> Scene:
-    """Scene of one builder entry of a case file."""
+    """Scene of one builder entry of a case file, its groups given the materials of the
+    entry's ``materials: {group: name}`` (the others are brick)."""
+    scene = _build(spec)
+    if spec.materials:
+        scene.set_materials({g: m for g, m in spec.materials.items() if g in scene.group_names})
+    return scene
+
+
+def _build(spec: WallSpec | FacadeSpec | BoxModelSpec) -> Scene:
     if isinstance(spec, WallSpec):
         return build_wall(
             length=spec.length, courses=spec.courses, bond=spec.bond, laying=spec.laying,

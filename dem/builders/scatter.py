@@ -49,7 +49,8 @@ def scatter_sizes(scene: Scene, sigma, rng: np.random.Generator) -> Scene:
                 velocity=scene.velocity.copy(), angular_velocity=scene.angular_velocity.copy(),
                 group=scene.group.copy(), course=scene.course.copy(),
                 group_names=list(scene.group_names), layout=dict(scene.layout),
-                face_offset=scene.face_offset.copy(), arris=scene.arris.copy())
+                face_offset=scene.face_offset.copy(), arris=scene.arris.copy(),
+                material=scene.material.copy(), material_names=list(scene.material_names))
     if not (sigma > 0).any():
         return out
     n = scene.n_blocks

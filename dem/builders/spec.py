@@ -82,6 +82,28 @@ class _Placed(_Strict):
         description="m: cut pieces shorter than this are left out (a gap stays); "
         "default 0.15 x brick length",
     )
+    materials: dict[str, str] = Field(
+        default_factory=dict,
+        description="material per group of this builder's blocks, e.g. {roof-beam: timber} "
+        "(names declared in material.materials; the other groups are brick)")
+
+    def group_names(self) -> list[str]:
+        """The groups this builder lays (the keys ``materials`` may name)."""
+        return []
+
+    @model_validator(mode="after")
+    def _material_groups(self):
+        from pydantic import ValidationError
+        from pydantic_core import InitErrorDetails, PydanticCustomError
+
+        groups = self.group_names()
+        errs = [InitErrorDetails(type=PydanticCustomError(
+                    "value_error", f"no group '{g}' in this builder (groups: {', '.join(groups)})"),
+                    loc=("materials", g), input=g)
+                for g in self.materials if g not in groups]
+        if errs:
+            raise ValidationError.from_exception_data(type(self).__name__, errs)
+        return self
 
     @field_validator("origin")
     @classmethod
@@ -118,6 +140,9 @@ class WallSpec(_Placed):
         default=True, description="cut the shifted courses so both wall ends are plane"
     )
     group: str = Field(default="wall", min_length=1, description="group label in the output")
+
+    def group_names(self) -> list[str]:
+        return [self.group]
 
     @model_validator(mode="after")
     def _bond_options(self) -> "WallSpec":
@@ -173,6 +198,9 @@ class FacadeSpec(_Placed):
     )
     left: WingSpec | None = Field(default=None, description="wing at the -x end (none: free end)")
     right: WingSpec | None = Field(default=None, description="wing at the +x end (none: free end)")
+
+    def group_names(self) -> list[str]:
+        return ["facade", "wing-left", "wing-right"]
     flush_ends: bool = Field(default=True, description="plane free ends of the facade and wings")
 
     @model_validator(mode="after")
@@ -260,6 +288,9 @@ class BoxModelSpec(_Placed):
         if self.courses is None and self.model is None:
             raise ValueError("give courses (or a thesis model: I, II or III)")
         return self
+
+    def group_names(self) -> list[str]:
+        return ["L1", "L2", "T1", "T2", "roof-beam", "roof-mass", "corner-mass"]
 
     @property
     def n_courses(self) -> int:

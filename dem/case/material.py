@@ -4,7 +4,8 @@ from __future__ import annotations
 
 from typing import Annotated, Literal, Union
 
-from pydantic import Field
+from pydantic import Field, ValidationError, model_validator
+from pydantic_core import InitErrorDetails, PydanticCustomError
 
 from dem.case.base import _Strict
 
@@ -14,6 +15,45 @@ from dem.case.base import _Strict
 # it tips only if mu < b/h, and b/h > 10 is a plate lying flat).  Above it the number is a typo or
 # a unit slip (1000 for 1.000, a percentage), so it is refused rather than run.
 MAX_FRICTION = 10.0
+
+# Named materials.  Every block has one: "brick" unless its entry (scene.blocks[k].material, or a
+# builder's materials: {group: name}) names another; the table is "table".  Other names are
+# declared in material.materials; material.pairs gives the joint constants of pairs of them.
+DEFAULT_MATERIAL = "brick"
+BUILTIN_MATERIALS = (DEFAULT_MATERIAL, "table")
+MaterialName = Annotated[str, Field(min_length=1, max_length=40, pattern=r"^[A-Za-z][A-Za-z0-9_-]*$",
+                                    description="a material name: brick, table or one declared "
+                                    "in material.materials")]
+
+
+def _errors(title: str, errs: list[tuple[tuple, str, object]]) -> ValidationError:
+    """A ValidationError whose problems sit at the given locations (relative to the model that
+    raises it), so that the case file's error names the field and its line."""
+    return ValidationError.from_exception_data(title, [
+        InitErrorDetails(type=PydanticCustomError("value_error", msg), loc=loc, input=value)
+        for loc, msg, value in errs])
+
+
+class PairMaterial(_Strict):
+    """The joint constants of one pair of named materials; a field left out takes the default
+    pair's (the ``material:`` section's own fields; pairs with the table: base_friction)."""
+
+    between: list[MaterialName] = Field(
+        min_length=2, max_length=2,
+        description="the two materials, e.g. [timber, brick] (order does not matter; the same "
+        "name twice: blocks of one material against each other)")
+    friction: float | None = Field(default=None, ge=0.0, le=MAX_FRICTION,
+                                   description="Coulomb friction coefficient mu, -")
+    normal_stiffness: float | None = Field(
+        default=None, gt=0.0,
+        description="kn, Pa/m (the hyperbolic law: kn0, the stiffness of the unloaded joint)")
+    shear_stiffness: float | None = Field(
+        default=None, gt=0.0,
+        description="ks, Pa/m (default: material.shear_stiffness if given, else 0.4 kn)")
+    damping: float | None = Field(default=None, ge=0.0, lt=1.0,
+                                  description="viscous contact damping, fraction of critical")
+    max_closure: float | None = Field(
+        default=None, gt=0.0, description="d_max of the hyperbolic law for this pair, m")
 
 
 class Material(_Strict):
@@ -43,6 +83,64 @@ class Material(_Strict):
         default=None, ge=0.0, le=MAX_FRICTION,
         description="friction against the table (default: friction; at most 10)"
     )
+    normal_law: Literal["linear", "hyperbolic"] = Field(
+        default="linear",
+        description="the joint's pressure p at closure d: 'linear' p = kn d, or 'hyperbolic' "
+        "p = kn0 d / (1 - d/max_closure) (Bandis et al. 1983: soft at low stress, stiffening "
+        "as the joint closes; normal_stiffness is then kn0; docs/engine.md section 4)")
+    max_closure: float | None = Field(
+        default=None, gt=0.0,
+        description="d_max, m: the largest closure of a hyperbolic joint (required by "
+        "normal_law: hyperbolic)")
+    closure_limit: float = Field(
+        default=0.5, gt=0.0, lt=1.0,
+        description="hyperbolic law: the time step is made stable for closures up to this "
+        "fraction of max_closure (tangent stiffness kn0 / (1 - closure_limit)^2: 4 kn0 at 0.5); "
+        "a joint that closes further stops the run, -")
+    materials: list[MaterialName] = Field(
+        default_factory=list,
+        description="names of block materials besides 'brick' (every block's default) and "
+        "'table', e.g. [timber, steel]; blocks take them with scene.blocks[k].material or a "
+        "builder's materials: {group: name}")
+    pairs: list[PairMaterial] = Field(
+        default_factory=list,
+        description="joint constants per pair of materials (later entries win); every other "
+        "pair takes the fields above")
+
+    @model_validator(mode="after")
+    def _law_and_names(self) -> "Material":
+        errs = []
+        if self.normal_law == "hyperbolic":
+            if self.max_closure is None:
+                errs.append((("max_closure",), "normal_law: hyperbolic needs max_closure (m)",
+                             None))
+            if self.normal_stiffness == "rigid":
+                errs.append((("normal_stiffness",), "'rigid' applies to the linear law only; "
+                             "give kn0 (Pa/m) for the hyperbolic law", "rigid"))
+        elif self.max_closure is not None:
+            errs.append((("max_closure",), "applies to normal_law: hyperbolic only (the "
+                         "default law is linear)", self.max_closure))
+        seen: set[str] = set()
+        for k, name in enumerate(self.materials):
+            if name in BUILTIN_MATERIALS or name in seen:
+                errs.append((("materials", k), f"'{name}' is "
+                             + ("built in" if name in BUILTIN_MATERIALS else "given twice"), name))
+            seen.add(name)
+        known = self.material_names()
+        for k, pair in enumerate(self.pairs):
+            for m, name in enumerate(pair.between):
+                if name not in known:
+                    errs.append((("pairs", k, "between", m), unknown_material(name, known), name))
+            if pair.max_closure is not None and self.normal_law != "hyperbolic":
+                errs.append((("pairs", k, "max_closure"), "applies to normal_law: hyperbolic "
+                             "only", pair.max_closure))
+        if errs:
+            raise _errors("Material", errs)
+        return self
+
+    def material_names(self) -> list[str]:
+        """Every material name a case may use: the built-in ones, then those declared."""
+        return list(BUILTIN_MATERIALS) + list(self.materials)
 
     def ks(self, kn: float) -> float:
         """Shear stiffness, Pa/m, for the normal stiffness ``kn`` in use."""
@@ -51,3 +149,27 @@ class Material(_Strict):
     @property
     def mu_base(self) -> float:
         return self.base_friction if self.base_friction is not None else self.friction
+
+
+def unknown_material(name: str, known: list[str]) -> str:
+    return (f"unknown material '{name}' (known: {', '.join(known)}; declare it in "
+            f"material.materials)")
+
+
+def check_material_names(case) -> None:
+    """Raise a ValidationError at each block or builder entry of ``case`` that names a material
+    the case does not declare (material.materials, or the built-in brick and table)."""
+    known = case.material.material_names()
+    errs = []
+    for k, block in enumerate(case.scene.blocks):
+        name = getattr(block, "material", DEFAULT_MATERIAL)
+        if name not in known:
+            errs.append((("scene", "blocks", k, "material"), unknown_material(name, known), name))
+    for key in ("wall", "facade", "box_model"):
+        spec = getattr(case.scene, key)
+        for group, name in (getattr(spec, "materials", None) or {}).items():
+            if name not in known:
+                errs.append((("scene", key, "materials", group), unknown_material(name, known),
+                             name))
+    if errs:
+        raise _errors("Case", errs)

@@ -22,19 +22,21 @@ Arrays are allocated once and only ever written in place (``a[...] = ...``): the
 the cached launch contexts of :mod:`dem.engine.launch` hold their addresses.
 
 Element types: real (the engine's floating type: f64, or f32 with solver.precision = "f32"),
-vec3 [..., 3], vec4 [..., 4], mat3 [..., 3, 3], i32, ivec2 [..., 2].  Shapes: B bodies (the N
+vec3 [..., 3], vec4 [..., 4], mat3 [..., 3, 3], i32, ivec2 [..., 2], pair [..., 7] (the pair
+material record, dem.engine.pair).  Shapes: B bodies (the N
 blocks of the scene in case order, then the table, index N: a large fixed box whose top face is
 the plane z = 0), P pair capacity, K = MAXP points per pair, S = steps per serial launch.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import taichi as ti
 
 from dem.engine.geometry import MAXP
+from dem.engine.pair import LAWS, N_PAIR_FIELDS, PAIR_FIELDS, PairMaterial
 from dem.scene import Scene
 from dem.ti_runtime import real_dtype
 
@@ -69,9 +71,11 @@ MODEL_FIELDS = (
     _f("inertia", "vec3", "B", "kg m^2", "Model.from_scene", "principal moments (body axes)"),
     _f("inv_inertia", "vec3", "B", "1/(kg m^2)", "Model.from_scene", "0 for fixed bodies"),
     _f("radius", "real", "B", "m", "Model.from_scene", "bounding-sphere radius |half|"),
-    _f("material", "i32", "B", "-", "Model.from_scene", "0 blocks, 1 table"),
-    _f("mat_pair", "vec4", ("M", "M"), "-, Pa/m, Pa/m, -", "Model.from_scene",
-       "(mu, kn, ks, damping ratio) per material pair, read by pair_properties"),
+    _f("material", "i32", "B", "-", "Model.from_scene",
+       "index into the material names (the scene's, then the table's; default 0 blocks, 1 table)"),
+    _f("mat_pair", "pair", ("M", "M"), "-, Pa/m, Pa/m, -, -, m, m", "Model.from_scene",
+       "the pair material record per pair of materials (dem.engine.pair.PAIR_FIELDS: mu, kn, ks, "
+       "zeta, law, d_max, d_lim), read by name through pair.pair_material"),
     _f("face_offset", "vec4", ("B", 6), "m", "Model.from_scene",
        "imperfect faces: corner offsets along the outward normal (dem.scene, face_contact)"),
     _f("arris", "real", "B", "m", "Model.from_scene", "rounded-edge radius: patches inset by it"),
@@ -151,7 +155,8 @@ CONTROL_FIELDS = (
           for name in ENERGY_TERMS)
 
 _ELEM = {"real": (None, ()), "vec3": (ti.math.vec3, (3,)), "vec4": (ti.math.vec4, (4,)),
-         "mat3": (ti.math.mat3, (3, 3)), "i32": (ti.i32, ()), "ivec2": (ti.math.ivec2, (2,))}
+         "mat3": (ti.math.mat3, (3, 3)), "i32": (ti.i32, ()), "ivec2": (ti.math.ivec2, (2,)),
+         "pair": (ti.types.vector(N_PAIR_FIELDS, float), (N_PAIR_FIELDS,))}
 
 
 def _argpack_type(fields):
@@ -176,7 +181,7 @@ def _allocate(obj, fields, sizes: dict) -> None:
     for f in fields:
         shape = tuple(sizes[d] if isinstance(d, str) else d for d in f.dims)
         _, elem_shape = _ELEM[f.elem]
-        npdt = real_dtype() if f.elem in ("real", "vec3", "vec4", "mat3") else np.int32
+        npdt = real_dtype() if f.elem in ("real", "vec3", "vec4", "mat3", "pair") else np.int32
         setattr(obj, f.name, np.zeros(shape + elem_shape, dtype=npdt))
 
 
@@ -246,13 +251,12 @@ class Model(_Container):
         table_inertia = table_mass / 12 * np.array([s2[1] + s2[2], s2[0] + s2[2], s2[0] + s2[1]])
         inertia = np.vstack([inertia_blocks, table_inertia])
         fixed = np.append(scene.fixed, True)
-        mat = np.append(np.full(scene.n_blocks, MAT_BLOCK), MAT_TABLE)
-        kn, ks, zeta = joints.normal_stiffness, joints.shear_stiffness, joints.damping
-        mat_pair = np.zeros((2, 2, 4))
-        mat_pair[MAT_BLOCK, MAT_BLOCK] = (joints.friction, kn, ks, zeta)
-        mat_pair[MAT_BLOCK, MAT_TABLE] = mat_pair[MAT_TABLE, MAT_BLOCK] = (
-            joints.base_friction, kn, ks, zeta)
-        mat_pair[MAT_TABLE, MAT_TABLE] = (0.0, kn, ks, zeta)
+        names = list(scene.material_names)
+        if "table" not in names:
+            names.append("table")
+        table_mat = names.index("table")
+        mat = np.append(scene.material, table_mat)
+        mat_pair = pair_table(names, joints)
         model = cls(half, mass, inertia, fixed, mat, mat_pair, scene.n_blocks)
         model.face_offset[: scene.n_blocks] = scene.face_offset
         model.arris[: scene.n_blocks] = scene.arris
@@ -260,7 +264,69 @@ class Model(_Container):
         model.recess[: scene.n_blocks] = np.maximum(
             -scene.face_offset.min(axis=(1, 2), initial=0.0), 0.0) + scene.arris
         model.table_centre = np.array([centre[0], centre[1], -table_half[2]])
+        model.material_names = names
         return model
+
+    def pair_material(self, a: str | int, b: str | int) -> PairMaterial:
+        """The record of materials a, b (names, or indices into ``material_names``)."""
+        ia = self.material_names.index(a) if isinstance(a, str) else int(a)
+        ib = self.material_names.index(b) if isinstance(b, str) else int(b)
+        return PairMaterial.from_row(self.mat_pair_np[ia, ib])
+
+    def stiffest(self) -> tuple[float, float, float]:
+        """(kn, ks, zeta) bounding every pair of the materials in use, for the critical step:
+        the largest normal stiffness a pair reaches within the closures the step is made for
+        (PairMaterial.stable_stiffness), the largest ks and the largest damping ratio (the
+        critical step shrinks as sqrt(1 + zeta^2) - zeta)."""
+        recs = [self.pair_material(a, b) for a in range(len(self.material_names))
+                for b in range(len(self.material_names))]
+        return (max(r.stable_stiffness() for r in recs), max(r.ks for r in recs),
+                max(r.zeta for r in recs))
+
+    def closure_limit(self) -> float | None:
+        """The smallest d_lim (m) of the hyperbolic pairs, None if every pair is linear."""
+        lims = [r.d_lim for a in range(len(self.material_names))
+                for b in range(len(self.material_names))
+                if (r := self.pair_material(a, b)).law == LAWS["hyperbolic"]]
+        return min(lims) if lims else None
+
+
+def pair_table(names: list[str], joints) -> np.ndarray:
+    """[M, M, N_PAIR_FIELDS] records for the materials ``names`` (the table among them) from a
+    JointLaw: every pair gets the default (friction, kn, ks, damping, normal law), pairs with
+    the table the base friction (table with table: mu = 0), then ``joints.pairs`` override
+    field by field, in their order, for the pairs whose two materials are both in ``names``."""
+    kn, ks, zeta = joints.normal_stiffness, joints.shear_stiffness, joints.damping
+    law = LAWS[getattr(joints, "normal_law", "linear")]
+    d_max = d_lim = 0.0
+    if law == LAWS["hyperbolic"]:
+        d_max = float(joints.max_closure)
+        d_lim = float(joints.closure_limit) * d_max
+    default = PairMaterial(joints.friction, kn, ks, zeta, law, d_max, d_lim)
+    table = names.index("table")
+    m = len(names)
+    out = np.zeros((m, m, N_PAIR_FIELDS))
+    for a in range(m):
+        for b in range(m):
+            mu = joints.friction
+            if a == table and b == table:
+                mu = 0.0
+            elif a == table or b == table:
+                mu = joints.base_friction
+            out[a, b] = replace(default, mu=mu).row()
+    for ov in getattr(joints, "pairs", ()):
+        if ov.a not in names or ov.b not in names:
+            continue
+        a, b = names.index(ov.a), names.index(ov.b)
+        rec = PairMaterial.from_row(out[a, b])
+        changes = {"mu": ov.friction, "kn": ov.normal_stiffness, "ks": ov.shear_stiffness,
+                   "zeta": ov.damping}
+        rec = replace(rec, **{k: float(v) for k, v in changes.items() if v is not None})
+        if ov.max_closure is not None and rec.law == LAWS["hyperbolic"]:
+            rec = replace(rec, d_max=float(ov.max_closure),
+                          d_lim=float(joints.closure_limit) * float(ov.max_closure))
+        out[a, b] = out[b, a] = rec.row()
+    return out
 
 
 class State(_Container):

@@ -10,6 +10,21 @@ Normal (no tension, viscous term on closing rate; Cundall & Strack 1979, 3DEC ma
 
 with d >= 0 the penetration (m) and ddot its rate (m/s, > 0 closing).
 
+Hyperbolic normal law (``material.normal_law: hyperbolic``; the joint closure law of Bandis,
+Lumsden & Barton 1983, Int. J. Rock Mech. Min. Sci. 20:249, used for rock joints in UDEC/3DEC):
+a dry joint is soft at low stress and stiffens as it closes towards a largest closure d_max,
+
+    p(d)  = kn0 d / (1 - d/d_max)                       [Pa]   pressure at closure d (m)
+    kt(d) = dp/dd = kn0 / (1 - d/d_max)^2               [Pa/m] tangent stiffness
+    e(d)  = int_0^d p = -kn0 d_max (d + d_max ln(1 - d/d_max))     [J/m^2] stored energy
+
+kn0 (Pa/m) the stiffness of the unloaded joint.  Inverse: d(p) = p / (kn0 + p/d_max).  The time
+step is made for closures up to d_lim < d_max (``material.closure_limit`` x d_max); beyond d_lim
+the law goes on along its tangent at d_lim, p = p(d_lim) + kt(d_lim)(d - d_lim) (energy
+e(d_lim) + p(d_lim)(d - d_lim) + kt(d_lim)(d - d_lim)^2 / 2: the force is still the derivative
+of the energy), so the step stays stable, and the simulation stops the run after the launch
+(dem.engine.simulation): the results past d_lim are not the hyperbolic law's.
+
 Shear (Coulomb with elastic stick, shear displacement kept per point across steps):
 
     u*  = rot(u_old) + v_t dt                 (u_old turned into the current contact plane,
@@ -39,6 +54,54 @@ def normal_law(kn_area, depth, depth_rate, cn):
     viscous part to -kn A d would leave a couple with no net force, a torque from nothing.
     """
     f_el = kn_area * depth
+    f_visc = cn * depth_rate
+    if f_el + f_visc <= 0.0:
+        f_el = 0.0
+        f_visc = 0.0
+    return f_el, f_visc
+
+
+@ti.func
+def hyperbolic_pressure(kn0, d_max, d_lim, d):
+    """Pressure of the hyperbolic law at closure d (Pa), continued along the tangent beyond
+    d_lim (module docstring); 0 for d <= 0."""
+    dd = ti.min(ti.max(d, 0.0), d_lim)
+    r = 1.0 - dd / d_max
+    p = kn0 * dd / r
+    if d > d_lim:
+        p += kn0 / (r * r) * (d - d_lim)
+    return p
+
+
+@ti.func
+def hyperbolic_energy(kn0, d_max, d_lim, d):
+    """Energy per unit joint area stored at closure d (J/m^2): the integral of
+    :func:`hyperbolic_pressure` from 0 to d.  e = kn0 d_max^2 (-x - ln(1 - x)), x = d/d_max;
+    below x = 0.05 by its series x^2/2 + x^3/3 + ... + x^14/14 (the difference of logarithms
+    would lose ~x^-1 of the digits; the series' first dropped term is below 1e-15 of the sum)."""
+    dd = ti.min(ti.max(d, 0.0), d_lim)
+    x = dd / d_max
+    f = 0.0
+    if x < 0.05:
+        xk = x
+        for k in ti.static(range(2, 15)):
+            xk *= x
+            f += xk / k
+    else:
+        f = -x - ti.log(1.0 - x)
+    e = kn0 * d_max * d_max * f
+    if d > d_lim:
+        r = 1.0 - x
+        s = d - d_lim
+        e += kn0 * dd / r * s + 0.5 * kn0 / (r * r) * s * s
+    return e
+
+
+@ti.func
+def normal_law_hyperbolic(area, kn0, d_max, d_lim, depth, depth_rate, cn):
+    """:func:`normal_law` for the hyperbolic law: (elastic part A p(d), viscous part cn ddot)
+    (N), both zero when their sum would pull."""
+    f_el = area * hyperbolic_pressure(kn0, d_max, d_lim, depth)
     f_visc = cn * depth_rate
     if f_el + f_visc <= 0.0:
         f_el = 0.0

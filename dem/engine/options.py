@@ -13,14 +13,35 @@ from typing import Literal
 
 
 @dataclass(frozen=True)
+class PairLaw:
+    """The joint constants of one pair of named materials that differ from the default (None:
+    the default's).  a, b: material names (a block's ``material``, or "table")."""
+
+    a: str
+    b: str
+    friction: float | None = None
+    normal_stiffness: float | None = None
+    shear_stiffness: float | None = None
+    damping: float | None = None
+    max_closure: float | None = None
+
+
+@dataclass(frozen=True)
 class JointLaw:
     """Parameters of the contact law at every joint (input of ``dem.engine.pair``, Ip2).
 
     friction          mu between blocks, -
     base_friction     mu between a block and the table, -
     normal_stiffness  kn, Pa/m: a patch of area A closed by a gap d pushes back with kn A d
+                      (the hyperbolic law: kn0, the stiffness at zero closure)
     shear_stiffness   ks, Pa/m
     damping           viscous contact damping, fraction of critical, -
+    normal_law        "linear" p = kn d, or "hyperbolic" p = kn0 d / (1 - d/d_max)
+                      (dem.engine.laws)
+    max_closure       d_max of the hyperbolic law, m
+    closure_limit     the step is made for closures up to closure_limit x d_max, -
+    pairs             PairLaw per pair of named materials (later entries win); every other
+                      pair takes the values above (with the table: base_friction)
     """
 
     friction: float
@@ -28,6 +49,17 @@ class JointLaw:
     normal_stiffness: float
     shear_stiffness: float
     damping: float
+    normal_law: Literal["linear", "hyperbolic"] = "linear"
+    max_closure: float | None = None
+    closure_limit: float = 0.5
+    pairs: tuple[PairLaw, ...] = ()
+
+    def __post_init__(self) -> None:
+        if self.normal_law == "hyperbolic":
+            if self.max_closure is None or not self.max_closure > 0:
+                raise ValueError("the hyperbolic normal law needs max_closure > 0 (m)")
+            if not 0.0 < self.closure_limit < 1.0:
+                raise ValueError(f"closure_limit must lie in (0, 1), got {self.closure_limit}")
 
 
 @dataclass(frozen=True)

@@ -89,9 +89,13 @@ class Simulation:
         patch = self.check_initial_overlaps(options.overlap_tolerance)
         # face areas in the critical-step bound, capped for light blocks with large faces; a
         # contact patch larger than its cap lifts the cap and recomputes dt (_check_caps)
+        # the stiffest pair of materials in use (one pair: the material's kn, ks, zeta; the
+        # hyperbolic law: its tangent at the largest closure the step is made for)
+        self._kn_step, self._ks_step, self._zeta_step = self.model.stiffest()
+        self._closure_limit = self.model.closure_limit()
         self._face_area, self.area_cap = face_area_caps(
             2 * self.model.half_np, self.model.mass_np, self.model.inertia_np, movable,
-            joints.normal_stiffness, joints.shear_stiffness, options.safety, patch)
+            self._kn_step, self._ks_step, options.safety, patch)
         self.dt_changes: list[dict] = []
         self.dt_crit = self._critical_step()
         if options.dt is not None:
@@ -99,7 +103,7 @@ class Simulation:
                 raise InputError(
                     f"solver.dt = {options.dt:.3g} s is above the critical time step "
                     f"{self.dt_crit:.3g} s of this scene (stiffest block, kn = "
-                    f"{joints.normal_stiffness:.3g} Pa/m); use solver.dt <= "
+                    f"{self._kn_step:.3g} Pa/m); use solver.dt <= "
                     f"{options.safety * self.dt_crit:.3g} s or leave it out")
             self.dt = float(options.dt)
         else:
@@ -112,9 +116,9 @@ class Simulation:
         return self._t_anchor + (self.step_count - self._step_anchor) * self.dt
 
     def _critical_step(self) -> float:
-        m, mat = self.model, self.joints
+        m = self.model
         return critical_time_step(2 * m.half_np, m.mass_np, m.inertia_np, self._movable,
-                                  mat.normal_stiffness, mat.shear_stiffness, mat.damping, self._face_area)
+                                  self._kn_step, self._ks_step, self._zeta_step, self._face_area)
 
     def _check_caps(self) -> None:
         """Raise the area cap of any body whose contact patch outgrew it, and shorten dt.
@@ -165,6 +169,19 @@ class Simulation:
             self.dt_changes.append({"t": self._t_anchor, "step": self.step_count, "old_dt": old,
                                     "new_dt": new, "blocks": bodies.tolist(),
                                     "new_area_cap_m2": [float(x) for x in new_cap]})
+
+    def _check_closure(self) -> None:
+        """The hyperbolic law: stop when a joint closed beyond the closure the step is made for
+        (d_lim = closure_limit x d_max; dem.engine.laws: past it the law is linearised, stable
+        but no longer the hyperbolic law)."""
+        deepest = float(self.control.deepest[0])
+        if deepest > self._closure_limit:
+            raise SimulationError(
+                f"a joint closed by {deepest:.4g} m by t = {self.t:.5f} s, beyond "
+                f"{self._closure_limit:.4g} m (material.closure_limit x max_closure), the "
+                f"largest closure the time step is made for: the hyperbolic law's tangent "
+                f"stiffness grows without bound as the closure nears max_closure; raise "
+                f"material.closure_limit (a shorter step) or check max_closure and the loads")
 
     def rebuild(self) -> None:
         """Broad phase: new neighbour list, history carried over for pairs that stay."""
@@ -229,6 +246,8 @@ class Simulation:
                 self._raise_instability()
             if status & REBUILD:
                 self.rebuild()
+            if self._closure_limit is not None:
+                self._check_closure()
             self._check_caps()
             if on_chunk is not None:
                 on_chunk(done)
@@ -375,12 +394,13 @@ class Simulation:
         # runs the perfect model's code (bit for bit, at its speed)
         warped = bool(self.model.imperfect.any())
         self._probe = stepk.probe_contacts_warped if warped else stepk.probe_contacts
+        # kernels that read each pair's normal law only for scenes with a hyperbolic pair
+        hyperbolic = self.model.closure_limit() is not None
+        kernel = stepk.ADVANCE[(self.mode == "serial", warped, hyperbolic)]
         if self.mode == "serial":
             scalars = (0, 0, float(self.dt))
-            kernel = stepk.advance_serial_warped if warped else stepk.advance_serial
         else:
             scalars = (0, float(self.dt))
-            kernel = stepk.advance_parallel_warped if warped else stepk.advance_parallel
         if self.fast_launch:
             self._advance = CachedLaunch(kernel, scalars, *self.containers())
         else:
@@ -388,7 +408,10 @@ class Simulation:
             self._advance = lambda *sc: kernel(*sc, *self.containers())
         depth = ti_nd_real(1)
         self._probe(0, depth, depth, m, st, c)
-        stepk.elastic_energy(0, m, c)
+        if self.model.closure_limit() is None:
+            stepk.elastic_energy(0, m, c)
+        else:
+            stepk.elastic_energy_hyperbolic(0, m, c)
 
     def _raise_instability(self) -> None:
         b = int(self.control.bad_body[0])
@@ -416,7 +439,9 @@ class Simulation:
         c, m = self.contacts, self.model
         if c.n_pairs == 0:
             return 0.0
-        return float(stepk.elastic_energy(c.n_pairs, m.args, c.args))
+        kernel = (stepk.elastic_energy if self._closure_limit is None
+                  else stepk.elastic_energy_hyperbolic)
+        return float(kernel(c.n_pairs, m.args, c.args))
 
     def mechanical_energy(self) -> float:
         return self.kinetic_energy() + self.elastic_energy()

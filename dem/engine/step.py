@@ -51,7 +51,7 @@ from dem.engine.containers import (NONFINITE, REBUILD, RUNAWAY, ContactArgs, Con
                                    ModelArgs, StateArgs)
 from dem.engine.geometry import point_buffer
 from dem.engine.mathutil import TINY_ANGLE, quat_angle_between, quat_mul, quat_to_mat, vec3, vec4
-from dem.engine.pair import pair_properties
+from dem.engine.pair import HYPERBOLIC, pair_material, pair_properties
 
 
 @ti.func
@@ -135,9 +135,12 @@ def matched_point(q, lq, n_old, match_tol2, lx: ti.template(), ly: ti.template()
 
 @ti.func
 def contact_stage(p, dt, model: ti.template(), state: ti.template(), contacts: ti.template(),
-                  control: ti.template(), warped: ti.template()):
+                  control: ti.template(), warped: ti.template(), hyperbolic: ti.template()):
     """Narrow phase, pair properties, history and joint law of pair p.  ``warped``
-    (compile time): the kernel handles imperfect faces (docs/imperfections.md)."""
+    (compile time): the kernel handles imperfect faces (docs/imperfections.md);
+    ``hyperbolic`` (compile time): the kernel reads each pair's normal law (linear or
+    hyperbolic, dem.engine.laws); without it every pair is linear, the code that ran before
+    the hyperbolic law existed (the same results bit for bit)."""
     i = contacts.pairs[p][0]
     j = contacts.pairs[p][1]
     pA = state.pos[i]
@@ -170,7 +173,14 @@ def contact_stage(p, dt, model: ti.template(), state: ti.template(), contacts: t
     area_tot = 0.0
     for q in range(npts):
         area_tot += w[q]
-    props = pair_properties(model, i, j, area_tot)
+    depth_mean = 0.0  # the area-weighted mean closure (m): the hyperbolic law's damping
+    if ti.static(hyperbolic):
+        closure_area = 0.0
+        for q in range(npts):
+            closure_area += w[q] * dep[q]
+        if area_tot > 0.0:
+            depth_mean = closure_area / area_tot
+    props = pair_properties(model, i, j, area_tot, depth_mean, hyperbolic)
     # velocity of B's material point at x relative to A's: v0 + dw x (x - pA); the normal
     # rate at the polygon vertex pv behind a point x is that at x plus (pv - x) . (n x dw)
     dw = state.omega[j] - state.omega[i]
@@ -212,7 +222,19 @@ def contact_stage(p, dt, model: ti.template(), state: ti.template(), contacts: t
         # vertex pv = pw + dv behind it (docs/engine.md: rocking impacts)
         dv = (pw - centroid) * (inv_shrink - 1.0)
         vn_v = vn + dv.dot(nxw)
-        f_el, f_visc = laws.normal_law(props.kn * w[q], dep[q], -vn_v, props.cn_per_area * w[q])
+        f_el = 0.0
+        f_visc = 0.0
+        if ti.static(hyperbolic):
+            if props.law == HYPERBOLIC:
+                f_el, f_visc = laws.normal_law_hyperbolic(
+                    w[q], props.kn, props.d_max, props.d_lim, dep[q], -vn_v,
+                    props.cn_per_area * w[q])
+            else:
+                f_el, f_visc = laws.normal_law(props.kn * w[q], dep[q], -vn_v,
+                                               props.cn_per_area * w[q])
+        else:
+            f_el, f_visc = laws.normal_law(props.kn * w[q], dep[q], -vn_v,
+                                           props.cn_per_area * w[q])
         fn = f_el + f_visc
         v_t = vrel - vn * n
         ft, u_new, sliding, diss = laws.coulomb_shear(
@@ -396,7 +418,7 @@ def advance_serial(n_steps: ti.i32, n_pairs: ti.i32, dt: float, model: ModelArgs
     s = 0
     while s < n_steps and control.status[0] == 0:
         for p in range(n_pairs):
-            contact_stage(p, dt, model, state, contacts, control, False)
+            contact_stage(p, dt, model, state, contacts, control, False, False)
         for b in range(n_bodies):
             integrate_stage(b, s, dt, model, state, contacts, control)
         energy_stage(n_pairs, state, contacts, control)
@@ -413,7 +435,7 @@ def advance_serial_warped(n_steps: ti.i32, n_pairs: ti.i32, dt: float, model: Mo
     s = 0
     while s < n_steps and control.status[0] == 0:
         for p in range(n_pairs):
-            contact_stage(p, dt, model, state, contacts, control, True)
+            contact_stage(p, dt, model, state, contacts, control, True, False)
         for b in range(n_bodies):
             integrate_stage(b, s, dt, model, state, contacts, control)
         energy_stage(n_pairs, state, contacts, control)
@@ -428,7 +450,7 @@ def advance_parallel(n_pairs: ti.i32, dt: float, model: ModelArgs, state: StateA
     """One step (control.loads[0]) as two parallel loops, over pairs then over bodies.
     Perfect faces only (:func:`advance_parallel_warped`)."""
     for p in range(n_pairs):
-        contact_stage(p, dt, model, state, contacts, control, False)
+        contact_stage(p, dt, model, state, contacts, control, False, False)
     for b in range(state.pos.shape[0]):
         integrate_stage(b, 0, dt, model, state, contacts, control)
     ti.loop_config(serialize=True)
@@ -442,13 +464,86 @@ def advance_parallel_warped(n_pairs: ti.i32, dt: float, model: ModelArgs, state:
                             contacts: ContactArgs, control: ControlArgs):
     """:func:`advance_parallel` for scenes with imperfect faces."""
     for p in range(n_pairs):
-        contact_stage(p, dt, model, state, contacts, control, True)
+        contact_stage(p, dt, model, state, contacts, control, True, False)
     for b in range(state.pos.shape[0]):
         integrate_stage(b, 0, dt, model, state, contacts, control)
     ti.loop_config(serialize=True)
     for _ in range(1):
         energy_stage(n_pairs, state, contacts, control)
         deepest_stage(0, n_pairs, contacts, control)
+
+
+@ti.kernel
+def advance_serial_hyperbolic(n_steps: ti.i32, n_pairs: ti.i32, dt: float, model: ModelArgs,
+                              state: StateArgs, contacts: ContactArgs, control: ControlArgs):
+    """:func:`advance_serial` for scenes with hyperbolic joints (dem.engine.laws)."""
+    n_bodies = state.pos.shape[0]
+    s = 0
+    while s < n_steps and control.status[0] == 0:
+        for p in range(n_pairs):
+            contact_stage(p, dt, model, state, contacts, control, False, True)
+        for b in range(n_bodies):
+            integrate_stage(b, s, dt, model, state, contacts, control)
+        energy_stage(n_pairs, state, contacts, control)
+        deepest_stage(s, n_pairs, contacts, control)
+        s += 1
+    control.steps_done[0] = s
+
+
+@ti.kernel
+def advance_serial_warped_hyperbolic(n_steps: ti.i32, n_pairs: ti.i32, dt: float,
+                                     model: ModelArgs, state: StateArgs, contacts: ContactArgs,
+                                     control: ControlArgs):
+    """:func:`advance_serial` for imperfect faces and hyperbolic joints."""
+    n_bodies = state.pos.shape[0]
+    s = 0
+    while s < n_steps and control.status[0] == 0:
+        for p in range(n_pairs):
+            contact_stage(p, dt, model, state, contacts, control, True, True)
+        for b in range(n_bodies):
+            integrate_stage(b, s, dt, model, state, contacts, control)
+        energy_stage(n_pairs, state, contacts, control)
+        deepest_stage(s, n_pairs, contacts, control)
+        s += 1
+    control.steps_done[0] = s
+
+
+@ti.kernel
+def advance_parallel_hyperbolic(n_pairs: ti.i32, dt: float, model: ModelArgs, state: StateArgs,
+                                contacts: ContactArgs, control: ControlArgs):
+    """:func:`advance_parallel` for scenes with hyperbolic joints."""
+    for p in range(n_pairs):
+        contact_stage(p, dt, model, state, contacts, control, False, True)
+    for b in range(state.pos.shape[0]):
+        integrate_stage(b, 0, dt, model, state, contacts, control)
+    ti.loop_config(serialize=True)
+    for _ in range(1):
+        energy_stage(n_pairs, state, contacts, control)
+        deepest_stage(0, n_pairs, contacts, control)
+
+
+@ti.kernel
+def advance_parallel_warped_hyperbolic(n_pairs: ti.i32, dt: float, model: ModelArgs,
+                                       state: StateArgs, contacts: ContactArgs,
+                                       control: ControlArgs):
+    """:func:`advance_parallel` for imperfect faces and hyperbolic joints."""
+    for p in range(n_pairs):
+        contact_stage(p, dt, model, state, contacts, control, True, True)
+    for b in range(state.pos.shape[0]):
+        integrate_stage(b, 0, dt, model, state, contacts, control)
+    ti.loop_config(serialize=True)
+    for _ in range(1):
+        energy_stage(n_pairs, state, contacts, control)
+        deepest_stage(0, n_pairs, contacts, control)
+
+
+# the stepping kernels by (serial, warped, hyperbolic)
+ADVANCE = {(True, False, False): advance_serial, (True, True, False): advance_serial_warped,
+           (False, False, False): advance_parallel, (False, True, False): advance_parallel_warped,
+           (True, False, True): advance_serial_hyperbolic,
+           (True, True, True): advance_serial_warped_hyperbolic,
+           (False, False, True): advance_parallel_hyperbolic,
+           (False, True, True): advance_parallel_warped_hyperbolic}
 
 
 @ti.func
@@ -498,13 +593,31 @@ def probe_contacts_warped(n_pairs: ti.i32, out_depth: ti.types.ndarray(ndim=1),
 
 @ti.kernel
 def elastic_energy(n_pairs: ti.i32, model: ModelArgs, contacts: ContactArgs) -> float:
-    """Energy stored in the joint springs (J): sum of kn A d^2 / 2 + ks A |u|^2 / 2."""
+    """Energy stored in the joint springs (J): sum of kn A d^2 / 2 + ks A |u|^2 / 2 (linear
+    normal law; :func:`elastic_energy_hyperbolic` for the hyperbolic one)."""
     e = 0.0
     for p in range(n_pairs):
-        mp = model.mat_pair[model.material[contacts.pairs[p][0]],
-                            model.material[contacts.pairs[p][1]]]
+        pm = pair_material(model, contacts.pairs[p][0], contacts.pairs[p][1])
         for q in range(contacts.npts[p]):
             a = contacts.area[p, q]
-            e += 0.5 * a * (mp[1] * contacts.depth[p, q] ** 2
-                            + mp[2] * contacts.shear[p, q].norm_sqr())
+            e += 0.5 * a * (pm.kn * contacts.depth[p, q] ** 2
+                            + pm.ks * contacts.shear[p, q].norm_sqr())
+    return e
+
+
+@ti.kernel
+def elastic_energy_hyperbolic(n_pairs: ti.i32, model: ModelArgs, contacts: ContactArgs) -> float:
+    """Energy stored in the joint springs (J) of a scene with hyperbolic joints: sum of
+    A e(d) + ks A |u|^2 / 2, e the integral of the pressure (laws.hyperbolic_energy); linear
+    pairs as in :func:`elastic_energy`."""
+    e = 0.0
+    for p in range(n_pairs):
+        pm = pair_material(model, contacts.pairs[p][0], contacts.pairs[p][1])
+        for q in range(contacts.npts[p]):
+            a = contacts.area[p, q]
+            d = contacts.depth[p, q]
+            e_n = 0.5 * pm.kn * d * d
+            if pm.law == HYPERBOLIC:
+                e_n = laws.hyperbolic_energy(pm.kn, pm.d_max, pm.d_lim, d)
+            e += a * (e_n + 0.5 * pm.ks * contacts.shear[p, q].norm_sqr())
     return e

@@ -15,7 +15,7 @@ from dem.builders import build_from_spec, check_scene, require_valid
 from dem.builders.scatter import scatter_sizes
 from dem.case import Case, Material, SolverSpec, TiltLoading
 from dem.compliance import elastic_offset, rigid_stiffness
-from dem.engine.options import JointLaw, StepOptions
+from dem.engine.options import JointLaw, PairLaw, StepOptions
 from dem.imperfections import ImperfectionParams, apply_faces, streams
 from dem.loading import Loading, loading_from_case
 from dem.scene import Scene, blocks_to_scene
@@ -83,9 +83,21 @@ def joint_law(material: Material, scene: Scene | None = None, direction=None,
     """The engine's joint law from a case's ``material:`` (defaults resolved: kn for 'rigid',
     ks = 0.4 kn, base friction = friction)."""
     kn = normal_stiffness(material, scene, direction, g)
+    pairs = tuple(
+        PairLaw(a=p.between[0], b=p.between[1], friction=p.friction,
+                normal_stiffness=p.normal_stiffness,
+                # ks of a pair: its own, else the material's, else 0.4 x the pair's kn
+                shear_stiffness=p.shear_stiffness if p.shear_stiffness is not None else (
+                    material.ks(p.normal_stiffness) if p.normal_stiffness is not None else None),
+                damping=p.damping, max_closure=p.max_closure)
+        for p in material.pairs)
+    extra = {}
+    if material.normal_law != "linear":
+        extra = dict(normal_law=material.normal_law, max_closure=material.max_closure,
+                     closure_limit=material.closure_limit)
     return JointLaw(friction=material.friction, base_friction=material.mu_base,
                     normal_stiffness=kn, shear_stiffness=material.ks(kn),
-                    damping=material.damping)
+                    damping=material.damping, pairs=pairs, **extra)
 
 
 def case_joint_law(case: Case, scene: Scene) -> JointLaw:
@@ -119,6 +131,16 @@ def joint_summary(case: Case, scene: Scene, joints: JointLaw) -> dict:
             "steps_factor": (joints.normal_stiffness / default_kn) ** 0.5,
             "note": "the critical step scales as kn^-1/2: this many times the steps of the "
                     "default kn for the same simulated time"}
+    # only where the case uses them: the summaries of every other case stay as they were
+    if joints.normal_law != "linear":
+        out["normal_law"] = {
+            "law": joints.normal_law, "kn0_Pa_m": joints.normal_stiffness,
+            "max_closure_m": joints.max_closure, "closure_limit": joints.closure_limit,
+            "note": "elastic_offset is computed at kn0, the softest stiffness of the law: an "
+                    "upper bound"}
+    if joints.pairs:
+        out["pairs"] = [{k: v for k, v in vars(p).items() if v is not None}
+                        for p in joints.pairs]
     return out
 
 
