@@ -158,7 +158,8 @@ def truncate(sig: ShakeSignals, cycles: float) -> ShakeSignals:
     """The signals of the first ``cycles`` excitation cycles: the samples up to t_end = cycles / f
     (s; and half a sample beyond, so the last cycle is complete) and t_end set there, as if the
     run had shaken ``cycles`` cycles.  The run's first cycles do not depend on how many follow
-    (dem.table_motion: no ramp or taper; the settle phase ends before the clock starts).
+    (dem.table_motion: a ramp start lies within its first ramp_cycles; the settle phase ends
+    before the clock starts).
     ShakeAnalysisError naming ``cycles`` when it is not in (0, the recorded cycles]."""
     recorded = sig.t_end * sig.f
     if not 0.0 < cycles <= recorded + 1e-9:
