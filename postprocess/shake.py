@@ -263,6 +263,9 @@ def _analyze_axis(sig: ShakeSignals, case, scene, frames, out: dict, run_dir: Pa
     if relative is not None:
         res["relative_to_table"] = relative
     _check_standing(res, sig, scene, out["warnings"])
+    short = short_window_warning(sig, win)   # issue 36 defect 6
+    if short:
+        out["warnings"].append(short)
     portion = None
     if frames is not None and win is not None:
         portion = _find_portion(sig, scene, frames, win, out["warnings"])
@@ -282,6 +285,32 @@ def _analyze_axis(sig: ShakeSignals, case, scene, frames, out: dict, run_dir: Pa
         write_vtu(run_dir / f"excited{sfx}.vtu", scene, portion)
         out.setdefault("vtk", []).append(f"excited{sfx}.vtu")
     return res
+
+
+#: fewest steady cycles an amplification is taken from without a caveat (issue 36 defect 6)
+MIN_STEADY_CYCLES = 3
+
+
+def short_window_warning(sig: ShakeSignals, win: SteadyWindow | None) -> str | None:
+    """A warning when the steady window holds fewer than MIN_STEADY_CYCLES cycles.
+
+    The window is "steady" when every per-cycle peak-to-peak of ds stays within STEADY_TOL of
+    their median (postprocess.signal_analysis.steady_window): with one cycle that test compares
+    the cycle with itself and with two with their mean, so nothing says the response is
+    steady; three cycles are the fewest where the median is a cycle of its own and one odd
+    cycle shows.  The amplification is then the peaks of n cycles, not a mean over a steady
+    state, and the spectrum over the window T = n / f has bins df = 1 / T = f / n Hz apart
+    (f / 1 at one cycle: the excitation's bin and its neighbours, no peak can be told apart).
+    The thesis' runs had 50 cycles."""
+    if win is None or win.n_cycles >= MIN_STEADY_CYCLES:
+        return None
+    T = win.n_cycles / sig.f
+    return (f"{sig.axis}: the steady window holds only {win.n_cycles} cycle(s) "
+            f"({win.t0:.3g} - {win.t1:.3g} s) of the {sig.t_end * sig.f:.3g} shaken: the "
+            f"amplification and lag come from {win.n_cycles} cycle(s) with no check that the "
+            f"response is steady (fewer than {MIN_STEADY_CYCLES}), and the spectrum's "
+            f"resolution is 1 / {T:.3g} s = {1 / T:.3g} Hz; shake longer (the thesis: 50 cycles) "
+            f"for a result that means something")
 
 
 def _check_standing(res: dict, sig: ShakeSignals, scene, warnings: list) -> None:

@@ -6,7 +6,7 @@ The quantities are those of postprocess.shake_signals, the maths postprocess.sig
 from __future__ import annotations
 
 from dem.output.atomic import savefig
-from postprocess.shake_signals import ShakeSignals
+from postprocess.shake_signals import KIND_OF, ShakeSignals
 from postprocess.signal_analysis import SteadyWindow, spectral_peaks, spectrum
 
 
@@ -19,16 +19,30 @@ def _plt():
     return plt
 
 
+#: the unit of each kind of quantity (SI, as analysis.json)
+UNIT_OF_KIND = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s2"}
+
+
+def shaken(sig: ShakeSignals, q: dict) -> tuple:
+    """(t, q) cut to what the excitation covers, t <= t_end (s): after the last cycle the
+    table's acceleration is 0 and it keeps its final velocity (dem.table_motion), a drift the
+    structure follows, not a lag of it (issue 36 defect 6).  The table's own signals in
+    ``sig.excitation`` are cut by the caller through the returned mask."""
+    m = sig.t <= sig.t_end + 1e-9
+    return sig.t[m], {k: v[m] for k, v in q.items()}, m
+
+
 def plot_time_histories(path, sig: ShakeSignals, q: dict, win: SteadyWindow | None, title=""):
-    """Absolute quantities (left, with the table's input) and relative ones (right)."""
+    """Absolute quantities (left, with the table's input) and relative ones (right), over the
+    shaking only (:func:`shaken`)."""
     plt = _plt()
     fig, axs = plt.subplots(3, 2, figsize=(13, 8), sharex=True)
-    t = sig.t
+    t, q, m = shaken(sig, q)
     rows = [("displacement (mm)", 1e3, "displacement", ["da", "da_front"], ["ds", "dsr", "dar"]),
             ("velocity (mm/s)", 1e3, "velocity", ["va"], ["vs", "vsr", "var"]),
             ("acceleration (m/s2)", 1.0, "acceleration", ["a", "a_lp", "a_front"], ["ar"])]
     for (label, s, kind, absolute, relative), (ax_a, ax_r) in zip(rows, axs):
-        ax_a.plot(t, s * sig.excitation[kind], color="0.6", lw=1.2, label="table (input)")
+        ax_a.plot(t, s * sig.excitation[kind][m], color="0.6", lw=1.2, label="table (input)")
         for ax, names in ((ax_a, absolute), (ax_r, relative)):
             for nm in names:
                 if nm in q:
@@ -39,10 +53,12 @@ def plot_time_histories(path, sig: ShakeSignals, q: dict, win: SteadyWindow | No
                 ax.legend(loc="upper right", fontsize=7, ncol=4)
             ax.grid(alpha=0.3)
         ax_a.set_ylabel(label)
+        ax_r.set_ylabel(label)
     axs[0, 0].set_title(f"{title}: absolute")
     axs[0, 1].set_title("relative (to the table / to the corner)")
     for ax in axs[-1]:
-        ax.set_xlabel("t (s)   (green: steady-state window)")
+        ax.set_xlabel(f"t (s)   (green: steady-state window; the shaking ends at "
+                      f"{sig.t_end:.3g} s)")
     fig.tight_layout()
     savefig(fig, path, dpi=110)
     plt.close(fig)
@@ -60,9 +76,10 @@ def plot_spectrum(path, sig: ShakeSignals, q: dict, win: SteadyWindow, title="")
             ax.plot([f0], [a0], "rv")
         ax.axvline(sig.f, color="0.5", ls="--", lw=0.8)
         ax.set_xlim(0, max(10.0, 4 * sig.f))
-        ax.set_ylabel(f"|{nm}|")
+        ax.set_ylabel(f"|{nm}| ({UNIT_OF_KIND[KIND_OF[nm][0]]})")
         ax.grid(alpha=0.3)
-    axs[-1, 0].set_xlabel("frequency (Hz)   (dashed: excitation)")
+    axs[-1, 0].set_xlabel(f"frequency (Hz)   (dashed: excitation; bins {1 / (win.t1 - win.t0):.3g}"
+                          f" Hz apart over the {win.n_cycles}-cycle steady window)")
     axs[0, 0].set_title(title)
     fig.tight_layout()
     savefig(fig, path, dpi=110)

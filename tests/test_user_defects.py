@@ -316,3 +316,51 @@ def test_schema_has_a_two_body_part_and_one_solver_spec_name(tmp_path):
     assert "RockingSolverSpec" in schema["$defs"] and "SolverSpec" not in schema["$defs"]
     committed = CASES / "rocking" / "rocking.schema.json"
     assert json.loads(committed.read_text()) == schema  # the committed file is up to date
+
+
+# ------------------------------------------------------------------------------------------
+# defect 6: short runs analysed with a caveat; plots of the shaking only, with units
+# ------------------------------------------------------------------------------------------
+def test_a_two_cycle_run_is_analysed_with_a_caveat_and_plotted_over_the_shaking(tmp_path,
+                                                                                 monkeypatch):
+    """A brick shaken 2 cycles at 5 Hz (0.4 s), run to 0.6 s: the steady window is one cycle
+    (cycle 1 is dropped), so the amplification comes with a warning; the time histories end
+    with the shaking (t_end = 0.4 s), the spectrum's axes carry units."""
+    import postprocess.shake_plots as sp
+    from dem.case import load_case
+    from dem.run import run_case
+    from postprocess.shake import analyze_run
+
+    data = {"name": "short-shake",
+            "scene": {"blocks": [{"size": [0.1, 0.2, 0.3], "position": [0, 0, 0.15],
+                                  "density": 2000.0}]},
+            "material": {"friction": 0.6},
+            "loading": {"type": "shake", "direction": [0, 1, 0], "frequency": 5.0,
+                        "peak_acceleration": 1.0, "cycles": 2},
+            "run": {"duration": 0.6, "output_interval": 0.002, "vtk": False,
+                    "snapshot": False}}
+    path = tmp_path / "short.yaml"
+    path.write_text(yaml.safe_dump(data))
+    out = tmp_path / "run"
+    run_case(load_case(path), out)
+    figs = {}
+    original = sp.savefig
+
+    def keep(fig, p, **kw):
+        figs[__import__("pathlib").Path(p).name] = fig
+        original(fig, p, **kw)
+
+    monkeypatch.setattr(sp, "savefig", keep)
+    monkeypatch.setattr(sp._plt(), "close", lambda *a: None)
+    res = analyze_run(out)
+    assert res["steady_state"]["n_cycles"] == 1
+    assert any("steady window holds only 1 cycle" in w for w in res["warnings"])
+    written = json.loads((out / "analysis.json").read_text())
+    assert written["warnings"] == res["warnings"]
+    t_end = 2 / 5.0
+    for ax in figs["time_histories.png"].axes:
+        for line in ax.lines:
+            assert max(line.get_xdata()) <= t_end + 1e-9
+        assert ax.get_ylabel()  # every panel says its unit
+    labels = [ax.get_ylabel() for ax in figs["spectrum.png"].axes]
+    assert labels and all(lab.endswith("(m)") or lab.endswith("(m/s2)") for lab in labels)
