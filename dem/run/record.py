@@ -21,6 +21,7 @@ from dem.loading import Loading, Record, Shake, Tilt
 from dem.output import atomic
 from dem.scene import Scene
 from dem.signals import deferred
+from dem.units import FRAMES_UNITS, npz_units
 
 FRAME_KEYS = ("t", "pos", "quat", "vel", "omega", "base_disp")
 
@@ -58,7 +59,9 @@ class FrameRecorder:
         compressed, 50 times slower to write, ~1 s a checkpoint; benchmarks/checkpoint_cost.py)."""
         if self.out_dir is None or not self.cols["t"]:
             return
-        atomic.save_npz(self.out_dir / "frames.npz", self.arrays(), compressed=False)
+        arrays = self.arrays()
+        arrays["units"] = npz_units(arrays, FRAMES_UNITS)  # (key, unit) rows: dem.units
+        atomic.save_npz(self.out_dir / "frames.npz", arrays, compressed=False)
 
 
 def thesis_instrument_axis(loading: Loading) -> str:

@@ -145,6 +145,7 @@ def apply_restart(arrays: dict, sim, recording) -> tuple[dict | None, str]:
     except (ValueError, KeyError) as err:
         return None, str(err)
     fr = recording.frames
+    frames.pop("units", None)  # written by FrameRecorder.write from the keys (dem.units)
     for k, v in frames.items():
         (fr.cols if k in fr.cols else fr.extra)[k] = list(v[:n])
     if ins is not None:

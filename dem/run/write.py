@@ -39,6 +39,7 @@ from dem.output import atomic
 from dem.run.record import Recording
 from dem.run.resume import remove_restart, write_restart
 from dem.scene import Scene
+from dem.units import INSTRUMENTS_UNITS, npz_units, summary_units
 
 CHECKPOINT_SECONDS = 30.0
 
@@ -140,6 +141,16 @@ class RunWriter:
         self.last_flush = time.perf_counter()
         # () -> restart.npz's arrays, for a run that can resume (set by dem.run.loop.run_case)
         self.restart: Callable[[], dict] | None = None
+        self.cpu0 = time.process_time()  # summary.json cpu_seconds: see cpu_seconds()
+        self.cpu_before: float | None = None
+
+    def cpu_seconds(self, summary: dict) -> float:
+        """summary.json ``cpu_seconds`` (s): CPU time of the process, every thread, since this
+        writer was set up (after the build: the kernels' compile is not in it), plus what a
+        resumed run's checkpoint had counted (the summary it restored)."""
+        if self.cpu_before is None:
+            self.cpu_before = float(summary.get("cpu_seconds") or 0.0)
+        return self.cpu_before + time.process_time() - self.cpu0
 
     def guarded(self, name: str, fn, *args) -> bool:
         """Run one write; an OSError is recorded (the file is not there, or is the previous
@@ -161,6 +172,7 @@ class RunWriter:
             return
         summary["steps"], summary["sim_time"] = sim.step_count, sim.t
         summary["wall_seconds"] = wall_seconds
+        summary["cpu_seconds"] = self.cpu_seconds(summary)
         self.recording.frames.write()
         if self.restart is not None:
             write_restart(self.out, self.restart())
@@ -171,6 +183,7 @@ class RunWriter:
         """Every output file at the end of a run; raises OutputError if one could not be
         written (after writing all the others)."""
         out, rec, case = self.out, self.recording, self.case
+        summary["cpu_seconds"] = self.cpu_seconds(summary)
         if rec.instruments is not None:
             summary["instruments"] = {"file": "instruments.npz",
                                       "interval_s": case.run.instrument_interval,
@@ -179,8 +192,9 @@ class RunWriter:
             return
         self.guarded("frames.npz", rec.frames.write)
         if rec.instruments is not None and rec.instruments.rows["t"]:
-            self.guarded("instruments.npz", atomic.save_npz, out / "instruments.npz",
-                         rec.instruments.arrays())
+            arrays = rec.instruments.arrays()
+            arrays["units"] = npz_units(arrays, INSTRUMENTS_UNITS)  # (key, unit) rows
+            self.guarded("instruments.npz", atomic.save_npz, out / "instruments.npz", arrays)
         if rec.vtk is not None:
             self.guarded("vtk/scene.pvd", rec.vtk.close)
             summary["vtk_frames"] = rec.vtk.n_frames
@@ -194,6 +208,7 @@ class RunWriter:
             summary["error"] = "output: " + "; ".join(f"{k}: {v}" for k, v in errors.items()) + \
                 (f" (after: {status}: {error})" if error else "")
             summary["write_errors"] = errors
+        summary["units"] = summary_units(summary)  # {path: unit} of every number (dem.units)
         if not self.guarded("summary.json", atomic.write_json, out / "summary.json", summary):
             # a checkpoint's 'running' must not survive: remove it (frees its blocks), then
             # try a minimal summary
