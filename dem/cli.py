@@ -230,5 +230,46 @@ def post(
     raise typer.Exit(post_command(directory))
 
 
+@app.command()
+def summary(
+    directories: list[Path] = typer.Argument(..., help="run, sweep or ensemble directories"),
+    csv_file: Path = typer.Option(None, "--csv", help="also write the rows as CSV to this file"),
+    fmt: str = typer.Option("table", "--format", help="table (rich, on screen) or csv (stdout)"),
+) -> None:
+    """One row per run, sweep or ensemble directory: kind, case name, status, lambda (a tilt;
+    an ensemble's median and 10-90 %), ds amplification and f_c (a shake run, a sweep), the
+    mechanism, wall and CPU seconds; read from the files the runs wrote (dem/commands/summary.py
+    says where each column comes from).  Exit 0, or 2 when a directory is none of those."""
+    from dem.commands.summary import summary_command
+
+    raise typer.Exit(summary_command(directories, csv_file, fmt, echo=typer.echo, err=_err))
+
+
+@app.command()
+def view(
+    directory: Path = typer.Argument(..., help="run directory (or a sweep / ensemble directory)"),
+    out: Path = typer.Option(None, "--out", "-o", help="write here (default: the drawn run's "
+                                                       "directory)"),
+    point: str = typer.Option(None, "--point", help="the sweep point (f2.800Hz, or 2.8) or "
+                                                    "realisation (seed-5) to draw"),
+    frames: int = typer.Option(60, "--frames", help="frames drawn, spread over the recording"),
+    fps: float = typer.Option(10.0, "--fps", help="frames per second of the animation"),
+    panels: int = typer.Option(6, "--panels", help="panels of the frame strip"),
+    fmt: str = typer.Option("gif", "--format", help="gif, or mp4 (needs ffmpeg)"),
+    magnify: float = typer.Option(None, "--magnify",
+                                  help="draw the motion relative to the table this many times "
+                                       "larger (default: 1 for a tilt; a shake: the motion "
+                                       "made 5 % of the model's size)"),
+) -> None:
+    """A look at a run without ParaView: animation.gif (or .mp4) and strip.png drawn off-screen
+    from frames.npz (blocks coloured by their displacement; a tilt drawn on its turning table, a
+    shake on its moving table).  Given a sweep or an ensemble, draws one of its runs and says
+    which (--point for another).  Exit 0 written, 1 a drawing failed, 2 bad input."""
+    from dem.commands.view import view_command
+
+    raise typer.Exit(view_command(directory, out, point, frames, fps, panels, fmt, magnify,
+                                  echo=typer.echo, err=_err))
+
+
 if __name__ == "__main__":  # pragma: no cover
     app()
