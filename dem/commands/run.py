@@ -14,9 +14,11 @@ import numpy as np
 
 from dem.commands.exit_codes import ExitCode, exit_code_for
 from dem.run import OutputError, run_case
+from postprocess.lone_block import decisive_numbers, reference_limit
 from postprocess.tilt import plot_lean, tilt_mechanism
 
-RUN_ANALYSES = (tilt_mechanism,)  # read the finished run, merged into summary.json
+# read the finished run, merged into summary.json (reference: the closed form of lone blocks)
+RUN_ANALYSES = (tilt_mechanism, reference_limit)
 
 
 def result_line(summary: dict, arrays: dict | None = None) -> str:
@@ -38,6 +40,7 @@ def result_line(summary: dict, arrays: dict | None = None) -> str:
                             if n_col is not None else ""))
         elif col:
             parts.append(f"no collapse up to {col.get('last_angle_deg', 0.0):.2f} deg")
+        parts.extend(decisive_numbers(summary))  # closed form, elastic offset
     if arrays is not None and len(arrays.get("t", [])) and kind != "tilt":
         pos = np.asarray(arrays["pos"])
         disp = float(np.linalg.norm(pos - pos[0], axis=2).max()) if pos.size else 0.0
