@@ -14,7 +14,7 @@ ROOT = Path(__file__).resolve().parents[1]
 # lowest first; a module belongs to the first entry whose prefix matches its dotted name
 LAYERS = [
     ("base", ("dem.quaternion", "dem.output.atomic", "dem.signals", "dem.ti_runtime",
-              "dem.case_errors", "dem.rundir", "dem.collapse")),
+              "dem.case_errors", "dem.rundir", "dem.collapse", "dem.units")),
     ("scene", ("dem.scene",)),
     ("builders", ("dem.builders", "dem.imperfections")),
     ("case schema", ("dem.case",)),
