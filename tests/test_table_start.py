@@ -191,3 +191,37 @@ def test_a_resumed_lab_start_run_does_not_take_the_impulse_again(tmp_path, monke
     np.testing.assert_array_equal(again.vel, whole.vel)
     np.testing.assert_array_equal(again.pos, whole.pos)
     assert again.summary["table_start"] == whole.summary["table_start"]
+
+
+@pytest.mark.parametrize("start,ramp", [("table-frame", None), ("lab", None), ("ramp", 1.0)])
+def test_instruments_record_the_tables_own_motion_for_each_start(start, ramp):
+    """instruments.npz's table record is the start's table motion: table_disp = u(t_k),
+    table_vel = v(t_k) (recorded for the lab and ramp starts) and table_acc = the mean of a
+    over the sample interval, (v(t_k) - v(t_k-1)) / dt_sample, exactly."""
+    from dem.case import BlockSpec
+    from dem.instruments import Instrument, InstrumentRecorder
+    from dem.loading import Shake
+    from dem.scene import blocks_to_scene
+
+    scene = blocks_to_scene([BlockSpec(**BLOCK)])
+    loading = Shake([0, 0, -G], [1, 0, 0], F, A, 2, start, ramp)
+    rec = InstrumentRecorder([Instrument("a", 0, np.zeros(3), np.array([1.0, 0, 0]),
+                                         "accelerometer")], scene,
+                             table_velocity=loading.records_table_velocity())
+    t = np.arange(0.0, 0.5, 0.002)
+    zero = np.zeros((2, 3))
+    quat = np.vstack([scene.quat, [[1.0, 0, 0, 0]]])
+    pos = np.vstack([scene.position, zero[:1]])
+    for tk in t:
+        rec.sample(tk, pos, quat, zero, zero, loading.base_disp(np.array([tk]))[0],
+                   loading.base_vel(np.array([tk]))[0])
+    out = rec.arrays()
+    m = SineMotion(A, F, 2, start, ramp)
+    np.testing.assert_allclose(out["table_disp"][:, 0], m.displacement(t), atol=1e-15)
+    np.testing.assert_allclose(out["table_acc"][1:, 0], np.diff(m.velocity(t)) / 0.002,
+                               rtol=1e-9, atol=1e-12)
+    assert ("table_vel" in out) == (start != "table-frame")
+    if start != "table-frame":
+        np.testing.assert_allclose(out["table_vel"][:, 0], m.velocity(t), atol=1e-15)
+    if start == "lab":   # the table starts from rest: v(0-) = 0, v(0) = A w
+        assert float(m.velocity(-1e-9)) == 0.0 and out["table_vel"][0, 0] == pytest.approx(A * W)
