@@ -5,7 +5,10 @@ Each realisation is one run of the same case with another ``imperfections.seed``
 record (dem.batch: status, summary.json, and for a shaking run the sweep's compact analysis)
 :func:`realisation_scalars` takes the scalar results: the load factor lambda and the mechanism of
 a tilt, the amplifications, lags and excited bricks of a shaking run, and whether it survived
-(no collapse detected).  :func:`statistics` gives, for each scalar, the median, the 10 % and
+(no collapse detected; for a shaking run analysed by postprocess.survival, its verdict:
+standing, local collapse or collapse, and the number of fallen bricks).  A tilt whose collapse
+onset could not be resolved (dem.collapse: ``onset_resolved`` false) has no lambda: it is left
+out of the lambda statistics and counted in ``n_onset_unresolved``, never read as lambda = 0.  :func:`statistics` gives, for each scalar, the median, the 10 % and
 90 % quantiles (numpy's default linear interpolation between order statistics), the mean and
 the population standard deviation (ddof = 0) over the realisations that have it; counts of each
 mechanism and of failed realisations complete the summary.
@@ -34,6 +37,11 @@ def realisation_scalars(record: dict) -> dict:
     if "load_factor" in col:
         out["lambda"] = col.get("load_factor") if col.get("detected") else None
         out["angle_deg"] = col.get("angle_deg") if col.get("detected") else None
+        if col.get("detected") and col.get("onset_resolved") is False:
+            # a collapse whose onset could not be resolved (dem.collapse) has no lambda: it
+            # is left out of the statistics and counted, never read as lambda = 0
+            out["lambda"] = out["angle_deg"] = None
+            out["onset_unresolved"] = col.get("onset_note") or "onset not resolved"
     mech = summ.get("mechanism")
     if isinstance(mech, dict) and mech.get("mechanism") is not None:
         out["mechanism"] = str(mech["mechanism"])
@@ -55,6 +63,11 @@ def realisation_scalars(record: dict) -> dict:
             out["excited_bricks"] = exc
         if post.get("collapse_suspected") is not None:
             out["survived"] = not bool(post["collapse_suspected"])
+        surv = post.get("survival") or {}
+        if surv.get("verdict") is not None:  # postprocess.survival: every brick, not the centre
+            out["survival"] = surv["verdict"]
+            out["fallen_bricks"] = surv.get("n_fallen")
+            out["survived"] = surv["verdict"] == "standing"
     settling = summ.get("settling") or {}
     if _finite(settling.get("largest_settlement_m")):
         out["largest_settlement_m"] = settling["largest_settlement_m"]
@@ -86,6 +99,15 @@ def aggregate(scalars: list[dict]) -> dict:
         if "mechanism" in s:
             mechs[s["mechanism"]] = mechs.get(s["mechanism"], 0) + 1
     out["mechanisms"] = dict(sorted(mechs.items()))
+    unresolved = [s for s in ok if s.get("onset_unresolved")]
+    if unresolved:
+        out["n_onset_unresolved"] = len(unresolved)
+        out["onset_unresolved_seeds"] = [s.get("seed") for s in unresolved]
+    verdicts = [s["survival"] for s in ok if s.get("survival") is not None]
+    if verdicts:
+        from postprocess.survival import count_verdicts
+
+        out["survival"] = count_verdicts(verdicts)
     surv = [s["survived"] for s in ok if "survived" in s]
     if surv:
         out["survived"] = int(sum(surv))

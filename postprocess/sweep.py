@@ -20,7 +20,10 @@ Aggregation (:func:`aggregate`):
   amplification >= peak / sqrt(2) (half power).  The effective range is the run of consecutive
   frequencies of that group around the characteristic frequency, [f_low, f_high];
   lag times: per point (ds and dsr, s and deg) and their means inside and outside the effective
-  range (the thesis' 0.13 s effective / 0.03 s ineffective for Model II y).
+  range (the thesis' 0.13 s effective / 0.03 s ineffective for Model II y);
+  survival (issue 32 item 3): each point's verdict, standing / local collapse / collapse, from
+  every brick of its frames (postprocess.survival, kept in the point record as ``survival``),
+  gathered by frequency with the count of each verdict (:func:`survival_by_point`).
 """
 
 from __future__ import annotations
@@ -78,10 +81,38 @@ def analyze_point(case, res, out_dir) -> dict:
     from postprocess.shake import analyze_run
 
     try:
-        return compact(analyze_run(out_dir))
+        out = compact(analyze_run(out_dir))
     except Exception as err:  # noqa: BLE001
         return {"analysis_status": "failed", "error": f"{type(err).__name__}: {err}",
                 "traceback": traceback.format_exc()}
+    out["survival"] = point_survival(case, res)
+    return out
+
+
+def run_dir_survival(run_dir) -> dict | None:
+    """:func:`point_survival` of a finished run directory (``dem post`` of a sweep)."""
+    from postprocess.survival import compact as compact_survival, survival_of_run
+
+    try:
+        return compact_survival(survival_of_run(run_dir))
+    except Exception as err:  # noqa: BLE001 - the amplifications stand without it
+        return {"verdict": None, "error": f"{type(err).__name__}: {err}"}
+
+
+def point_survival(case, res) -> dict | None:
+    """The survival verdict of a point (postprocess.survival: standing, local collapse or
+    collapse, with its fallen bricks by wall, corner, course, time and cycle) from the run's
+    frames, or None where the run handed back none; an error is recorded, never fatal."""
+    from dem.loading import loading_from_case
+    from postprocess.survival import compact as compact_survival, survival
+
+    if res is None or getattr(res, "scene", None) is None or not len(res.t):
+        return None
+    try:
+        return compact_survival(survival(res.scene, res.t, res.pos, res.quat,
+                                         loading_from_case(case)))
+    except Exception as err:  # noqa: BLE001 - the amplifications stand without it
+        return {"verdict": None, "error": f"{type(err).__name__}: {err}"}
 
 
 def point_record(f: float, case, rec: dict, out_root: Path) -> dict:
@@ -189,8 +220,27 @@ def aggregate(points: list[dict]) -> dict:
         lags[q] = {"per_point": rows,
                    "mean_effective_s": float(np.mean(ins)) if ins and inside else None,
                    "mean_ineffective_s": float(np.mean(outs)) if outs and inside else None}
-    return {"quantity": MAIN_QUANTITY, "n_valid": len(ok), **er,
-            "characteristic_frequency_per_quantity_hz": per_q, "curves": curves, "lag": lags}
+    out = {"quantity": MAIN_QUANTITY, "n_valid": len(ok), **er,
+           "characteristic_frequency_per_quantity_hz": per_q, "curves": curves, "lag": lags}
+    surv = survival_by_point(points)
+    if surv is not None:
+        out["survival"] = surv
+    return out
+
+
+def survival_by_point(points: list[dict]) -> dict | None:
+    """The survival verdicts of the finished points (postprocess.survival), by frequency:
+    [f, verdict, fallen bricks, cycle of the first fall], and the count of each verdict; None
+    when no point has one (a sweep analysed before issue 32)."""
+    from postprocess.survival import count_verdicts
+
+    rows = sorted([p["frequency_hz"], p["survival"]["verdict"], p["survival"].get("n_fallen"),
+                   p["survival"].get("first_fall_cycle")] for p in points
+                  if p.get("status") == "ok" and (p.get("survival") or {}).get("verdict"))
+    if not rows:
+        return None
+    return {"per_point": rows, "counts": count_verdicts(r[1] for r in rows),
+            "columns": ["frequency_hz", "verdict", "n_fallen", "first_fall_cycle"]}
 
 
 def plot_sweep(path, points: list[dict], agg: dict, title: str = "") -> None:
@@ -314,6 +364,7 @@ def post_sweep(path) -> tuple[dict, int]:
         if status == "ok":
             try:
                 rec = {"status": "ok", "summary": summ, "post": compact(analyze_run(d))}
+                rec["post"]["survival"] = run_dir_survival(d)
             except Exception as err:  # noqa: BLE001 - reported as a failed point
                 rec = {"status": "ok", "summary": summ,
                        "post": {"analysis_status": "failed",

@@ -150,11 +150,16 @@ def classify(case, scene, pos0, quat0, pos, quat, load_dir) -> dict:
 def reference_frame(frames: dict, collapse: dict) -> int:
     """Index of the frame the collapse motion is measured from: for a quasi-static tilt the
     last frame at or before the dynamic continuation's start (``dynamic_from_s``: the state of
-    the last angle in equilibrium, dem.run.quasi_static), else the first frame.  The motion a
+    the last angle in equilibrium, dem.run.quasi_static); for a constant-rate tilt the frame of
+    the detector's reference (``reference_time_s``: the first frame, or the new equilibrium
+    after the last re-seating of warped beds, dem.collapse), else the first frame.  The motion a
     wall made while it was still in equilibrium (elastic lean, joints seating, creep of warped
     beds: up to 1 cm at the top of the calibration's L/H = 0.6 wall with 0.1 mm beds) is not
     its collapse mechanism."""
-    t0 = collapse.get("dynamic_from_s") if collapse.get("method") == "quasi_static" else None
+    if collapse.get("method") == "quasi_static":
+        t0 = collapse.get("dynamic_from_s")
+    else:  # the detector's reference: the first frame, or the last re-seating (dem.collapse)
+        t0 = collapse.get("reference_time_s") or None
     if t0 is None:
         return 0
     t = np.asarray(frames["t"])
@@ -296,11 +301,17 @@ def plot_lean(run_dir, collapse: dict | None = None) -> Path:
     ax.set_ylabel("lean (mm)")
     axl.set_ylabel("|lean| (mm), log scale")
     axl.set_xlabel("table angle (deg)")
-    if collapse and collapse.get("detected"):
+    if collapse and collapse.get("detected") and collapse.get("angle_deg") is not None:
         for a in (ax, axl):
             a.axvline(collapse["angle_deg"], color="C3", ls="--", lw=1.0,
                       label=f"collapse: {collapse['angle_deg']:.2f} deg, "
                             f"lambda = {collapse['load_factor']:.3f}")
+        ax.legend(loc="upper left", fontsize=9)
+    elif collapse and collapse.get("detected") and collapse.get("onset_bracket_deg"):
+        lo, hi = collapse["onset_bracket_deg"]  # the onset could not be resolved (dem.collapse)
+        for a in (ax, axl):
+            a.axvspan(lo, hi, color="C3", alpha=0.15,
+                      label=f"collapse onset unresolved: {lo:.2f}-{hi:.2f} deg")
         ax.legend(loc="upper left", fontsize=9)
     n_top = int(top_blocks(scene).sum())
     ax.set_title(f"{case.name}: lean of the top ({n_top} block{'s' * (n_top != 1)}) along the "

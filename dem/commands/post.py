@@ -149,7 +149,8 @@ def post_run(path: Path) -> int:
         mech = res["mechanism"] or {}
         col = res["collapse"]
         lam = (f" (load factor {col['load_factor']:.3f} at {col['angle_deg']:.2f} deg)"
-               if col.get("detected") else "")
+               if col.get("detected") and col.get("load_factor") is not None else
+               " (onset not resolved)" if col.get("detected") else "")
         n_col = (mech.get("collapsed") or {}).get("n_blocks")
         say(f"{path}/analysis.json: collapse {col['detected']}{lam}, mechanism "
             f"{mech.get('mechanism') or mech.get('kind')}"

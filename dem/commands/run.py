@@ -15,10 +15,12 @@ import numpy as np
 from dem.commands.exit_codes import ExitCode, exit_code_for
 from dem.run import OutputError, run_case
 from postprocess.lone_block import decisive_numbers, reference_limit
+from postprocess.survival import survival_analysis
 from postprocess.tilt import plot_lean, tilt_mechanism
 
-# read the finished run, merged into summary.json (reference: the closed form of lone blocks)
-RUN_ANALYSES = (tilt_mechanism, reference_limit)
+# read the finished run, merged into summary.json (reference: the closed form of lone blocks;
+# survival: standing / local collapse / collapse of a shaking run, every brick)
+RUN_ANALYSES = (tilt_mechanism, reference_limit, survival_analysis)
 
 
 def result_line(summary: dict, arrays: dict | None = None) -> str:
@@ -30,7 +32,10 @@ def result_line(summary: dict, arrays: dict | None = None) -> str:
     kind = (summary.get("loading") or {}).get("type")
     if kind == "tilt":
         col = summary.get("collapse") or {}
-        if col.get("detected"):
+        if col.get("detected") and col.get("load_factor") is None:  # dem.collapse
+            parts.append("collapse detected, onset not resolved: "
+                         + str(col.get("onset_note") or "no lambda"))
+        elif col.get("detected"):
             mech = summary.get("mechanism") or {}
             label = mech.get("mechanism") or mech.get("kind")
             n_col = (mech.get("collapsed") or {}).get("n_blocks", col.get("n_moved"))

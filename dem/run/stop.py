@@ -5,7 +5,11 @@ constant-rate tilt with ``loading.collapse.enabled``, once the collapse detector
 has seen the collapse confirmed and the run gone on for ``collapse.after`` s or a block moved
 ``collapse.stop``.  (A quasi-static tilt ends itself: dem.run.quasi_static.)
 The detector sees every recorded frame (it listens to the recording), so its result, written to
-summary.json as ``collapse``, is the one ``dem post`` gets by replaying frames.npz.
+summary.json as ``collapse``, is the one ``dem post`` gets by replaying frames.npz.  Its reference
+pose is the first recorded frame, which the recording takes after an imperfect scene settled
+(dem.run.settle): the stop rule is built before settling, so it must not take the scene's built
+poses (issue 32 item 4: settling turned the bricks of a 3-brick column by 2.6-2.9 deg, 4-6 mm of
+the 5 mm budget, and the collapse was "confirmed" at frame 0).
 """
 
 from __future__ import annotations
