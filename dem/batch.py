@@ -173,3 +173,11 @@ def run_batch(cases: list[tuple[str, Case]], out_root: str | Path, scheduler: st
         client.close()
         if cluster is not None:
             cluster.close()
+
+
+def run_one(name: str, case_json: str, out_dir: str, threads: int, max_steps: int | None,
+            post: Callable | None = None, analyses: tuple = ()) -> dict:
+    """One point's task body outside dask (studies.prediction.pool runs it in a process of its
+    own): simulate the case into ``out_dir`` (resuming an unfinished attempt) and return its
+    record, as a dask worker does."""
+    return _run_one(name, case_json, out_dir, threads, max_steps, post, analyses)

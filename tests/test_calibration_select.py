@@ -8,8 +8,8 @@ from __future__ import annotations
 import pytest
 import yaml
 
-from postprocess import calibration_select as sel
-from postprocess.prediction_study import validate_frozen_data
+from studies.calibration import select as sel
+from studies.prediction.plan import validate_frozen_data
 
 PERFECT = {"bed_unevenness": 0.0, "face_shape": "planar", "size_scatter": [0.0, 0.0, 0.0],
            "arris": 0.0}

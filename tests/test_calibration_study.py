@@ -11,8 +11,8 @@ import pytest
 import yaml
 
 from dem.case import load_case
-from postprocess import calibration_study as cs
-from postprocess import dem_child
+from studies.calibration import study as cs
+from studies.kit import child as dem_child
 
 CAND = {"bed_unevenness": 1.0e-4, "face_shape": "planar", "size_scatter": [3e-4, 2e-4, 1e-4],
         "arris": 5e-4}
@@ -294,7 +294,7 @@ def test_held_out_summary_band_and_difference(tmp_path):
     """A finished held-out point: median vs the thesis lambda and whether the thesis value lies
     in the 10-90 % band; the others pending, shown without numbers."""
     data = _ensemble([0.50, 0.52, 0.54, 0.56, 0.58], ["sliding"] * 5, lh=2.53)
-    data["calibration"]["frozen"] = {"file": "cases/calibration/frozen.yaml", "commit": "abc"}
+    data["calibration"]["frozen"] = {"file": "studies/calibration/frozen.yaml", "commit": "abc"}
     dest = cs.point_path(tmp_path, cs.HELD_OUT_DIR, "ip-large-stretcher-flat-5x6")
     dest.parent.mkdir(parents=True)
     dest.write_text(json.dumps(data))
@@ -317,7 +317,7 @@ def test_held_out_smoke_run_records_the_frozen_commit(tmp_path):
     import subprocess
 
     repo = tmp_path / "repo"
-    frozen = repo / "cases" / "calibration" / "frozen.yaml"
+    frozen = repo / "studies" / "calibration" / "frozen.yaml"
     frozen.parent.mkdir(parents=True)
     frozen.write_text(yaml.safe_dump({"imperfections": CAND, "candidate": "x"}))
     for args in (["init", "-q"], ["add", "."], ["-c", "user.name=t", "-c", "user.email=t@t",

@@ -1,4 +1,4 @@
-"""postprocess.chapter3_check: the Chapter 3 criterion of issue 13 (the calibrated tilt results
+"""studies.chapter3.check (`python -m studies chapter3-check`): the Chapter 3 criterion of issue 13 (the calibrated tilt results
 unchanged within 5 %), judged seed by seed against the committed calibration.  Hand-made
 ensemble records; nothing runs the engine (run_point is calibration_study's, tested there)."""
 
@@ -9,9 +9,9 @@ import json
 import pytest
 import yaml
 
-from postprocess import calibration_study as cal
-from postprocess import chapter3_check as c3
-from postprocess import prediction_study as ps
+from studies.calibration import study as cal
+from studies.chapter3 import check as c3
+from studies.prediction import criteria as crit
 
 PARAMS = {"bed_unevenness": 0.0001, "face_shape": "planar", "size_scatter": [0.0, 0.0, 0.0],
           "arris": 0.0}
@@ -79,8 +79,8 @@ def test_compare_reads_both_records_and_recognises_the_calibrations_case(tmp_pat
 
 def test_the_prediction_report_takes_its_chapter_3_row_from_the_check():
     def row(chapter3):
-        return [r for r in ps.criteria({}, chapter3) if r["sweep"] == "chapter 3"][0]
-    assert row(None)["status"] == "pending" and "chapter3_check" in row(None)["why"]
+        return [r for r in crit.criteria({}, chapter3) if r["sweep"] == "chapter 3"][0]
+    assert row(None)["status"] == "pending" and "chapter3-check" in row(None)["why"]
     rec = {"verdict": {"status": "fail", "why": "beyond"}, "seeds": [0],
            "source": {"commit": "abcdef0123", "dirty": False}, "engine_results_revision": 3}
     r = row(rec)

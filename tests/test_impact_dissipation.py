@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from postprocess.impact_dissipation import (
+from studies.impact_dissipation.study import (
     G, amplitude_after_impact, half_cycle_peaks, housner_r, housner_r_block, impact_ratios,
     omega_ratios, rigid_impact_r, rocking_energy, two_body_forced, two_body_free,
     two_body_params)

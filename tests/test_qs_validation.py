@@ -6,8 +6,8 @@ import json
 
 import pytest
 
-from postprocess import calibration_study as cs
-from postprocess import qs_validation as qv
+from studies.calibration import study as cs
+from studies.qs_validation import study as qv
 
 
 def test_the_rate_case_is_the_calibration_case_on_a_constant_rate_tilt():

@@ -8,8 +8,9 @@ import json
 import numpy as np
 import pytest
 
-from postprocess import prediction_study as ps
-from postprocess import resonance_search as rs
+from studies.prediction import plan as pl
+from studies.prediction import points as pred_points
+from studies.resonance import study as rs
 from tests.test_prediction_study import _repo
 
 
@@ -52,14 +53,14 @@ def _point(f, ds, collapse=False):
 
 def test_report_joins_the_prediction_curve_and_the_points_above_it(tmp_path, monkeypatch):
     _, path = _repo(tmp_path)
-    fr = ps.load_frozen(path)
+    fr = pl.load_frozen(path)
     monkeypatch.setattr(rs, "FREQUENCIES", {"model-ii-y": (6.0, 8.0, 10.0)})
     pred_out, out = tmp_path / "pred", tmp_path / "res"
     pf = [2.0, 2.8, 3.6]
     rows = [_row(s, f, float(rs.base_transfer(f, 8.0, 0.2)) * (1 + 0.01 * s))
             for s in range(3) for f in pf]
     (pred_out / "model-ii-y").mkdir(parents=True)
-    ps.points_path(pred_out, "model-ii-y").write_text(json.dumps({"rows": rows}))
+    pred_points.points_path(pred_out, "model-ii-y").write_text(json.dumps({"rows": rows}))
     above = {6.0: [1.0, 1.1, 1.2], 8.0: [2.4, 2.5, 99.0], 10.0: [1.5, 1.6, 1.7]}
     for s in range(3):
         d = out / "runs" / "model-ii-y" / f"seed-{s}"

@@ -227,7 +227,7 @@ def test_dem_sweep_comparison_reads_the_stored_dem_sweep():
     4.0 m/s2 sweep is read from results/shake/ (no DEM run); the two-body model at the same point
     stays at rest with the sliding roof (4.0 < 8.36 m/s2), overturns with the co-moving one at
     2.8 Hz, and the DEM's ds amplification is computed on a co-moving run that rocks to the end."""
-    from postprocess import rocking_vs_dem_sweep as dc
+    from studies.two_body import vs_dem_sweep as dc
 
     sw, dem = dc.load_dem()
     assert sw["peak_acceleration_m_s2"] == 4.0 and [r["f"] for r in dem] == [1.8, 2.0, 2.4, 2.8, 3.2, 3.6]

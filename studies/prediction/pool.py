@@ -1,24 +1,24 @@
 """Run chosen (seed, frequency) points of a prediction sweep in a local process pool, without
 dask: for a borrowed many-core machine where dask is not installed.
 
-    python -m postprocess.point_pool --out results/prediction --sweep model-ii-y \\
+    python -m studies point-pool --out results/prediction --sweep model-ii-y \\
         --points 0:3.2,9:3.6,9:3.2 --workers 16
 
 Each point is built exactly as ``dem sweep --realisations 1 --seed S --frequencies F`` builds
-it from the study's case file (postprocess.prediction_study: the sweep's case with the frozen
+it from the study's case file (studies.prediction.plan.sweep_case: the sweep's case with the frozen
 set, written to ``<runs>/<sweep>.yaml`` the same way; dem.run.sweep.realisation_cases, then
-sweep_cases at the plan's cycles), and is run by the same task body (dem.batch._run_one: one
+sweep_cases at the plan's cycles), and is run by the same task body (dem.batch.run_one: one
 Taichi thread, the point's analysis, postprocess.sweep.analyze_point) into the directory dem sweep
 uses, ``<runs>/<sweep>/seed-<S>/f<F>Hz/``.  So a finished point's directory, or just its
 ``summary.json``, ``case.json``, ``analysis.json`` and ``truncated-rows.json`` copied back to the
-study's runs directory, is taken by the next ``prediction_study`` call as finished
+study's runs directory, is taken by the next ``python -m studies prediction`` call as finished
 (dem.commands.sweep.finished_point: same case.json, status ok, same results revision) and
 merged into points.json; nothing of points.json is written here.  A point already finished in
 its directory is skipped.
 
 Each point runs in a fresh process (spawn; :func:`each_in_own_process`), so a point's memory
 and Taichi runtime end with it.  After a run, its analyses over the first N cycles
-(prediction_study.TRUNCATED_CYCLES) go to ``truncated-rows.json`` beside it, from which the
+(studies.prediction.protocol.TRUNCATED_CYCLES) go to ``truncated-rows.json`` beside it, from which the
 study's cycles checks take them (the raw run stays on that machine).  ``--list`` prints the
 ``<runs>``-relative paths of the finished points' JSON files (to pack them).  Exit 0 every
 point ok, 1 one failed or was cut short.
@@ -37,9 +37,13 @@ import sys
 import time
 from pathlib import Path
 
-from postprocess import prediction_study as ps
+from studies.kit.records import read_json
+from studies.prediction.cycles import POOL_TRUNCATED, truncated_row
+from studies.prediction.plan import sweep_case, sweep_cycles
+from studies.prediction.protocol import PredictionInputError, ROOT, TRUNCATED_CYCLES
+from studies.prediction.run import write_run_case
 
-RECEIPT = ("summary.json", "case.json", "analysis.json", ps.POOL_TRUNCATED)
+RECEIPT = ("summary.json", "case.json", "analysis.json", POOL_TRUNCATED)
 
 
 def parse_points(text: str) -> list[tuple[int, float]]:
@@ -52,9 +56,9 @@ def parse_points(text: str) -> list[tuple[int, float]]:
             s, f = item.split(":")
             out.append((int(s), float(f)))
         except ValueError:
-            raise ps.PredictionInputError(f"--points: expected SEED:FREQUENCY, got {item!r}")
+            raise PredictionInputError(f"--points: expected SEED:FREQUENCY, got {item!r}")
     if not out:
-        raise ps.PredictionInputError("--points: empty")
+        raise PredictionInputError("--points: empty")
     return out
 
 
@@ -66,16 +70,16 @@ def point_cases(out: Path, runs: Path, name: str, plan: dict, points) -> list[tu
 
     sweep = plan["sweeps"].get(name)
     if sweep is None:
-        raise ps.PredictionInputError(f"--sweep {name}: not in {out}/plan.json")
-    loaded = load_case(ps.write_run_case(runs, name,
-                                         ps.sweep_case(name, plan["frozen"]["parameters"])))
-    cycles = ps.sweep_cycles(plan, name)
+        raise PredictionInputError(f"--sweep {name}: not in {out}/plan.json")
+    loaded = load_case(write_run_case(runs, name,
+                                         sweep_case(name, plan["frozen"]["parameters"])))
+    cycles = sweep_cycles(plan, name)
     res = []
     for s, f in points:
         if s not in plan["seeds"]:
-            raise ps.PredictionInputError(f"--points: seed {s} not among the plan's {plan['seeds']}")
+            raise PredictionInputError(f"--points: seed {s} not among the plan's {plan['seeds']}")
         if not any(abs(f - g) < 1e-9 for g in sweep["frequencies_hz"]):
-            raise ps.PredictionInputError(f"--points: {f:g} Hz not in {name}'s frequencies "
+            raise PredictionInputError(f"--points: {f:g} Hz not in {name}'s frequencies "
                                           f"{sweep['frequencies_hz']}")
         ((rname, rcase),) = realisation_cases(loaded, 1, s)
         ((pname, pcase),) = sweep_cases(rcase, [f], cycles)
@@ -151,18 +155,18 @@ def each_in_own_process(task, items, n: int, on_result, failed, grace_s: float =
 
 
 def _task(args) -> dict:
-    """One point in its own process (dem.batch._run_one with the sweep's analysis), then the
-    analyses of its first N cycles for each N of ``ns`` (prediction_study.record_truncated
+    """One point in its own process (dem.batch.run_one with the sweep's analysis), then the
+    analyses of its first N cycles for each N of ``ns`` (studies.prediction.cycles.record_truncated
     takes them from ``truncated-rows.json``: the raw run does not travel back)."""
     pname, case_json, out_dir, max_steps, seed, f, ns = args
-    from dem.batch import _run_one
+    from dem.batch import run_one
     from dem.output.atomic import write_json
     from postprocess.sweep import analyze_point
 
-    rec = _run_one(pname, case_json, out_dir, 1, max_steps, analyze_point)
+    rec = run_one(pname, case_json, out_dir, 1, max_steps, analyze_point)
     if rec["status"] == "ok" and ns:
-        write_json(Path(out_dir) / ps.POOL_TRUNCATED,
-                   {f"{n:g}": ps.truncated_row(seed, f, Path(out_dir), n) for n in ns}, indent=1)
+        write_json(Path(out_dir) / POOL_TRUNCATED,
+                   {f"{n:g}": truncated_row(seed, f, Path(out_dir), n) for n in ns}, indent=1)
     s = rec.get("summary") or {}
     return {"out_dir": out_dir, "status": rec["status"], "error": rec.get("error"),
             "steps": s.get("steps"), "wall_seconds": s.get("wall_seconds", rec.get("wall_seconds")),
@@ -171,7 +175,7 @@ def _task(args) -> dict:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
-    ap.add_argument("--out", type=Path, default=ps.ROOT / "results" / "prediction",
+    ap.add_argument("--out", type=Path, default=ROOT / "results" / "prediction",
                     help="the study's folder (its plan.json)")
     ap.add_argument("--runs", type=Path, default=None, help="raw runs (default <out>/runs)")
     ap.add_argument("--sweep", required=True)
@@ -184,21 +188,21 @@ def main(argv=None) -> int:
 
     runs = args.runs or Path(args.out) / "runs"
     try:
-        plan = ps._read(Path(args.out) / "plan.json")
+        plan = read_json(Path(args.out) / "plan.json")
         if plan is None:
-            raise ps.PredictionInputError(f"{args.out}/plan.json: missing or unreadable")
+            raise PredictionInputError(f"{args.out}/plan.json: missing or unreadable")
         pts = point_cases(args.out, runs, args.sweep, plan, parse_points(args.points))
         if args.workers is not None and args.workers < 1:
-            raise ps.PredictionInputError(f"--workers must be >= 1, got {args.workers}")
-    except ps.PredictionInputError as err:
+            raise PredictionInputError(f"--workers must be >= 1, got {args.workers}")
+    except PredictionInputError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
     cap = plan["max_steps"]          # the plan's step cap (smoke plans), as the study runs it
-    ns = [n for n in ps.TRUNCATED_CYCLES if 2 <= n < ps.sweep_cycles(plan, args.sweep)]
+    ns = [n for n in TRUNCATED_CYCLES if 2 <= n < sweep_cycles(plan, args.sweep)]
     if args.list:                    # only points whose receipt is complete (_task's last write)
         for *_, pcase, d in pts:
             if (finished_run(pcase, d, cap) is not None and (d / "analysis.json").is_file()
-                    and (not ns or (d / ps.POOL_TRUNCATED).is_file())):
+                    and (not ns or (d / POOL_TRUNCATED).is_file())):
                 print("\n".join(str((d / f).relative_to(runs)) for f in RECEIPT
                                 if (d / f).is_file()))
         return 0

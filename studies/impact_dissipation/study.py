@@ -1,7 +1,7 @@
 """Impact dissipation of the DEM's rocking bodies against Housner and the two-body model
 (issue 13 item 6).
 
-    python -m postprocess.impact_dissipation --out results/prediction/impact-dissipation
+    python -m studies impact-dissipation --out results/prediction/impact-dissipation
 
 Runs (a) free rocking of single blocks, (b) the Model II y excited portion built of bricks,
 (c) the two-body model (dem.rocking) with Housner's impact law and with the DEM's measured
@@ -824,7 +824,7 @@ def main(argv=None):
         print(markdown_tables(json.loads((Path(args.out) / "summary.json").read_text())))
         return None
     os.environ.setdefault("DEM_THREADS", "1")
-    root = Path(__file__).resolve().parents[1]
+    root = Path(__file__).resolve().parents[2]
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     summary_path = out / "summary.json"

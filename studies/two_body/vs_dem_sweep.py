@@ -1,8 +1,8 @@
 """The two-body model against the DEM's rocking sweep (issue 14: "compare with the DEM's rocking
 portions where the DEM rocks").
 
-    python -m postprocess.rocking_vs_dem_sweep        # markdown on stdout, ~10 s
-    python -m postprocess.rocking_report --dem-sweep  # the same
+    python -m studies two-body-vs-dem        # markdown on stdout, ~10 s
+    python -m studies two-body-report --dem-sweep  # the same
 
 The DEM rocks only in one shaking study: Model II, y, 4.0 m/s2 constant peak acceleration, 10
 cycles + 1 s margin at 1.8, 2.0, 2.4, 2.8, 3.2, 3.6 Hz (results/shake/model-ii-y-amplified/,
@@ -53,7 +53,7 @@ from dem.rocking.params import RockingParams
 from dem.table_motion import SineMotion
 from postprocess.signal_analysis import amplification, cycle_extrema, phase_lag, steady_window
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 DEM_SWEEP = ROOT / "results" / "shake" / "model-ii-y-amplified"
 TABLE_5_1_II = dict(thickness=0.05, h1=0.14, m1=6.05, h2=0.14, m2=9.41)
 TOP_LOAD, TOP_FRICTION = 58.8, 0.81
@@ -238,11 +238,11 @@ def comparison(sweep_dir: Path = DEM_SWEEP) -> str:
     return "\n".join(out)
 
 
-def main() -> None:
+def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--sweep-dir", type=Path, default=DEM_SWEEP,
                     help="DEM sweep directory (sweep.json + per-frequency analysis.json)")
-    args = ap.parse_args()
+    args = ap.parse_args(argv)
     print(comparison(args.sweep_dir))
 
 

@@ -1,15 +1,15 @@
 """Calibration of the imperfection parameters on the Chapter 3 tilting tests (issue 13, step 1).
 
-    python -m postprocess.calibration_study --out results/calibration          # run, then report
-    python -m postprocess.calibration_study --out results/calibration --report # report only
-    python -m postprocess.calibration_study --out results/calibration \\
+    python -m studies calibration --out results/calibration          # run, then report
+    python -m studies calibration --out results/calibration --report # report only
+    python -m studies calibration --out results/calibration \\
         --candidates perfect bed-0.1-planar --specimens ip-small-5x5 --realisations 20
 
 What it runs.  The calibration specimens are the small-brick tilt specimens of cases/tilt/
 (in-plane/small-*.yaml, out-of-plane/small-*.yaml; the large-brick walls are held out), each
-turned into a quasi-static tilt by postprocess.tilt_study (``_quasi_static`` then
-``_study_settings``: the converged lambda of issue 11, frames every 0.02 s, no VTK), with the
-``imperfections:`` section of one candidate of cases/calibration/candidates.yaml.  Friction and
+turned into a quasi-static tilt by studies.tilt.study (``quasi_static_case`` then
+``study_settings``: the converged lambda of issue 11, frames every 0.02 s, no VTK), with the
+``imperfections:`` section of one candidate of studies/calibration/candidates.yaml.  Friction and
 joint stiffness are the case files' (measured / physical) values, never parameters.  Every
 (candidate, specimen) point is one ``dem ensemble`` of N realisations, seeds 0 .. N-1 (fixed in
 advance; a perfect candidate is deterministic and runs one realisation), one worker, one Taichi
@@ -39,7 +39,6 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -50,13 +49,16 @@ import yaml
 from dem.builders.bricks import brick
 from dem.case import Case, load_case
 from dem.engine import RESULTS_REVISION
-from postprocess import dem_child
-from postprocess.calibration_select import is_perfect, select, selection_lines
-from postprocess.tilt_study import _quasi_static, _study_settings
+from studies.kit import child as dem_child
+from studies.kit import session
+from studies.kit.provenance import rel, repo_rel, source_state
+from studies.kit.records import read_json
+from studies.calibration.select import is_perfect, select, selection_lines
+from studies.tilt.study import quasi_static_case, study_settings
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 TILT = ROOT / "cases" / "tilt"
-CANDIDATES_FILE = ROOT / "cases" / "calibration" / "candidates.yaml"
+CANDIDATES_FILE = ROOT / "studies" / "calibration" / "candidates.yaml"
 DEFAULT_REALISATIONS = 20
 INVARIANT_SLIDING_TOL = 0.03  # relative: the L/H = 3 wall slides at lambda = mu within 3 %
 SEQUENCE_TOL = 0.05  # overturning mass fraction: a drop smaller than this is noise, not a reversal
@@ -186,14 +188,14 @@ RUNAWAY_COLLAPSE = {"confirm": 0.02, "after": 0.5, "stop": 0.04}
 def specimen_case(specimen_path: Path, params: dict, name: str,
                   rate: float | None = None) -> Case:
     """The case of one (candidate, specimen) point: the specimen's case file on a quasi-static
-    tilt and with the study's output settings (postprocess.tilt_study: ``_quasi_static``,
-    ``_study_settings``), plus ``imperfections:`` = the candidate (seed 0: the ensemble sets each
+    tilt and with the study's output settings (studies.tilt.study: ``quasi_static_case``,
+    ``study_settings``), plus ``imperfections:`` = the candidate (seed 0: the ensemble sets each
     realisation's).  Everything else, friction and joint stiffness included, is the case file's.
     ``rate`` (deg/s): a constant-rate tilt from 0 deg at that rate instead of the quasi-static
-    one (postprocess.qs_validation), read at the runaway (:data:`RUNAWAY_COLLAPSE`)."""
+    one (studies.qs_validation.study), read at the runaway (:data:`RUNAWAY_COLLAPSE`)."""
     base = load_case(specimen_path)
     if rate is None:
-        base = _quasi_static(base, name)
+        base = quasi_static_case(base, name)
     else:
         data = base.model_dump()
         data["name"] = name
@@ -201,7 +203,7 @@ def specimen_case(specimen_path: Path, params: dict, name: str,
                                 "start_angle": 0.0, "start_time": 0.0})
         data["loading"]["collapse"].update(RUNAWAY_COLLAPSE)
         base = Case.model_validate(data)
-    case = _study_settings(base, name)
+    case = study_settings(base, name)
     data = case.model_dump()
     data["imperfections"] = {**data["imperfections"], **params, "seed": 0}
     return Case.model_validate(data)
@@ -239,36 +241,8 @@ def _realisation_extras(run_dir: Path) -> dict:
     return {k: v for k, v in out.items() if v is not None}
 
 
-def source_state() -> dict:
-    """The commit of the code that ran (this checkout's HEAD) and whether dem/, postprocess/ or
-    cases/ differ from it (a dirty tree: results that no commit reproduces)."""
-    def git(*a):
-        try:
-            return subprocess.run(["git", "-C", str(ROOT), *a], capture_output=True, text=True,
-                                  timeout=30).stdout.strip()
-        except (OSError, subprocess.SubprocessError):
-            return ""
-    commit = git("rev-parse", "HEAD") or None
-    dirty = bool(git("status", "--porcelain", "--", "dem", "postprocess", "cases")) \
-        if commit else None
-    return {"commit": commit, "dirty": dirty, "checkout": str(ROOT)}
-
-
-def _rel(path: Path) -> str:
-    """A path relative to the repository when inside it, else absolute."""
-    path = Path(path).resolve()
-    return str(path.relative_to(ROOT)) if path.is_relative_to(ROOT) else str(path)
-
-
 def point_path(out: Path, candidate: str, specimen: str) -> Path:
     return Path(out) / candidate / specimen / "ensemble.json"
-
-
-def _read(path: Path) -> dict | None:
-    try:
-        return json.loads(Path(path).read_text())
-    except (OSError, ValueError):
-        return None
 
 
 def point_finished(data: dict | None, fp: str | None = None) -> bool:
@@ -295,7 +269,7 @@ def run_point(out: Path, runs: Path, candidate: str, params: dict, specimen: str
     n = realisations_for(params, realisations)
     fp = fingerprint(case, n, max_steps)
     dest = point_path(out, candidate, specimen)
-    old = _read(dest)
+    old = read_json(dest)
     if point_finished(old, fp):
         return "skipped"
     ens_dir = Path(runs) / candidate / specimen
@@ -308,7 +282,7 @@ def run_point(out: Path, runs: Path, candidate: str, params: dict, specimen: str
         cmd += ["--max-steps", str(max_steps)]
     log(f"[{time.strftime('%H:%M:%S', time.gmtime())} UTC] {candidate} / {specimen}: {n} realisation(s) ...")
     rc, cpu, wall = dem_child.run_dem(cmd, log)
-    data = _read(ens_dir / "ensemble.json")
+    data = read_json(ens_dir / "ensemble.json")
     if data is None:
         log(f"    dem ensemble exit {rc}: no ensemble.json")
         return "failed"
@@ -318,9 +292,9 @@ def run_point(out: Path, runs: Path, candidate: str, params: dict, specimen: str
     extras = {r["name"]: _realisation_extras(ens_dir / r["name"]) for r in rows
               if r.get("status") == "ok"}
     finished = (data.get("aggregate") or {}).get("n_ok") == n
-    data["source"] = _rel(case_file)
+    data["source"] = rel(case_file)
     data["calibration"] = {
-        "candidate": candidate, "specimen": specimen, "specimen_case": _rel(spec["path"]),
+        "candidate": candidate, "specimen": specimen, "specimen_case": rel(spec["path"]),
         "kind": spec["kind"], "l_over_h": spec["l_over_h"],
         "parameters": params, "friction": case.material.friction,
         "normal_stiffness_pa_per_m": case.material.normal_stiffness,
@@ -329,7 +303,7 @@ def run_point(out: Path, runs: Path, candidate: str, params: dict, specimen: str
         "cpu_seconds": (prev.get("cpu_seconds", 0.0) if same else 0.0) + cpu,
         "wall_seconds": (prev.get("wall_seconds", 0.0) if same else 0.0) + wall,
         "sessions": (prev.get("sessions", 0) if same else 0) + 1,
-        "exit_code": rc, "source": source_state(), "extras": extras, **(record or {})}
+        "exit_code": rc, "source": source_state(checkout=True), "extras": extras, **(record or {})}
     from dem.output.atomic import write_json
 
     dest.parent.mkdir(parents=True, exist_ok=True)
@@ -578,7 +552,7 @@ def collect(out: Path, candidates: dict, specs: dict, n: int | None = None) -> d
     for c, params in candidates.items():
         res[c] = {}
         for s in specs:
-            data = _read(point_path(out, c, s))
+            data = read_json(point_path(out, c, s))
             p = point_summary(data)
             cal = (data or {}).get("calibration") or {}
             if n is not None and cal and cal.get("max_steps") is None:
@@ -598,7 +572,7 @@ def held_out_summary(out: Path) -> dict:
     thesis value lies in the 10-90 % band (pending points: no numbers)."""
     res = {}
     for s, spec in held_out_specimens().items():
-        data = _read(point_path(out, HELD_OUT_DIR, s))
+        data = read_json(point_path(out, HELD_OUT_DIR, s))
         p = {**point_summary(data), "l_over_h": spec["l_over_h"],
              "thesis_lambda": spec["thesis_lambda"],
              "frozen": ((data or {}).get("calibration") or {}).get("frozen")}
@@ -617,7 +591,7 @@ def held_out_lines(held: dict) -> list[str]:
         return L + ["Their test lambdas (0.48 stretcher flat, 0.45 English, 0.36 stretcher on "
                     "edge; Section 3.3.3) are the only ones the text gives; they are not used "
                     "to choose the set.  After the freeze they are predicted with the frozen set "
-                    "unchanged: `python -m postprocess.calibration_study --out "
+                    "unchanged: `python -m studies calibration --out "
                     "results/calibration --held-out` (not run yet).", ""]
     frozen = {json.dumps(p["frozen"], sort_keys=True) for p in held.values() if p.get("frozen")}
     L += ["Predicted with the frozen set unchanged (its lengths in metres, not scaled to the "
@@ -628,12 +602,12 @@ def held_out_lines(held: dict) -> list[str]:
         done = f"{p.get('n_ok', 0)}/{p.get('n_realisations') or '-'}"
         if _finished(p) and p.get("lambda_median") is not None:
             mech = ", ".join(f"{k} {v}" for k, v in (p.get("mechanisms") or {}).items()) or "-"
-            L.append(f"| {s} | {_fmt(p['l_over_h'], 2)} | {p['thesis_lambda']} | {done} | "
-                     f"{_fmt(p['lambda_median'], 4)} | {_fmt(p['lambda_q10'], 4)} - "
-                     f"{_fmt(p['lambda_q90'], 4)} | {'yes' if p['thesis_in_band'] else 'no'} | "
+            L.append(f"| {s} | {fmt_fixed(p['l_over_h'], 2)} | {p['thesis_lambda']} | {done} | "
+                     f"{fmt_fixed(p['lambda_median'], 4)} | {fmt_fixed(p['lambda_q10'], 4)} - "
+                     f"{fmt_fixed(p['lambda_q90'], 4)} | {'yes' if p['thesis_in_band'] else 'no'} | "
                      f"{100 * p['relative_difference']:+.0f} % | {mech} |")
         else:
-            L.append(f"| {s} | {_fmt(p['l_over_h'], 2)} | {p['thesis_lambda']} | {done} | "
+            L.append(f"| {s} | {fmt_fixed(p['l_over_h'], 2)} | {p['thesis_lambda']} | {done} | "
                      "pending | pending | - | - | pending |")
     return L + [""]
 
@@ -679,7 +653,8 @@ def _estimate(points: dict, specs: dict, candidates: dict, n: int) -> dict:
                      "imperfect candidates) + the perfect points"}
 
 
-def _fmt(x, nd=3):
+def fmt_fixed(x, nd=3) -> str:
+    """x with nd decimals, '-' for None (the report's lambdas)."""
     return "-" if x is None else f"{x:.{nd}f}"
 
 
@@ -695,7 +670,7 @@ def report(out: Path, candidates: dict, specs: dict, n: int, command: str) -> di
     held = held_out_summary(out)
     summary = {"kind": "calibration", "issue": 13, "step": 1, "command": command,
                "realisations": n, "seeds": f"0..{n - 1} (perfect: 0 only, deterministic)",
-               "candidates": candidates, "specimens": {s: {"case": _rel(v["path"]),
+               "candidates": candidates, "specimens": {s: {"case": rel(v["path"]),
                    "kind": v["kind"], "l_over_h": v["l_over_h"]}
                    for s, v in specs.items()},
                "targets": TARGETS, "points": points, "scores": scores,
@@ -709,8 +684,8 @@ def report(out: Path, candidates: dict, specs: dict, n: int, command: str) -> di
          "summary.json from the committed point files "
          "`<candidate>/<specimen>/ensemble.json`.", "",
          "Each point: the small-brick tilt specimen of cases/tilt on a quasi-static tilt "
-         "(postprocess/tilt_study.py `_quasi_static`, `_study_settings`) with the candidate's "
-         "`imperfections:` (cases/calibration/candidates.yaml, where each magnitude comes from), "
+         "(postprocess/tilt_study.py `quasi_static_case`, `study_settings`) with the candidate's "
+         "`imperfections:` (studies/calibration/candidates.yaml, where each magnitude comes from), "
          f"N = {n} realisations with seeds 0..{n - 1} (the perfect candidate is deterministic: "
          "one run), friction 0.81 and joint stiffness as in the case files.  lambda = tan(tilt "
          "angle at collapse), the median and 10-90 % band over the realisations; mechanisms: "
@@ -739,13 +714,13 @@ def report(out: Path, candidates: dict, specs: dict, n: int, command: str) -> di
             cpu_s = p.get("cpu_seconds")
             per = (cpu_s / p["n_realisations"]) if cpu_s and p.get("n_realisations") else None
             if _finished(p):
-                band = f"{_fmt(p.get('lambda_q10'), 4)} - {_fmt(p.get('lambda_q90'), 4)}"
+                band = f"{fmt_fixed(p.get('lambda_q10'), 4)} - {fmt_fixed(p.get('lambda_q90'), 4)}"
                 mech = [f"{k} {v}" for k, v in (p.get("mechanisms") or {}).items()]
                 if p.get("no_collapse"):
                     mech.append(f"no collapse {p['no_collapse']}")
                 if p.get("lone_block"):
                     mech.append("one block alone: " + ", ".join(
-                        f"{n} at {_fmt(lam, 3)}" for n, lam in p["lone_block"]))
+                        f"{n} at {fmt_fixed(lam, 3)}" for n, lam in p["lone_block"]))
                 mech = ", ".join(mech) or "-"
                 if p.get("smoke"):
                     done += " (smoke: steps capped)"
@@ -753,17 +728,17 @@ def report(out: Path, candidates: dict, specs: dict, n: int, command: str) -> di
                 vs = (f"{100 * (p['lambda_median'] / ref['lambda_median'] - 1):+.1f} %"
                       if c != "perfect" and _finished(ref) and ref.get("lambda_median")
                       and p.get("lambda_median") is not None else "-")
-                L.append(f"| {s} | {_fmt(p.get('l_over_h'), 2)} | {done} | "
-                         f"{_fmt(p.get('lambda_median'), 4)} | {vs} | {band} | {mech} | "
-                         f"{_fmt(p.get('overturning_fraction_median'), 2)} | "
-                         f"{_fmt(cpu_s, 0)} | {_fmt(per, 0)} |")
+                L.append(f"| {s} | {fmt_fixed(p.get('l_over_h'), 2)} | {done} | "
+                         f"{fmt_fixed(p.get('lambda_median'), 4)} | {vs} | {band} | {mech} | "
+                         f"{fmt_fixed(p.get('overturning_fraction_median'), 2)} | "
+                         f"{fmt_fixed(cpu_s, 0)} | {fmt_fixed(per, 0)} |")
             elif p.get("stale"):
-                L.append(f"| {s} | {_fmt(p.get('l_over_h'), 2)} | - | pending (the committed "
+                L.append(f"| {s} | {fmt_fixed(p.get('l_over_h'), 2)} | - | pending (the committed "
                          "point is of an earlier revision or case: not shown, see HISTORY.md) | "
                          "- | pending | pending | pending | - | - |")
             else:
-                L.append(f"| {s} | {_fmt(p.get('l_over_h'), 2)} | {done} | pending | - | "
-                         f"pending | pending | pending | {_fmt(cpu_s, 0)} | - |")
+                L.append(f"| {s} | {fmt_fixed(p.get('l_over_h'), 2)} | {done} | pending | - | "
+                         f"pending | pending | pending | {fmt_fixed(cpu_s, 0)} | - |")
         L += ["", "| check | kind | status | detail |", "|---|---|---|---|"]
         for k, v in sc["invariants"].items():
             L.append(f"| {k} | invariant | {v['status']} | {_detail(k, v)} |")
@@ -786,7 +761,7 @@ def report(out: Path, candidates: dict, specs: dict, n: int, command: str) -> di
           f"CPU so far: {cpu:.0f} s ({cpu / 3600:.2f} h) over the finished and partial points."]
     per = est["cpu_seconds_per_realisation"]
     L += ["", "| specimen | CPU s per imperfect realisation | from |", "|---|---|---|"]
-    L += [f"| {s} | {_fmt(v, 0)} | {est['how'][s]} |" for s, v in per.items()]
+    L += [f"| {s} | {fmt_fixed(v, 0)} | {est['how'][s]} |" for s, v in per.items()]
     g = est["grid_cpu_seconds"]
     L += ["", "Estimated CPU of the whole grid (" + f"{len(candidates)} candidates x "
           f"{len(specs)} specimens, N = {n}): "
@@ -806,45 +781,30 @@ def _detail(key: str, v: dict) -> str:
                                      if r.get("status") == "pending"] or v.get("specimen")
         return f"waiting for {w}" if w else ""
     if key == "sliding-invariant":
-        return (f"{v['specimen']}: median {_fmt(v.get('median'), 4)} vs mu {v.get('mu')} "
+        return (f"{v['specimen']}: median {fmt_fixed(v.get('median'), 4)} vs mu {v.get('mu')} "
                 f"({100 * v['relative_error']:+.1f} %, tolerance 3 %), band "
-                f"{_fmt(v['band'][0], 4)} - {_fmt(v['band'][1], 4)}, modal "
+                f"{fmt_fixed(v['band'][0], 4)} - {fmt_fixed(v['band'][1], 4)}, modal "
                 f"{v.get('modal_mechanism')}" if "relative_error" in v else v.get("why", ""))
     if key == "mechanism-sequence":
-        seq = ", ".join(f"{r['l_over_h']}: {r['modal']} ({_fmt(r['overturning_fraction'], 2)})"
+        seq = ", ".join(f"{r['l_over_h']}: {r['modal']} ({fmt_fixed(r['overturning_fraction'], 2)})"
                         for r in v["series"])
         return seq + ("; " + "; ".join(v["problems"]) if v["problems"] else "")
     if key in ("in-plane-mechanisms", "oop-mechanisms"):
         return "; ".join(f"{r['specimen']}: {r.get('modal', 'pending')} ({r['status']})"
                          for r in v["rows"])
     if key == "stagger-trend":
-        return ", ".join(f"{n}: {_fmt(m, 4)}" for n, m in zip(v["specimens"], v["medians"]))
+        return ", ".join(f"{n}: {fmt_fixed(m, 4)}" for n, m in zip(v["specimens"], v["medians"]))
     return json.dumps(v)
 
 
 # ---- command line -------------------------------------------------------------------------------
-def _repo_rel(path: Path) -> str:
-    """A path relative to the git checkout that holds it (results/calibration), else as given."""
-    path = Path(path).resolve()
-    for parent in path.parents:
-        if (parent / ".git").exists():
-            return str(path.relative_to(parent))
-    return str(path)
-
-
 def _command(args) -> str:
     """The command that regenerates the study, as run from the checkout that holds --out (the
     session's --stop-at and --runs left out: they do not change the results)."""
-    cmd = ["python -m postprocess.calibration_study", "--out", _repo_rel(args.out)]
-    if args.candidates:
-        cmd += ["--candidates", *args.candidates]
-    if args.specimens:
-        cmd += ["--specimens", *args.specimens]
-    if args.realisations != DEFAULT_REALISATIONS:
-        cmd += ["--realisations", str(args.realisations)]
-    if args.max_steps is not None:
-        cmd += ["--max-steps", str(args.max_steps)]
-    return " ".join(cmd)
+    return session.command("calibration", out=repo_rel(args.out),
+                           candidates=args.candidates or None, specimens=args.specimens or None,
+                           realisations=(args.realisations, DEFAULT_REALISATIONS),
+                           max_steps=args.max_steps)
 
 
 def main(argv=None) -> int:
@@ -867,11 +827,11 @@ def main(argv=None) -> int:
     ap.add_argument("--held-out", action="store_true",
                     help="after the freeze: run the held-out large-brick walls (HELD_OUT) with "
                          "the committed frozen set (--frozen) into <out>/held-out/")
-    ap.add_argument("--frozen", type=Path, default=ROOT / "cases" / "calibration" / "frozen.yaml",
+    ap.add_argument("--frozen", type=Path, default=ROOT / "studies" / "calibration" / "frozen.yaml",
                     help="the frozen set for --held-out (must be committed under cases/)")
     ap.add_argument("--freeze", action="store_true",
                     help="rebuild the report, then write the choice of SELECTION.md "
-                         "(postprocess.calibration_select) to --frozen; refused (exit 2) while "
+                         "(studies.calibration.select) to --frozen; refused (exit 2) while "
                          "the choice is undecided.  Commit the file and the report together.")
     args = ap.parse_args(argv)
     if args.realisations < 1:
@@ -896,11 +856,8 @@ def main(argv=None) -> int:
     if not args.report:
         for c, params in cands.items():
             for s, spec in specs.items():
-                if dem_child.stopped():
-                    break
-                if args.stop_at and time.strftime("%H:%M", time.gmtime()) >= args.stop_at:
-                    print(f"--stop-at {args.stop_at} UTC reached: no new point", flush=True)
-                    dem_child.request_stop()
+                if session.should_stop(stop_at=args.stop_at,
+                                       log=lambda m: print(m, flush=True)):
                     break
                 state = run_point(out, runs, c, params, s, spec, args.realisations,
                                   args.max_steps, log=lambda m: print(m, flush=True))
@@ -912,7 +869,7 @@ def main(argv=None) -> int:
 
 def _main_freeze(ap, args) -> int:
     """--freeze: the report from the committed points, then the decided choice to --frozen."""
-    from postprocess.calibration_select import FreezeRefused, freeze
+    from studies.calibration.select import FreezeRefused, freeze
 
     if args.candidates or args.specimens:
         ap.error("--freeze applies SELECTION.md to every candidate and specimen: no "
@@ -933,8 +890,9 @@ def _main_freeze(ap, args) -> int:
 
 def _main_held_out(ap, args) -> int:
     """--held-out: the large-brick walls with the frozen set (refused, exit 2, before the
-    freeze: postprocess.prediction_study.load_frozen)."""
-    from postprocess.prediction_study import PredictionInputError, load_frozen
+    freeze: studies.prediction.plan.load_frozen)."""
+    from studies.prediction.plan import load_frozen
+    from studies.prediction.protocol import PredictionInputError
 
     if args.candidates:
         ap.error("--held-out runs the frozen set, not --candidates")
@@ -954,10 +912,8 @@ def _main_held_out(ap, args) -> int:
     for s, spec in all_s.items():
         if args.specimens and s not in args.specimens:
             continue
-        if dem_child.stopped():
-            break
-        if args.stop_at and time.strftime("%H:%M", time.gmtime()) >= args.stop_at:
-            print(f"--stop-at {args.stop_at} UTC reached: no new point", flush=True)
+        if session.should_stop(stop_at=args.stop_at,
+                               log=lambda m: print(m, flush=True)):
             break
         run_point(out, runs, HELD_OUT_DIR, frozen["parameters"], s, spec, args.realisations,
                   args.max_steps, log=lambda m: print(m, flush=True), record=record)

@@ -1,5 +1,5 @@
-"""The studies' way of running a ``dem`` command as a child process (calibration_study,
-prediction_study): this checkout's package (not another one an editable install points at), one
+"""The studies' way of running a ``dem`` command as a child process (the calibration,
+prediction and other studies): this checkout's package (not another one an editable install points at), one
 Taichi thread, its output relayed line by line, the CPU seconds (user + system) of its process
 tree measured, and a clean stop: SIGTERM or SIGINT to the study is passed on to the child, which
 stops like Ctrl-C and keeps what finished (``dem ensemble`` / ``dem sweep`` resume from it), and
@@ -16,7 +16,7 @@ import sys
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 _CHILDREN: list[subprocess.Popen] = []
 _STOP = [False]
 

@@ -1,11 +1,11 @@
 """Slow constant-rate tilts against the calibration's quasi-static lambda (issue 13, step 1).
 
-    python -m postprocess.qs_validation --out results/calibration/qs-validation   # run, report
-    python -m postprocess.qs_validation --out results/calibration/qs-validation --report
-    python -m postprocess.qs_validation --out results/calibration/qs-validation \\
+    python -m studies qs-validation --out results/calibration/qs-validation   # run, report
+    python -m studies qs-validation --out results/calibration/qs-validation --report
+    python -m studies qs-validation --out results/calibration/qs-validation \\
         --specimens ip-small-9x15-s10 --candidate bed-0.1-planar --realisations 2
 
-Why.  The calibration (postprocess.calibration_study) reads lambda from the quasi-static search
+Why.  The calibration (studies.calibration.study) reads lambda from the quasi-static search
 (dem.run.quasi_static: increments relaxed with local damping, bisection of the first that
 fails).  That search was checked against the rate -> 0 limit of constant-rate tilts on two walls
 only (the perfect 5 x 7 wall and the 5 x 9 facade without wings; benchmarks/speed_error.md,
@@ -14,20 +14,20 @@ the runaway of a 1 deg/s tilt (0.5104; speed_error.md, "Quasi-static tilt of imp
 the 0.5 deg/s "collapse" there was a 9.8 mm slip that stopped).  This study repeats that check
 on every calibration specimen.
 
-What it runs.  For each specimen (calibration_study.specimens) and each rate of ``--rates``
+What it runs.  For each specimen (studies.calibration.study.specimens) and each rate of ``--rates``
 (default 2, 1, 0.5 deg/s): the calibration's own case of that specimen and candidate
-(calibration_study.specimen_case with ``rate``: friction, stiffness, imperfections and output
+(studies.calibration.study.specimen_case with ``rate``: friction, stiffness, imperfections and output
 settings unchanged), tilted from 0 deg at that constant rate, its collapse read at the runaway
-(calibration_study.RUNAWAY_COLLAPSE: confirmed at 20 mm of motion instead of the case files'
+(studies.calibration.study.RUNAWAY_COLLAPSE: confirmed at 20 mm of motion instead of the case files'
 5 mm, so that a slip that stops after a few mm is not the collapse), one ``dem ensemble`` of N
 realisations (``--realisations``; seeds 0 .. N-1; a perfect candidate runs one), resumable
-exactly as the calibration's points (calibration_study.run_point):
+exactly as the calibration's points (studies.calibration.study.run_point):
 ``<out>/rate-<r>/<candidate>/<specimen>/ensemble.json``, raw runs under ``<out>/runs/``.
 
 What it reports (``<out>/README.md``, ``<out>/summary.json``), per specimen and seed: lambda at
 each rate (the detector's onset: the last frame at which the blocks that go on to move 20 mm
 were at rest; dem/collapse.py), lambda0 extrapolated to a vanishing rate through the three
-rates r, 2r, 4r (the three slowest finished; postprocess.tilt_study._rate_extrapolation:
+rates r, 2r, 4r (the three slowest finished; studies.tilt.study.rate_extrapolation:
 lambda = lambda0 - c r^p), and the calibration's quasi-static lambda of the same candidate and
 seed (its committed point), with QS / lambda0 - 1 and QS / lambda(slowest) - 1.  A constant-rate
 tilt reads low by its rate (the onset comes early on a wall that leans faster as it tilts
@@ -52,16 +52,17 @@ Units: lambda = tan(tilt angle), dimensionless; rates in deg/s.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
 
-from postprocess import calibration_study as cs
-from postprocess import dem_child
-from postprocess.tilt_study import _rate_extrapolation
+from studies.calibration import study as cs
+from studies.kit import child as dem_child
+from studies.kit import session
+from studies.kit.provenance import repo_rel
+from studies.kit.records import read_json
+from studies.tilt.study import rate_extrapolation
 
 RATES = (2.0, 1.0, 0.5)  # deg/s: r, 2r, 4r for the extrapolation; 2 deg/s is the case files'
 FLAG_TOLERANCE = 0.03
@@ -86,7 +87,7 @@ def rate_limit(pts) -> tuple[float | None, str]:
     first, and "extrapolated", "not converging" (monotone, but the extrapolation would go
     further beyond the slowest rate than the three rates span: p < 1/2) or "not monotone"
     (fewer than three doubling rates, or differences that do not shrink with one sign)."""
-    lam0 = _rate_extrapolation(pts)
+    lam0 = rate_extrapolation(pts)
     if lam0 is None:
         return None, "not monotone"
     if abs(lam0 - pts[0][1]) > abs(pts[0][1] - pts[2][1]):
@@ -140,10 +141,10 @@ def collect(out: Path, calibration: Path, candidate: str, specs: dict, rates) ->
     res = {}
     extra = sorted(set(rates_on_disk(out)) - set(rates))
     for s in specs:
-        qs = _lambdas(cs._read(cs.point_path(calibration, candidate, s)))
+        qs = _lambdas(read_json(cs.point_path(calibration, candidate, s)))
         by_rate, pending, cpu = {}, [], 0.0
         for r in list(rates) + extra:
-            data = cs._read(cs.point_path(rate_dir(out, r), candidate, s))
+            data = read_json(cs.point_path(rate_dir(out, r), candidate, s))
             if data is None and r in extra:
                 continue
             cpu += ((data or {}).get("calibration") or {}).get("cpu_seconds") or 0.0
@@ -191,8 +192,8 @@ def report(out: Path, calibration: Path, candidate: str, specs: dict, rates, com
         for row in v["rows"]:
             pct = (lambda x: "-" if x is None else f"{100 * x:+.1f} %")
             L.append(f"| {s} | {row['seed']} | "
-                     + " | ".join(cs._fmt(row["rates"].get(r), 4) for r in rs)
-                     + " | " + (cs._fmt(row["lambda0"], 4) if row["lambda0"] is not None
+                     + " | ".join(cs.fmt_fixed(row["rates"].get(r), 4) for r in rs)
+                     + " | " + (cs.fmt_fixed(row["lambda0"], 4) if row["lambda0"] is not None
                                 else row["rate_limit"])
                      + f" | {row['qs']:.4f} | "
                      f"{pct(row['qs_vs_lambda0'])} | {pct(row['qs_vs_slowest'])} | "
@@ -210,18 +211,12 @@ def report(out: Path, calibration: Path, candidate: str, specs: dict, rates, com
 
 
 def _command(args) -> str:
-    cmd = ["python -m postprocess.qs_validation", "--out", cs._repo_rel(args.out)]
-    if args.candidate != "perfect":
-        cmd += ["--candidate", args.candidate]
-    if args.specimens:
-        cmd += ["--specimens", *args.specimens]
-    if tuple(args.rates) != RATES:
-        cmd += ["--rates", *[f"{r:g}" for r in args.rates]]
-    if args.realisations != 1:
-        cmd += ["--realisations", str(args.realisations)]
-    if args.max_steps is not None:
-        cmd += ["--max-steps", str(args.max_steps)]
-    return " ".join(cmd)
+    """The command that regenerates the validation (--stop-at and --runs left out)."""
+    return session.command("qs-validation", out=repo_rel(args.out),
+                           candidate=(args.candidate, "perfect"),
+                           specimens=args.specimens or None,
+                           rates=(list(args.rates), list(RATES)),
+                           realisations=(args.realisations, 1), max_steps=args.max_steps)
 
 
 def main(argv=None) -> int:
@@ -231,7 +226,7 @@ def main(argv=None) -> int:
                     help="the calibration study's --out (its committed quasi-static points)")
     ap.add_argument("--runs", type=Path, default=None, help="raw runs (default <out>/runs)")
     ap.add_argument("--candidate", default="perfect",
-                    help="a candidate of cases/calibration/candidates.yaml (default perfect)")
+                    help="a candidate of studies/calibration/candidates.yaml (default perfect)")
     ap.add_argument("--specimens", nargs="*", default=None,
                     help="names (default: every calibration specimen, cheapest first)")
     ap.add_argument("--rates", nargs="*", type=float, default=list(RATES),
@@ -262,11 +257,8 @@ def main(argv=None) -> int:
     if not args.report:
         for s, spec in specs.items():
             for r in sorted(args.rates, reverse=True):        # the fast rate first: cheapest
-                if dem_child.stopped():
-                    break
-                if args.stop_at and time.strftime("%H:%M", time.gmtime()) >= args.stop_at:
-                    print(f"--stop-at {args.stop_at} UTC reached: no new run", flush=True)
-                    dem_child.request_stop()
+                if session.should_stop(stop_at=args.stop_at,
+                                       log=lambda m: print(m, flush=True)):
                     break
                 cs.run_point(rate_dir(out, r), runs / f"rate-{r:g}", args.candidate, params, s,
                              spec, args.realisations, args.max_steps,

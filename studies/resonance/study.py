@@ -20,11 +20,11 @@ largest relative residual 6.2 % over its ten frequencies; per seed 6.7-8.2 Hz) a
 2.8 Hz.  These numbers, and
 the frequencies of :data:`FREQUENCIES` chosen from them, were committed before any run here.
 
-What runs: the prediction's own case of each sweep (postprocess.prediction_study.sweep_case:
+What runs: the prediction's own case of each sweep (studies.prediction.plan.sweep_case:
 the cases/shake file, friction 0.81, the same constant peak acceleration, the frozen set) at
 frequencies above the sweep that bracket the fitted f_n, ``CYCLES`` cycles after settling,
 seeds 0 .. SEEDS-1 (the prediction's first seeds): one ``dem sweep --realisations`` per sweep
-in a child process (postprocess.dem_child), resumable (dem sweep skips finished points;
+in a child process (studies.kit.child), resumable (dem sweep skips finished points;
 ``touch <out>/runs/DRAIN`` ends a call after the runs in flight).
 
 What it reports (``<out>/summary.json``, ``README.md``, ``amplification.png``), per sweep: the
@@ -46,14 +46,18 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-if str(ROOT) not in sys.path:
-    sys.path.insert(0, str(ROOT))
+from studies.kit import child as dem_child
+from studies.kit import session
+from studies.kit.records import read_json
+from postprocess.verdicts import band_text, is_rocking
+from studies.prediction.analysis import survived
+from studies.prediction.plan import frozen_or_none, sweep_case
+from studies.prediction.points import collect_rows, points_path
+from studies.prediction.protocol import DEFAULT_FROZEN
+from postprocess.ensemble import statistics
+from postprocess.sweep import effective_range
 
-from postprocess import dem_child  # noqa: E402
-from postprocess import prediction_study as ps  # noqa: E402
-from postprocess.ensemble import statistics  # noqa: E402
-from postprocess.sweep import effective_range  # noqa: E402
+ROOT = Path(__file__).resolve().parents[2]
 
 # chosen from the fits above (II y f_n 7.3 Hz, per seed 6.7-8.2; II x 10.0 Hz, 8.7-11.9);
 # 3.8, 4.0 and 4.2 Hz in y were added after the first runs had shown a jump between the
@@ -97,7 +101,7 @@ def _ok_rows(rows):
 
 def median_curve(rows, seeds=None) -> tuple[list[float], list[float]]:
     """(frequencies, median ds amplification) over the surviving rows of ``seeds`` (all: None)."""
-    rows = [r for r in _ok_rows(rows) if ps.survived(r)
+    rows = [r for r in _ok_rows(rows) if survived(r)
             and (seeds is None or r["seed"] in set(seeds))]
     fs = sorted({r["frequency_hz"] for r in rows})
     return fs, [float(np.median([r["amplification"]["ds"] for r in rows
@@ -110,7 +114,7 @@ def prediction_fit(rows) -> dict:
     per = {}
     for s in sorted({r["seed"] for r in _ok_rows(rows)}):
         pts = sorted((r["frequency_hz"], r["amplification"]["ds"]) for r in _ok_rows(rows)
-                     if r["seed"] == s and ps.survived(r))
+                     if r["seed"] == s and survived(r))
         if pts:
             per[str(s)] = fit_natural_frequency(*zip(*pts)).get("fn_hz")
     return {"median": fit_natural_frequency(fs, med), "per_seed_fn_hz": per,
@@ -122,7 +126,7 @@ def run_sweep(runs: Path, frozen: dict, name: str, seeds: int, cycles: float, lo
     """One ``dem sweep --realisations`` of ``name``'s case above its range; (exit code, CPU s)."""
     import yaml
 
-    case = ps.sweep_case(name, frozen["parameters"])
+    case = sweep_case(name, frozen["parameters"])
     data = case.model_dump()
     data["name"] = f"res-{name}"
     case = type(case).model_validate(data)
@@ -147,13 +151,13 @@ def sweep_summary(pred_rows, above_rows, seeds: int) -> dict:
     for f in sorted({r["frequency_hz"] for r in above_rows}):
         rows = [r for r in above_rows if r["frequency_hz"] == f]
         ok = _ok_rows(rows)
-        alive = [r for r in ok if ps.survived(r)]
+        alive = [r for r in ok if survived(r)]
         per_f[f"{f:g}"] = {
             "n_run": len(ok), "n_expected": len(rows), "n_survived": len(alive),
             "amplification": {q: statistics((r.get("amplification") or {}).get(q)
                                             for r in alive) for q in ("ds", "da", "dsr")},
             "lag_ds_s": statistics((r.get("lag_s") or {}).get("ds") for r in alive),
-            "rocking": sum(1 for r in alive if ps.is_rocking(r)["rocking"]),
+            "rocking": sum(1 for r in alive if is_rocking(r)["rocking"]),
             "per_seed_ds": {str(r["seed"]): r["amplification"]["ds"] for r in alive}}
     my = list(range(seeds))
     f1, a1 = median_curve(pred_rows, my)
@@ -173,8 +177,8 @@ def report(out: Path, pred_out: Path, frozen: dict, seeds: int, cycles: float, c
     out.mkdir(parents=True, exist_ok=True)
     sweeps = {}
     for name, freqs in FREQUENCIES.items():
-        pred = json.loads(ps.points_path(pred_out, name).read_text())["rows"]
-        above = ps.collect_rows(out / "runs" / name, list(range(seeds)), list(freqs))
+        pred = json.loads(points_path(pred_out, name).read_text())["rows"]
+        above = collect_rows(out / "runs" / name, list(range(seeds)), list(freqs))
         sweeps[name] = {**sweep_summary(pred, above, seeds), "cpu_seconds": cpu.get(name)}
     data = {"kind": "resonance-search", "command": command, "cycles": cycles,
             "seeds": list(range(seeds)), "frequencies_hz": {k: list(v) for k, v in
@@ -215,10 +219,10 @@ def report(out: Path, pred_out: Path, frozen: dict, seeds: int, cycles: float, c
             a = p["amplification"]
             lin = f"{float(base_transfer(float(f), fn)):.3g}" if fn else "-"
             L.append(f"| {f} | {p['n_run']}/{p['n_expected']} ({p['n_survived']}) | "
-                     f"{ps._band(a['ds'])} | "
+                     f"{band_text(a['ds'])} | "
                      + ", ".join(f"{x:.3g}" for x in p["per_seed_ds"].values())
-                     + f" | {ps._band(a['da'])} | {ps._band(a['dsr'])} | "
-                     f"{ps._band(p['lag_ds_s'])} | {p['rocking']}/{p['n_survived']} | {lin} |")
+                     + f" | {band_text(a['da'])} | {band_text(a['dsr'])} | "
+                     f"{band_text(p['lag_ds_s'])} | {p['rocking']}/{p['n_survived']} | {lin} |")
     L += ["", f"Cycles: {cycles:g}.  On the finished Model II y sweep the first 20 cycles read "
           "the ds amplification ~6 % above all 50 (results/prediction/model-ii-y/"
           "cycles-check-20.json).  The linear fit's column is the undamped |z| / Y at the fitted "
@@ -264,7 +268,7 @@ def _plot(path: Path, sweeps: dict) -> None:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
-    ap.add_argument("--frozen", type=Path, default=ps.DEFAULT_FROZEN)
+    ap.add_argument("--frozen", type=Path, default=DEFAULT_FROZEN)
     ap.add_argument("--prediction", type=Path, default=ROOT / "results" / "prediction",
                     help="the prediction's output folder (its <sweep>/points.json are fitted)")
     ap.add_argument("--out", type=Path,
@@ -275,10 +279,8 @@ def main(argv=None) -> int:
     ap.add_argument("--cycles", type=float, default=CYCLES)
     ap.add_argument("--report", action="store_true", help="only rebuild the report")
     args = ap.parse_args(argv)
-    try:
-        frozen = ps.load_frozen(args.frozen)
-    except ps.PredictionInputError as err:
-        print(f"error: {err}", file=sys.stderr)
+    frozen = frozen_or_none(args.frozen)
+    if frozen is None:
         return 2
     only = [s for s in args.only.split(",") if s]
     bad = [s for s in only if s not in FREQUENCIES]
@@ -288,33 +290,18 @@ def main(argv=None) -> int:
         return 2
     out, runs = Path(args.out), Path(args.out) / "runs"
     cpu_path = out / "cpu.json"
-    try:
-        cpu = json.loads(cpu_path.read_text())
-    except (OSError, ValueError):
-        cpu = {}
+    cpu = read_json(cpu_path) or {}
     codes = []
     if not args.report:
-        from dem.batch import DRAIN_FILE, clear_drain_file
-        from dem.output.atomic import write_json
-
-        drain = runs / DRAIN_FILE
-        clear_drain_file(drain, lambda m: print(m, file=sys.stderr))
-        dem_child.install_signal_handlers()
+        drain = session.start(runs)
         for name in only:
-            if dem_child.stopped() or drain.exists():
+            if session.should_stop(drain):
                 break
             rc, c = run_sweep(runs, frozen, name, args.seeds, args.cycles, drain_file=drain)
             codes.append(rc)
-            try:    # re-read: a call on another sweep may run beside this one
-                cpu = json.loads(cpu_path.read_text())
-            except (OSError, ValueError):
-                pass
-            cpu[name] = cpu.get(name, 0.0) + c
-            out.mkdir(parents=True, exist_ok=True)
-            write_json(cpu_path, cpu, indent=1)
-    cmd = "python -m postprocess.resonance_search" + \
-        (f" --seeds {args.seeds}" if args.seeds != SEEDS else "") + \
-        (f" --cycles {args.cycles:g}" if args.cycles != CYCLES else "")
+            # under a lock, re-read: a call on another sweep may run beside this one
+            cpu = session.add_cpu(cpu_path, name, c)
+    cmd = session.command("resonance", seeds=(args.seeds, SEEDS), cycles=(args.cycles, CYCLES))
     report(out, Path(args.prediction), frozen, args.seeds, args.cycles, cpu, cmd)
     print(f"{out}/summary.json, {out}/README.md", file=sys.stderr)
     return 0 if all(c == 0 for c in codes) else 1

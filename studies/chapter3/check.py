@@ -2,14 +2,14 @@
 prediction, compared realisation by realisation with the committed calibration (issue 13 step 4,
 the criterion "Chapter 3: the calibrated results unchanged within 5 %").
 
-    python -m postprocess.chapter3_check                     # run (resumable), then compare
-    python -m postprocess.chapter3_check --compare-only      # compare what has run
-    python -m postprocess.chapter3_check --seeds 2 --specimens ip-small-5x5 ip-small-5x15
+    python -m studies chapter3-check                     # run (resumable), then compare
+    python -m studies chapter3-check --compare-only      # compare what has run
+    python -m studies chapter3-check --seeds 2 --specimens ip-small-5x5 ip-small-5x15
 
-What it runs.  For the frozen candidate (``candidate:`` of cases/calibration/frozen.yaml, whose
-``imperfections:`` must equal that candidate's entry in cases/calibration/candidates.yaml), every
-calibration specimen (postprocess.calibration_study.specimens) with the first N of the
-calibration's seeds (default N = 1: seed 0), through calibration_study.run_point: the same case,
+What it runs.  For the frozen candidate (``candidate:`` of studies/calibration/frozen.yaml, whose
+``imperfections:`` must equal that candidate's entry in studies/calibration/candidates.yaml), every
+calibration specimen (studies.calibration.study.specimens) with the first N of the
+calibration's seeds (default N = 1: seed 0), through studies.calibration.study.run_point: the same case,
 the same quasi-static tilt, the same ``dem ensemble`` child with one thread.  The committed record
 of a point goes to ``<out>/<candidate>/<specimen>/ensemble.json`` (default out
 results/prediction/chapter3-check), its raw runs under ``--runs`` (default
@@ -27,13 +27,12 @@ has more, and is pending while a specimen has not finished.  The mechanisms are 
 (same / differs), not judged: the criterion is about the calibrated numbers.  ``same_case``
 says whether the re-run case is the calibration's (their fingerprints with the calibration's N;
 a case file or builder changed since then reads False).  The record, ``<out>/check.json``, names
-the commit that ran and the engine's results revision; prediction_study's report reads it.
+the commit that ran and the engine's results revision; the prediction report reads it.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
@@ -41,12 +40,14 @@ from pathlib import Path
 import yaml
 
 from dem.engine import RESULTS_REVISION
-from postprocess import calibration_study as cal
-from postprocess import dem_child
-from postprocess.prediction_study import CHAPTER3_CHECK
+from studies.calibration import study as cal
+from studies.kit import child as dem_child
+from studies.kit.provenance import rel
+from studies.kit.records import read_json
+from studies.prediction.protocol import CHAPTER3_CHECK
 
-ROOT = Path(__file__).resolve().parents[1]
-DEFAULT_FROZEN = ROOT / "cases" / "calibration" / "frozen.yaml"
+ROOT = Path(__file__).resolve().parents[2]
+DEFAULT_FROZEN = ROOT / "studies" / "calibration" / "frozen.yaml"
 DEFAULT_CALIBRATION = ROOT / "results" / "calibration"
 CHECK_DIR, CHECK_FILE = CHAPTER3_CHECK.split("/")  # under the prediction's --out
 DEFAULT_OUT = ROOT / "results" / "prediction" / CHECK_DIR
@@ -135,8 +136,8 @@ def compare(out: Path, calibration: Path, candidate: str, specs: dict, seeds: li
     """check.json's content from the committed calibration and the re-run points."""
     points = {}
     for s, spec in specs.items():
-        calib = cal._read(cal.point_path(calibration, candidate, s))
-        rerun = cal._read(cal.point_path(out, candidate, s))
+        calib = read_json(cal.point_path(calibration, candidate, s))
+        rerun = read_json(cal.point_path(out, candidate, s))
         p = compare_point(calib, rerun, seeds, tol)
         case = cal.specimen_case(spec["path"], params, f"cal-{candidate}-{s}")
         n_cal = ((calib or {}).get("calibration") or {}).get("n_realisations")
@@ -147,7 +148,7 @@ def compare(out: Path, calibration: Path, candidate: str, specs: dict, seeds: li
         p["source"] = ((rerun or {}).get("calibration") or {}).get("source")
         points[s] = p
     return {"kind": "chapter3-check", "candidate": candidate, "parameters": params,
-            "calibration": cal._rel(calibration), "seeds": seeds, "tolerance": tol,
+            "calibration": rel(calibration), "seeds": seeds, "tolerance": tol,
             "engine_results_revision": RESULTS_REVISION, "source": cal.source_state(),
             "cpu_seconds": sum(p["cpu_seconds"] or 0.0 for p in points.values()),
             "specimens": points,
@@ -197,7 +198,7 @@ def main(argv=None) -> int:
 
     args.out.mkdir(parents=True, exist_ok=True)
     data = compare(args.out, args.calibration, candidate, specs, seeds, params)
-    data["command"] = "python -m postprocess.chapter3_check " + " ".join(argv or sys.argv[1:])
+    data["command"] = "python -m studies chapter3-check " + " ".join(argv or sys.argv[1:])
     data["written"] = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
     write_json(args.out / CHECK_FILE, data, indent=1)
     v = data["verdict"]

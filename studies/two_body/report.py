@@ -1,13 +1,13 @@
 """Tables of docs/rocking_results.md: the two-block model against the thesis (Chapter 5).
 
-    python -m postprocess.rocking_report [--dem]        # markdown on stdout; --dem adds the DEM
+    python -m studies two-body-report [--dem]        # markdown on stdout; --dem adds the DEM
                                                         # comparison (runs the DEM, dem.run)
-    python -m postprocess.rocking_report --top-contact  # section 9: the two top contacts (issue 14)
-    python -m postprocess.rocking_report --dem-sweep    # section 9: against the DEM's rocking
+    python -m studies two-body-report --top-contact  # section 9: the two top contacts (issue 14)
+    python -m studies two-body-report --dem-sweep    # section 9: against the DEM's rocking
                                                         # sweep (reads results/shake/, runs no DEM)
 
 A study above both models (it runs the two-body model and, with --dem, the DEM's run loop), so it
-lives with the other studies in postprocess/ (shake_study, tilt_study), not in the model package
+lives with the other studies in studies/ (shake, tilt), not in the model package
 (tests/test_layers.py puts it in the top layer, with the commands and the studies).
 Every number is computed here from the case files in cases/rocking/ and the closed forms of
 dem.rocking.analysis; the thesis' numbers are quoted from ../shared/REFERENCE.md and the thesis.
@@ -27,7 +27,7 @@ from dem.rocking.runner import run_rocking_case
 from dem.rocking.schema import load_rocking_case
 from dem.rocking.sweep import sweep
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 CASES = ROOT / "cases" / "rocking"
 MODEL = {
     "II": dict(thickness=0.05, h1=0.14, m1=6.05, h2=0.14, m2=9.41),
@@ -148,26 +148,48 @@ def frequency_sweep_table() -> str:
     return "\n".join(out)
 
 
+#: the two-block release of tests/test_rocking_vs_dem.py: thickness T, heights H1 / H2 (m),
+#: masses M1 / M2 (kg), length along y (m; the model is planar), initial rotation THETA0 (rad)
+RELEASE = {"T": 0.05, "H1": 0.14, "H2": 0.14, "M1": 6.05, "M2": 9.41, "LENGTH": 0.3,
+           "THETA0": 0.02}
+
+
+def released_block(h: float, zc: float, m: float, r: dict = RELEASE) -> dict:
+    """A block of the stack (height h, centre height zc before the rotation, mass m) rotated by
+    THETA0 about the base pivot (x, z) = (T/2, 0): its case-file block entry."""
+    t, th = r["T"], r["THETA0"]
+    cx, cz = -t / 2, zc
+    return {"size": [t, r["LENGTH"], h],
+            "position": [t / 2 + cx * math.cos(th) + cz * math.sin(th), 0.0,
+                         -cx * math.sin(th) + cz * math.cos(th)],
+            "rotation": [0.0, math.degrees(th), 0.0], "mass": m}
+
+
+def tilt_about_y(quat) -> np.ndarray:
+    """Rotation angle (rad) about +y (top towards +x) of unit quaternions (w, x, y, z)."""
+    w, x, y, z = quat[..., 0], quat[..., 1], quat[..., 2], quat[..., 3]
+    return np.arcsin(np.clip(2.0 * (w * y - z * x), -1.0, 1.0))
+
+
 def dem_comparison() -> str:
     """Two blocks released from 0.02 rad: zero crossings of theta1, DEM vs reduced model."""
-    import sys
-
-    sys.path.insert(0, str(ROOT / "tests"))
-    import test_rocking_vs_dem as tv
     from dem.case import parse_case
     from dem.rocking.integrate import Settings, integrate_rocking
     from dem.run import run_case as run_dem_case
     from dem.table_motion import TableMotion
 
-    P = RockingParams(thickness=tv.T, h1=tv.H1, m1=tv.M1, h2=tv.H2, m2=tv.M2)
-    red = integrate_rocking(P, TableMotion(), Settings(duration=0.8), (tv.THETA0, tv.THETA0, 0, 0))
+    r = RELEASE
+    P = RockingParams(thickness=r["T"], h1=r["H1"], m1=r["M1"], h2=r["H2"], m2=r["M2"])
+    red = integrate_rocking(P, TableMotion(), Settings(duration=0.8),
+                            (r["THETA0"], r["THETA0"], 0, 0))
     case = parse_case({
         "name": "two-block-release",
-        "scene": {"blocks": [tv._block(tv.H1, tv.H1 / 2, tv.M1), tv._block(tv.H2, tv.H1 + tv.H2 / 2, tv.M2)]},
+        "scene": {"blocks": [released_block(r["H1"], r["H1"] / 2, r["M1"]),
+                             released_block(r["H2"], r["H1"] + r["H2"] / 2, r["M2"])]},
         "material": {"friction": 2.0}, "loading": {"type": "none"},
         "run": {"duration": 0.8, "output_interval": 0.0005}})
     dem = run_dem_case(case)
-    th = tv._tilt_about_y(dem.quat)
+    th = tilt_about_y(dem.quat)
     s = np.sign(th[:, 0])
     idx = np.flatnonzero(np.diff(s) != 0)
     t_dem = [dem.t[i] + (dem.t[i + 1] - dem.t[i]) * th[i, 0] / (th[i, 0] - th[i + 1, 0]) for i in idx]
@@ -287,17 +309,17 @@ def top_contact_sweep_table(freqs=None) -> str:
     return "\n".join(out)
 
 
-def main() -> None:
+def main(argv=None) -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--dem", action="store_true", help="also run the DEM comparison (Taichi)")
     ap.add_argument("--top-contact", action="store_true",
                     help="only the tables comparing the two top contacts (issue 14)")
     ap.add_argument("--dem-sweep", action="store_true",
                     help="only the comparison with the DEM's Model II y 4.0 m/s2 sweep "
-                         "(postprocess.rocking_vs_dem_sweep; reads results/shake/, runs no DEM)")
-    args = ap.parse_args()
+                         "(studies.two_body.vs_dem_sweep; reads results/shake/, runs no DEM)")
+    args = ap.parse_args(argv)
     if args.dem_sweep:
-        from postprocess.rocking_vs_dem_sweep import comparison
+        from studies.two_body.vs_dem_sweep import comparison
 
         print("## The two-body model against the DEM's rocking sweep (Model II y, 4.0 m/s2)\n")
         print(comparison())

@@ -162,8 +162,8 @@ class FreezeRefused(RuntimeError):
 
 
 def frozen_yaml(name: str, params: dict, why: str, today: str) -> str:
-    """The text of cases/calibration/frozen.yaml for the chosen candidate (the format
-    postprocess.prediction_study.load_frozen reads: ``imperfections:`` plus provenance)."""
+    """The text of studies/calibration/frozen.yaml for the chosen candidate (the format
+    studies.prediction.plan.load_frozen reads: ``imperfections:`` plus provenance)."""
     import yaml
 
     body = {"imperfections": {k: params[k] for k in ("bed_unevenness", "face_shape",
@@ -172,7 +172,7 @@ def frozen_yaml(name: str, params: dict, why: str, today: str) -> str:
             "frozen_on": today, "note": why}
     head = ("# The frozen imperfection set (issue 13 step 2): chosen from the Chapter 3 calibration\n"
             "# by the rule of results/calibration/SELECTION.md (postprocess/calibration_select.py),\n"
-            "# written by `python -m postprocess.calibration_study --out results/calibration "
+            "# written by `python -m studies calibration --out results/calibration "
             "--freeze`.\n"
             "# Lengths in metres.  One set for every model; friction and joint stiffness stay the\n"
             "# case files' values.  Never edited after the freeze: the prediction names the commit\n"

@@ -1,0 +1,73 @@
+"""One study session: the drain file that ends it softly, the SIGTERM / SIGINT handlers that end
+it at once (:mod:`studies.kit.child`), an optional UTC stop time, the CPU ledger that adds each
+session's CPU seconds to a committed ``cpu.json``, and the echo of the command that regenerates
+the study's outputs."""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+
+from studies.kit import child
+from studies.kit.records import merge_json
+
+
+def log_err(message: str) -> None:
+    print(message, file=sys.stderr)
+
+
+def start(runs: Path, drain_file: Path | None = None, log=log_err) -> Path:
+    """Begin a session that runs: clear a drain file left by the last one (dem.batch) and install
+    the signal handlers; returns the drain file (default ``<runs>/DRAIN``)."""
+    from dem.batch import DRAIN_FILE, clear_drain_file
+
+    drain = Path(drain_file) if drain_file is not None else Path(runs) / DRAIN_FILE
+    clear_drain_file(drain, log)
+    child.install_signal_handlers()
+    return drain
+
+
+def should_stop(drain: Path | None = None, stop_at: str | None = None, log=print) -> bool:
+    """Start nothing new: a stop signal came, the drain file exists, or the UTC time ``stop_at``
+    (HH:MM) is reached (then the stop is requested, so that later checks agree)."""
+    if child.stopped() or (drain is not None and Path(drain).exists()):
+        return True
+    if stop_at and time.strftime("%H:%M", time.gmtime()) >= stop_at:
+        log(f"--stop-at {stop_at} UTC reached: nothing new starts")
+        child.request_stop()
+        return True
+    return False
+
+
+def add_cpu(path: Path, key: str, seconds: float) -> dict:
+    """Add ``seconds`` to ``key`` of the CPU ledger ``path`` (JSON {key: CPU s}) under a lock:
+    two sessions beside each other on other keys keep both."""
+    def add(data):
+        data[key] = data.get(key, 0.0) + seconds
+    return merge_json(path, add)
+
+
+def command(prog: str, *parts, **options) -> str:
+    """The command line that regenerates a study's outputs: ``python -m studies PROG PARTS`` and
+    each ``--option value`` whose value is not None (a value (value, default) pair is left out
+    when it equals its default; a list is spread; a float is written with :g)."""
+    def text(v):
+        return f"{v:g}" if isinstance(v, float) else str(v)
+
+    cmd = [f"python -m studies {prog}", *map(str, parts)]
+    for key, value in options.items():
+        if isinstance(value, tuple) and len(value) == 2:
+            value, default = value
+            if value == default:
+                continue
+        if value is None or value is False:
+            continue
+        flag = "--" + key.replace("_", "-")
+        if value is True:
+            cmd.append(flag)
+        elif isinstance(value, (list, tuple)):
+            cmd += [flag, *map(text, value)]
+        else:
+            cmd += [flag, text(value)]
+    return " ".join(cmd)
