@@ -364,3 +364,20 @@ def test_a_two_cycle_run_is_analysed_with_a_caveat_and_plotted_over_the_shaking(
         assert ax.get_ylabel()  # every panel says its unit
     labels = [ax.get_ylabel() for ax in figs["spectrum.png"].axes]
     assert labels and all(lab.endswith("(m)") or lab.endswith("(m/s2)") for lab in labels)
+
+
+# ------------------------------------------------------------------------------------------
+# defect 8: start-up (measured in the report; what is checkable without timing)
+# ------------------------------------------------------------------------------------------
+def test_dem_run_does_not_import_what_a_run_does_not_need():
+    """scipy.stats (~ 1 CPU-s to import: dem.imperfections' truncated normal draws) is imported
+    only when a scene has imperfections; matplotlib only when a plot is drawn."""
+    import subprocess
+    import sys
+
+    code = ("import sys, dem.commands.run, dem.validate, dem.run.build; "
+            "print(sorted(m for m in ('scipy.stats', 'matplotlib.pyplot', 'dask') "
+            "if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout
+    assert out.strip().splitlines()[-1] == "[]"
