@@ -135,3 +135,30 @@ def test_a_wall_at_rest_is_standing():
     t, pos, quat = _run(scene, 0.2)
     res = survival(scene, t, pos, quat)
     assert res["verdict"] == "standing" and res["n_fallen"] == 0 and res["fallen"] == []
+
+
+def test_sweeps_and_ensembles_count_the_verdicts():
+    from postprocess.ensemble import aggregate, realisation_scalars
+    from postprocess.sweep import survival_by_point
+
+    def surv(verdict, n, cycle):
+        return {"verdict": verdict, "n_fallen": n, "first_fall_cycle": cycle}
+
+    points = [{"frequency_hz": 2.5, "status": "ok", "survival": surv("local collapse", 2, 16)},
+              {"frequency_hz": 1.8, "status": "ok", "survival": surv("standing", 0, None)},
+              {"frequency_hz": 3.0, "status": "failed"},
+              {"frequency_hz": 3.5, "status": "ok"}]  # analysed before issue 32: no verdict
+    agg = survival_by_point(points)
+    assert agg["per_point"] == [[1.8, "standing", 0, None], [2.5, "local collapse", 2, 16]]
+    assert agg["counts"] == {"standing": 1, "local collapse": 1, "collapse": 0}
+    assert survival_by_point(points[2:]) is None
+
+    recs = [{"status": "ok", "post": {"analysis_status": "ok", "collapse_suspected": False,
+                                      "survival": surv(v, n, None)}}
+            for v, n in (("standing", 0), ("local collapse", 3), ("collapse", 40))]
+    rows = [{"seed": k, **realisation_scalars(r)} for k, r in enumerate(recs)]
+    # the centre check said standing for all three; the bricks say otherwise
+    assert [r["survived"] for r in rows] == [True, False, False]
+    out = aggregate(rows)
+    assert out["survival"] == {"standing": 1, "local collapse": 1, "collapse": 1}
+    assert out["survived"] == 1 and out["collapsed"] == 2
