@@ -65,6 +65,9 @@ def _is_rocking_file(path: Path) -> bool:
 def check(
     case: Path = typer.Argument(..., help="case YAML file"),
     max_blocks: int = typer.Option(None, "--max-blocks", help=MAX_BLOCKS_HELP),
+    show_defaults: bool = typer.Option(False, "--show-defaults",
+                                       help="print the case as it runs: every default filled "
+                                            "in, units in comments (YAML)"),
 ) -> None:
     """Validate a case file and build and check its scene (overlaps, floating blocks, time step,
     loading against the step and the run) without running it: the same checks as ``dem run``;
@@ -87,6 +90,10 @@ def check(
     c = checked.case
     typer.echo(f"{case}: ok: '{c.name}', loading {c.loading.type}\n{checked.report.format()}\n"
                f"{checked.size_line()}")
+    if show_defaults:
+        from dem.commands.defaults import resolved_case_yaml
+
+        typer.echo(resolved_case_yaml(c), nl=False)
 
 
 @app.command()
@@ -220,11 +227,13 @@ def ensemble(
 
 @app.command()
 def post(
-    directory: Path = typer.Argument(..., help="run directory or sweep directory"),
+    directory: Path = typer.Argument(..., help="run, sweep or ensemble directory"),
 ) -> None:
     """(Re)build the analysis of a run directory (shake: analysis.json, PNGs, excited.vtu; tilt:
-    collapse and mechanism into analysis.json) or of a sweep directory (every point re-analysed,
-    sweep.json and sweep.png re-aggregated).  Exit 0 ok, 1 a sweep point failed, 2 bad input."""
+    collapse and mechanism into analysis.json), of a sweep directory (every point re-analysed,
+    sweep.json and sweep.png re-aggregated) or of an ensemble directory (every realisation
+    re-read, ensemble.json and lambda.png re-aggregated).  Anything else is named in one line.
+    Exit 0 ok, 1 a point or realisation failed, 2 bad input."""
     from dem.commands.post import post_command
 
     raise typer.Exit(post_command(directory))
@@ -270,6 +279,60 @@ def view(
     raise typer.Exit(view_command(directory, out, point, frames, fps, panels, fmt, magnify,
                                   echo=typer.echo, err=_err))
 
+
+# --- help text (issue 36 defect 7): one line per command in ``dem --help`` (the details are in
+# each command's --help), docstrings reflowed with their ``literals`` as plain quotes, and no
+# "<bool>" type shown on flags ---
+SHORT_HELP = {
+    "check": "validate a case file and its scene without running it",
+    "schema": "export the JSON schema of case files (--rocking: two-body cases)",
+    "run": "run one case into an output directory",
+    "rocking": "run the two-body rocking model (thesis Ch. 5)",
+    "sweep": "frequency sweep of a shake case (amplification curves)",
+    "ensemble": "N realisations of an imperfect case and their statistics",
+    "post": "(re)build the analysis of a run, sweep or ensemble directory",
+    "summary": "one table row per run, sweep or ensemble directory",
+    "view": "an animation and a frame strip of a run (no ParaView needed)",
+}
+
+
+def _plain_help(doc: str) -> str:
+    """A docstring as one reflowed paragraph per blank-line block, ``x`` shown as 'x'."""
+    import inspect
+    import re
+
+    text = re.sub(r"``([^`]+)``", r"'\1'", inspect.cleandoc(doc))
+    return "\n\n".join(" ".join(p.split()) for p in text.split("\n\n"))
+
+
+def _first_sentence(doc: str) -> str:
+    text = _plain_help(doc).split("\n\n")[0]
+    cut = text.find(". ")
+    return text if cut < 0 else text[:cut]
+
+
+def _polish_help() -> None:
+    for info in app.registered_commands:
+        doc = info.help or (info.callback.__doc__ if info.callback else None)
+        name = info.name or (info.callback.__name__ if info.callback else None)
+        if doc:
+            info.help = _plain_help(doc)
+            info.short_help = info.short_help or SHORT_HELP.get(name) or _first_sentence(doc)
+    try:
+        from typer.core import TyperOption
+    except ImportError:  # pragma: no cover - another typer
+        return
+    if not getattr(TyperOption, "_dem_no_bool", False):
+        shown = TyperOption.display_type_rich
+
+        def display_type_rich(self, ctx):
+            return None if getattr(self, "is_flag", False) else shown(self, ctx)
+
+        TyperOption.display_type_rich = display_type_rich
+        TyperOption._dem_no_bool = True
+
+
+_polish_help()
 
 if __name__ == "__main__":  # pragma: no cover
     app()

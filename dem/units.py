@@ -148,6 +148,10 @@ def unit_of(path: str, table: dict[str, str | None] | None = None) -> str | None
     return None
 
 
+def _known(unit: str | None) -> str:
+    return "?" if unit is None else unit  # "" (a text) is a known unit
+
+
 def numeric_paths(data, prefix: str = "") -> list[str]:
     """The dotted paths (list items ``[]``, each path once, in first-seen order) of every
     number in a JSON-like ``data`` (bools are not numbers; the ``units`` block is skipped)."""
@@ -174,11 +178,11 @@ def numeric_paths(data, prefix: str = "") -> list[str]:
 def summary_units(summary: dict) -> dict[str, str]:
     """summary.json's ``units``: {path: unit} for every number in ``summary``; a number whose
     unit the table does not know gets "?" (tests/test_units.py keeps that from happening)."""
-    return {p: (unit_of(p) or "?") for p in numeric_paths(summary)}
+    return {p: _known(unit_of(p)) for p in numeric_paths(summary)}
 
 
 def npz_units(keys, table: dict[str, str]) -> np.ndarray:
     """The ``units`` array of an npz file holding ``keys``: [K, 2] rows (key, unit), "?" for a
     key the table and the suffix rules do not know."""
-    rows = [(k, unit_of(k, table) or "?") for k in keys if k != "units"]
+    rows = [(k, _known(unit_of(k, table))) for k in keys if k != "units"]
     return np.array(rows, dtype=str).reshape(-1, 2)
