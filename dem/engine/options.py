@@ -54,6 +54,21 @@ class JointLaw:
     closure_limit: float = 0.5
     pairs: tuple[PairLaw, ...] = ()
 
+    def step_stiffness(self) -> tuple[float, float, float]:
+        """(kn, ks, zeta) bounding every pair this law can give, for a critical-step estimate
+        without the scene (dem check): the largest normal stiffness a pair reaches within the
+        closures the step is made for (hyperbolic: kn0 / (1 - closure_limit)^2), the largest ks
+        and damping ratio.  The simulation bounds the pairs of the materials in use
+        (containers.Model.stiffest): the same or smaller."""
+        kns = [self.normal_stiffness] + [p.normal_stiffness for p in self.pairs
+                                         if p.normal_stiffness is not None]
+        kss = [self.shear_stiffness] + [p.shear_stiffness for p in self.pairs
+                                        if p.shear_stiffness is not None]
+        zetas = [self.damping] + [p.damping for p in self.pairs if p.damping is not None]
+        factor = (1.0 / (1.0 - self.closure_limit) ** 2 if self.normal_law == "hyperbolic"
+                  else 1.0)
+        return max(kns) * factor, max(kss), max(zetas)
+
     def __post_init__(self) -> None:
         if self.normal_law == "hyperbolic":
             if self.max_closure is None or not self.max_closure > 0:
