@@ -136,7 +136,7 @@ def select(candidates: dict, points: dict, scores: dict) -> dict:
 
 def selection_lines(sel: dict) -> list[str]:
     """The report's section on the selection (markdown lines)."""
-    L = ["## Selection (SELECTION.md applied by postprocess/calibration_select.py)", "",
+    L = ["## Selection (SELECTION.md applied by studies/calibration/select.py)", "",
          ("**Decided: " + str(sel["chosen"]) + ".** " if sel["decided"] else "**Not decided.** ")
          + sel["why"] + ".", "",
          "| candidate | status | thesis checks passed | failed | pending | best possible | "

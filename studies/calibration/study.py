@@ -684,7 +684,7 @@ def report(out: Path, candidates: dict, specs: dict, n: int, command: str) -> di
          "summary.json from the committed point files "
          "`<candidate>/<specimen>/ensemble.json`.", "",
          "Each point: the small-brick tilt specimen of cases/tilt on a quasi-static tilt "
-         "(postprocess/tilt_study.py `quasi_static_case`, `study_settings`) with the candidate's "
+         "(studies/tilt/study.py `quasi_static_case`, `study_settings`) with the candidate's "
          "`imperfections:` (studies/calibration/candidates.yaml, where each magnitude comes from), "
          f"N = {n} realisations with seeds 0..{n - 1} (the perfect candidate is deterministic: "
          "one run), friction 0.81 and joint stiffness as in the case files.  lambda = tan(tilt "
@@ -755,7 +755,7 @@ def report(out: Path, candidates: dict, specs: dict, n: int, command: str) -> di
     commits = sorted({(p.get("commit"), p.get("dirty")) for c in points
                       for p in points[c].values() if p.get("commit")})
     L += ["## Code", "", "The points were computed by commit(s) " + (", ".join(
-        f"{c[:7]}" + (" (with uncommitted changes in dem/, postprocess/ or cases/)" if d else "")
+        f"{c[:7]}" + (" (with uncommitted changes in dem/, postprocess/, studies/ or cases/)" if d else "")
         for c, d in commits) or "-") + " (each point file's `calibration.source`).", ""]
     L += ["## CPU", "",
           f"CPU so far: {cpu:.0f} s ({cpu / 3600:.2f} h) over the finished and partial points."]
