@@ -87,7 +87,7 @@ def test_rates_that_do_not_converge_give_no_lambda0_and_only_a_bound():
     # c r^p through them would put lambda0 at 0.865, far beyond the 0.025 the rates span
     rates = {2.0: {"seed-0": 0.5839}, 1.0: {"seed-0": 0.5966}, 0.5: {"seed-0": 0.6087}}
     pts = sorted((r, v["seed-0"]) for r, v in rates.items())
-    assert qv._rate_extrapolation(pts) > 0.8              # the raw fit
+    assert qv.rate_extrapolation(pts) > 0.8              # the raw fit
     assert qv.rate_limit(pts) == (None, "not converging")
     (r,) = qv.compare({"seed-0": 0.6241}, rates)          # above the slowest: the trend's side
     assert r["lambda0"] is None and r["verdict"] == "unconfirmed" and not r["flag"]
