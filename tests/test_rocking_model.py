@@ -4,7 +4,7 @@ Every expected value comes from an independent closed form (Housner 1963 for one
 moment balances) or an independent computation (Newton-Euler with constraint forces in maximal
 coordinates; a ten-line Housner integrator).  Tolerances: round-off (1e-9 relative) where the
 comparison is algebraic; the integrator's measured error otherwise (event times converge to
-~1e-9 s, energy to ~1e-9 relative with rtol = 1e-10, see docs/rocking_results.md), with a margin.
+~1e-9 s, energy to ~1e-9 relative with rtol = 1e-10, see results/two-body/README.md), with a margin.
 """
 
 from __future__ import annotations

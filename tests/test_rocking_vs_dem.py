@@ -8,7 +8,7 @@ closed); the DEM must show the same pattern and the first impact (theta1 -> 0) w
 The DEM's contacts are penalty springs (../shared/DESIGN.md), so its pivot is slightly
 compliant: it measured 3 % later than the rigid model here.  After the impact the two differ
 by design (DEM: spring-dashpot contact, restitution set by the contact damping; reduced model:
-plastic Housner impact); see docs/rocking_results.md.
+plastic Housner impact); see results/two-body/README.md.
 
 Needs the DEM's run loop ``dem.run.run_case`` (the Taichi engine); skipped when it cannot be
 imported.  The Taichi kernel compilation dominates the run time (~30 s on the 2-core test

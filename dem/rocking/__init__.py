@@ -18,7 +18,7 @@ beams, under a horizontal base acceleration.  Modules:
 * :mod:`dem.rocking.schema`     the case format; :mod:`dem.rocking.runner` run a case, write its
   outputs (the ``dem rocking`` command: dem.commands.rocking)
 
-Derivation and choices: docs/rocking_model.md; results against the thesis: docs/rocking_results.md.
+Derivation and choices: docs/rocking_model.md; results against the thesis: results/two-body/README.md.
 """
 
 from dem.rocking.integrate import RockingError, RockingResult, Settings, integrate_rocking

@@ -44,7 +44,7 @@ __all__ = ["Settings", "RockingError", "RockingResult", "integrate_rocking"]
 @dataclass
 class Settings:
     """Numerical settings.  Defaults are justified by the convergence study in
-    docs/rocking_results.md (event times converge to < 1e-8 s)."""
+    results/two-body/README.md (event times converge to < 1e-8 s)."""
 
     duration: float
     output_interval: float = 0.001

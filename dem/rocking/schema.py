@@ -202,7 +202,7 @@ class RockingRunSpec(_Strict):
 
 class RockingSolverSpec(_Strict):
     """``solver:`` of a two-body case: integration settings (solve_ivp; not the DEM's
-    dem.case.SolverSpec); defaults justified in docs/rocking_results.md (convergence)."""
+    dem.case.SolverSpec); defaults justified in results/two-body/README.md (convergence)."""
 
     method: Literal["DOP853", "RK45", "Radau", "LSODA", "BDF"] = "DOP853"
     rtol: float = 1e-10

@@ -314,7 +314,7 @@ def run_block(b: float, h: float, depth: float, frac: float = 0.5, damping: floa
 
 def run_stack(theta0: float = 0.02, damping: float | None = None, friction: float | None = None,
               duration: float = 1.0, every: float = 2e-4) -> dict:
-    """The two-block stack of docs/rocking_results.md section 7 (tests/test_rocking_vs_dem.py):
+    """The two-block stack of results/two-body/README.md section 7 (tests/test_rocking_vs_dem.py):
     Table 5.1's Model II parts as explicit blocks 50 x 300 x 140 mm (6.05 and 9.41 kg), turned
     together by theta0 (rad) about the +x bottom edge and released at rest.  Friction: the shake
     material unless ``friction`` is given (the doc used 2 everywhere).  Measured on the lower

@@ -1,4 +1,4 @@
-"""Tables of docs/rocking_results.md: the two-block model against the thesis (Chapter 5).
+"""Tables of results/two-body/README.md: the two-block model against the thesis (Chapter 5).
 
     python -m studies two-body-report [--dem]        # markdown on stdout; --dem adds the DEM
                                                         # comparison (runs the DEM, dem.run)
