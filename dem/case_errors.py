@@ -143,6 +143,14 @@ def format_errors(
         elif e["type"] == "missing":
             desc = field_description(model, loc)
             msg = "missing required field" + (f" ({desc})" if desc else "")
+        if not loc and data is not None:
+            # a model-level check names its field at the head of the message ("imperfections.
+            # bed_unevenness: ..."): point at that field's line, not the file's first
+            head, sep, rest = msg.partition(": ")
+            parts = head.split(".")
+            if sep and all(p.isidentifier() for p in parts) and parts[0] in data:
+                path, line = _walk(node, data, tuple(parts))
+                msg = rest
         key = (_join(path), line)
         if msg not in merged.setdefault(key, []):
             merged[key].append(msg)

@@ -9,6 +9,7 @@ settings raises instead of silently keeping the old ones.
 from __future__ import annotations
 
 import contextlib
+import io
 import os
 import sys
 
@@ -50,9 +51,16 @@ def init(threads: int | None = None, precision: str = "f64", debug: bool = False
     if threads is not None:
         kwargs["cpu_max_num_threads"] = int(threads)
     # ti.init prints "[Taichi] Starting on arch=x64" on stdout unconditionally; stdout is for
-    # results, so the line goes to stderr (the import banner is off: dem/__init__.py)
-    with contextlib.redirect_stdout(sys.stderr), deferred():  # deferred: see dem.signals
+    # results, and the line repeated by every worker of a sweep or an ensemble only buried
+    # their progress (issue 36 defect 7): it is kept out (the import banner is off too:
+    # dem/__init__.py); anything else ti.init prints still goes to stderr
+    banner = io.StringIO()
+    with contextlib.redirect_stdout(banner), deferred():  # deferred: see dem.signals
         ti.init(**kwargs)
+    rest = [ln for ln in banner.getvalue().splitlines()
+            if ln.strip() and not ln.startswith("[Taichi] Starting on arch")]
+    if rest:
+        print("\n".join(rest), file=sys.stderr)
     _settings = wanted
     return _settings
 

@@ -78,6 +78,10 @@ G_STANDARD = 9.80665
 TABLE_ACCELERATION_PLAUSIBLE_G = 5.0
 TABLE_STROKE_PLAUSIBLE_M = 1.0
 TABLE_SPEED_POSSIBLE_M_S = 100.0
+# the joints' elastic offset of tipping load factors (dem.compliance) above which dem check warns
+# instead of informing: at 5 % the joint law's compliance, a modelling choice and not a property
+# of the masonry, moves a load factor in its second digit, the digit the thesis' series differ in
+ELASTIC_OFFSET_WARN = 0.05
 # a block whose gap to its nearest neighbour exceeds this many times the scene's largest block
 # dimension cannot meet the others during a run (a block moves a few table strokes at most): it
 # is almost always a typo (mm for m, a sign), and it stretches the neighbour grid.
@@ -92,6 +96,11 @@ RECORD_REST_FRACTION = 1e-3
 ENGINE_BYTES_PER_BLOCK = 8_000
 FRAME_BYTES_PER_BLOCK = 16 * 8       # pos, quat, vel, omega per frame in memory (float64)
 DISK_BYTES_PER_BLOCK = 150 + 60      # per frame: .vtu (float32 + zlib) + frames.npz (compressed)
+NPZ_BYTES_PER_BLOCK = 60             # per frame, frames.npz only (run.vtk: false)
+# run-time estimate: the serial kernel's throughput is flat at 1.0-1.3e6 brick-steps/s from 55 to
+# 3078 bricks on the 2-core test machine (benchmarks/RESULTS.md, "serial kernel"); the estimate
+# takes the low end, and says it is that machine's figure
+BRICK_STEPS_PER_SECOND = 1.0e6
 
 
 @dataclass
@@ -111,6 +120,7 @@ class Checked:
     disk_bytes: float | None = None
     joints: dict | None = None
     imperfections: dict | None = None
+    n_steps: int | None = None
 
     @property
     def ok(self) -> bool:
@@ -124,6 +134,12 @@ class Checked:
             parts.append(f"{self.n_frames:,} frames, output about {_fmt_bytes(self.disk_bytes)}")
         if self.dt is not None:
             parts.append(f"time step {self.dt:.3g} s")
+        if self.n_steps is not None:
+            secs = self.n_steps * max(self.blocks_estimate, 1) / BRICK_STEPS_PER_SECOND
+            parts.append(f"{self.n_steps:,} steps, run time about {_fmt_seconds(secs)} of "
+                         f"stepping at {BRICK_STEPS_PER_SECOND:.0e} brick-steps/s (the 2-core "
+                         f"test machine's serial kernel, benchmarks/RESULTS.md; plus ~10 s of "
+                         f"start-up)")
         return "size: " + ", ".join(parts) + (f"\n{joint_line(self.joints)}" if self.joints
                                                 else "") + (
             f"\n{imperfection_line(self.imperfections)}" if self.imperfections else "")
@@ -156,6 +172,14 @@ def joint_line(joints: dict) -> str:
     if cost:
         line += f"; {cost['steps_factor']:.3g} x the steps of kn = {cost['vs_kn_Pa_m']:.3g}"
     return line
+
+
+def _fmt_seconds(s: float) -> str:
+    if s < 120:
+        return f"{s:.2g} s"
+    if s < 7200:
+        return f"{s / 60:.3g} min"
+    return f"{s / 3600:.3g} h"
 
 
 def _fmt_bytes(b: float) -> str:
@@ -224,11 +248,11 @@ def critical_step(case: Case, scene) -> float:
     ts = _timestep_module()
     jl = case_joint_law(case, scene)
     movable = ~np.asarray(scene.fixed, dtype=bool)
+    kn, ks, zeta = jl.step_stiffness()  # per-pair materials, the hyperbolic law's tangent
     face, _ = ts.face_area_caps(scene.size, scene.mass, scene.inertia(), movable,
-                                jl.normal_stiffness, jl.shear_stiffness, case.solver.safety)
+                                kn, ks, case.solver.safety)
     return float(ts.critical_time_step(scene.size, scene.mass, scene.inertia(), movable,
-                                       jl.normal_stiffness, jl.shear_stiffness, jl.damping,
-                                       face))
+                                       kn, ks, zeta, face))
 
 
 def table_plausibility(peak_acceleration: float, stroke: float, frequency: float | None,
@@ -381,7 +405,8 @@ def check_case(case: Case, source: str | Path | None = None,
     frames = int(math.floor(run.duration / run.output_interval + 1e-9)) + 2
     out.n_frames = frames
     out.memory_bytes = n_est * (ENGINE_BYTES_PER_BLOCK + frames * FRAME_BYTES_PER_BLOCK)
-    out.disk_bytes = n_est * frames * DISK_BYTES_PER_BLOCK
+    per_frame = DISK_BYTES_PER_BLOCK if run.vtk else NPZ_BYTES_PER_BLOCK
+    out.disk_bytes = n_est * frames * per_frame
     ram = _machine_memory()
     if n_est > max_blocks:
         out.errors.append(
@@ -416,6 +441,17 @@ def check_case(case: Case, source: str | Path | None = None,
     from dem.run.build import case_joint_law, joint_summary
 
     out.joints = joint_summary(case, scene, case_joint_law(case, scene))
+    eo = out.joints["elastic_offset"]
+    worst = max(eo["block"]["relative"], eo["column"]["relative"])
+    if worst > ELASTIC_OFFSET_WARN and case.material.normal_stiffness != "rigid" and \
+            case.loading.type == "tilt":  # a tilt's result is the load factor
+        out.warnings.append(
+            f"{where(('material', 'normal_stiffness'))}: the joints' elastic offset of tipping "
+            f"load factors is up to {100 * worst:.2g} % (single blocks "
+            f"{100 * eo['block']['relative']:.2g} %, columns {100 * eo['column']['relative']:.2g}"
+            f" %) at kn = {out.joints['normal_stiffness_Pa_m']:.3g} Pa/m: a tilt's load factor "
+            f"comes out that much below the rigid-block value; 'normal_stiffness: rigid' brings "
+            f"it to 0.5 % (dem/compliance.py)")
     if case.imperfections.any():
         from dem.imperfections import realised_summary
         from dem.run.build import imperfection_params
@@ -441,7 +477,8 @@ def check_case(case: Case, source: str | Path | None = None,
     frames_by_step = int(run.duration / max(run.output_interval, dt)) + 2
     out.n_frames = frames_by_step
     out.memory_bytes = n * (ENGINE_BYTES_PER_BLOCK + frames_by_step * FRAME_BYTES_PER_BLOCK)
-    out.disk_bytes = n * frames_by_step * DISK_BYTES_PER_BLOCK
+    out.disk_bytes = n * frames_by_step * per_frame
+    out.n_steps = int(math.ceil(run.duration / dt))
     if ram is not None and out.memory_bytes > ram:
         out.errors.append(
             f"{where(('run', 'output_interval'))}: the run would need about "

@@ -381,3 +381,95 @@ def test_dem_run_does_not_import_what_a_run_does_not_need():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout
     assert out.strip().splitlines()[-1] == "[]"
+
+
+# ------------------------------------------------------------------------------------------
+# defect 7: small things
+# ------------------------------------------------------------------------------------------
+def test_help_has_one_line_per_command_and_no_markup_leftovers():
+    import os
+
+    env = {**os.environ, "COLUMNS": "120"}
+    top = CliRunner().invoke(app, ["--help"], env=env).output
+    panel = top[top.index("Commands"):]
+    rows = [ln for ln in panel.splitlines() if ln.startswith("│")]
+    names = [r.split()[1] for r in rows if len(r.split()) > 1 and r.split()[1] != "│"]
+    assert {"run", "check", "post", "rocking", "schema"} <= set(names)
+    assert len(rows) == len(names)  # no continuation lines: one line per command
+    for cmd in ("run", "check", "rocking"):
+        text = CliRunner().invoke(app, [cmd, "--help"], env=env).output
+        assert "``" not in text and "<bool>" not in text
+
+
+def test_check_says_a_default_kn_is_the_default_and_warns_on_a_large_elastic_offset():
+    """The 9 x 15 wall at the default kn: columns' offset 8 % (> 5 %) is a warning."""
+    res = _invoke("check", CASES / "tilt" / "in-plane" / "small-9x15-s35.yaml")
+    assert res.exit_code == 0, res.output
+    assert "(case file)" not in res.output and "kn = 5e+09 Pa/m (default" in res.output
+    warn = [ln for ln in res.output.splitlines() if ln.startswith("warning:")
+            and "elastic offset" in ln]
+    assert warn and "normal_stiffness" in warn[0]
+
+
+def test_check_estimates_output_without_vtk_and_the_run_time(tmp_path):
+    sizes = {}
+    for vtk in (True, False):
+        path = tmp_path / f"{vtk}.yaml"
+        data = yaml.safe_load(_brick_case(tmp_path).read_text())
+        data["run"]["vtk"] = vtk
+        path.write_text(yaml.safe_dump(data))
+        res = _invoke("check", path)
+        assert res.exit_code == 0, res.output
+        line = next(ln for ln in res.output.splitlines() if ln.startswith("size:"))
+        sizes[vtk] = line
+        assert "steps, run time about" in line
+    from dem.validate import DISK_BYTES_PER_BLOCK, NPZ_BYTES_PER_BLOCK
+
+    def output_bytes(line):
+        num, unit = line.split("output about ")[1].split(",")[0].split()
+        return float(num) * {"B": 1, "kB": 1e3, "MB": 1e6}[unit]
+
+    ratio = output_bytes(sizes[True]) / output_bytes(sizes[False])
+    assert ratio == pytest.approx(DISK_BYTES_PER_BLOCK / NPZ_BYTES_PER_BLOCK, rel=0.01)
+
+
+@pytest.mark.parametrize("overlap, ok", [(0.8e-4, True), (2e-4, False)])
+def test_an_overlap_is_not_also_reported_as_floating(tmp_path, overlap, ok):
+    upper = {"size": [0.2, 0.1, 0.05], "position": [0, 0, 0.075 - overlap], "density": 2000.0}
+    res = _invoke("check", _brick_case(tmp_path, extra_block=[upper]))
+    assert res.exit_code == (0 if ok else 2), res.output
+    assert "floating" not in res.output
+    assert ("overlap by 0.200 mm" in res.output) == (not ok)
+
+
+def test_an_imperfection_error_names_its_own_line_and_an_empty_file_says_empty(tmp_path):
+    path = _brick_case(tmp_path)
+    text = path.read_text() + "imperfections:\n  seed: 1\n  bed_unevenness: 0.02\n"
+    path.write_text(text)
+    line = text.splitlines().index("  bed_unevenness: 0.02") + 1
+    res = _invoke("check", path)
+    assert res.exit_code == 2
+    assert f"{path}:{line}: imperfections.bed_unevenness:" in res.output
+    empty = tmp_path / "empty.yaml"
+    empty.write_text("# nothing yet\n")
+    res = _invoke("check", empty)
+    assert res.exit_code == 2 and "NoneType" not in res.output and "empty" in res.output
+
+
+def test_ensemble_progress_lines_are_text_not_dict_reprs():
+    from dem.commands.ensemble import scalar_text
+
+    text = scalar_text({"status": "ok", "lambda": 0.45123456789012345, "angle_deg": 24.28123,
+                        "mechanism": "overturning", "survived": False})
+    assert text == "lambda 0.4512 (24.28 deg), mechanism overturning"
+    assert scalar_text({"status": "ok", "amplification_ds": 1.23456789, "survived": True}) == \
+        "ds amplification 1.23, standing"
+
+
+def test_taichi_start_banner_is_not_printed():
+    import subprocess
+    import sys
+
+    r = subprocess.run([sys.executable, "-c", "import dem.ti_runtime as t; t.init()"],
+                       capture_output=True, text=True, check=True)
+    assert "Starting on arch" not in r.stdout + r.stderr

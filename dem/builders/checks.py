@@ -201,6 +201,8 @@ def check_scene(
             overlaps.append(
                 (-sep, f"{block_label(scene, i)} and {block_label(scene, j)} overlap by {-sep * 1e3:.3f} mm")
             )
+            # in contact, if too deep: reported as an overlap, not also as floating (issue 36)
+            supported[i if scene.position[i, 2] > scene.position[j, 2] else j] = True
             continue
         if sep > contact_tolerance:
             if gaps is not None and sep <= settle_gap and gaps[0] < 0 and gaps[1] < 0:
@@ -210,8 +212,11 @@ def check_scene(
         # the two touch: does one rest on the other?
         for up, down in ((i, j), (j, i)):
             if gaps is not None:
+                # bottom on the other's top, or into it by up to the accepted overlap (a
+                # 0.1 mm overlap was reported as floating, issue 36 defect 7)
                 rests = (
-                    abs(lo[up, 2] - hi[down, 2]) <= contact_tolerance
+                    -(overlap_tolerance + contact_tolerance) <= lo[up, 2] - hi[down, 2]
+                    <= contact_tolerance
                     and gaps[0] < -contact_tolerance
                     and gaps[1] < -contact_tolerance
                 )

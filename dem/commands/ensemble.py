@@ -51,6 +51,25 @@ def finished_realisation(case, out_dir: Path, shake: bool,
     return rec
 
 
+def scalar_text(sc: dict) -> str:
+    """One realisation's headline results as text (issue 36 defect 7: a dict repr with 17
+    digits): 'lambda 0.4512 (24.28 deg), mechanism overturning, ds amplification 1.23,
+    standing'."""
+    parts = []
+    if sc.get("lambda") is not None:
+        parts.append(f"lambda {sc['lambda']:.4f}" + (f" ({sc['angle_deg']:.2f} deg)"
+                                                     if sc.get("angle_deg") is not None else ""))
+    elif "lambda" in sc:
+        parts.append("no collapse")
+    if sc.get("mechanism"):
+        parts.append(f"mechanism {sc['mechanism']}")
+    if sc.get("amplification_ds") is not None:
+        parts.append(f"ds amplification {sc['amplification_ds']:.3g}")
+    if "survived" in sc and "lambda" not in sc:
+        parts.append("standing" if sc["survived"] else "collapsed")
+    return ", ".join(parts)
+
+
 def write_ensemble(out: Path, meta: dict, names: list[str], records: dict, plots: bool) -> dict:
     from dem.output.atomic import write_json
 
@@ -134,9 +153,7 @@ def run_ensemble(case_path, out, realisations: int, seed: int | None = None,
         if rec.get("status") == "failed":
             say(f"{head}: FAILED: {rec.get('error')}")
         else:
-            shown = {k: sc[k] for k in ("lambda", "mechanism", "amplification_ds", "survived")
-                     if k in sc}
-            say(f"{head}: ok {shown}")
+            say(f"{head}: ok" + (f": {scalar_text(sc)}" if scalar_text(sc) else ""))
         write_ensemble(out, meta, names, records, plots=False)
 
     where = f"scheduler {scheduler}" if scheduler else \

@@ -120,7 +120,9 @@ def joint_summary(case: Case, scene: Scene, joints: JointLaw) -> dict:
     out = {"normal_stiffness_Pa_m": joints.normal_stiffness,
            "shear_stiffness_Pa_m": joints.shear_stiffness,
            "chosen": "rigid (elastic offset of every block <= 0.5 %)"
-           if case.material.normal_stiffness == "rigid" else "case file",
+           if case.material.normal_stiffness == "rigid" else (
+               "case file" if "normal_stiffness" in case.material.model_fields_set
+               else "default: material.normal_stiffness not given"),
            "elastic_offset": elastic_offset(scene, joints.normal_stiffness,
                                             float(np.linalg.norm(case.gravity_vector())),
                                             load_direction(case))}
