@@ -13,7 +13,28 @@ from pathlib import Path
 
 import typer
 
-app = typer.Typer(
+class _DemApp(typer.Typer):
+    """The ``dem`` program: an exception no command turned into a message (a bug, or a failure
+    nobody foresaw) ends in one line and the exit code of dem.commands.exit_codes.exit_code_for,
+    not a traceback (issue 36 defect 4); ``DEM_TRACEBACK=1`` shows the traceback."""
+
+    def __call__(self, *args, **kwargs):
+        import os
+        import sys
+
+        try:
+            return super().__call__(*args, **kwargs)
+        except Exception as err:  # noqa: BLE001 - the one place that maps what was missed
+            if os.environ.get("DEM_TRACEBACK"):
+                raise
+            from dem.commands.exit_codes import exit_code_for
+
+            print(f"error: {type(err).__name__}: {err} (unexpected: please report it; "
+                  f"DEM_TRACEBACK=1 shows where)", file=sys.stderr)
+            sys.exit(int(exit_code_for(err)))
+
+
+app = _DemApp(
     add_completion=False,
     no_args_is_help=True,
     help="Rigid-block DEM of dry masonry on a tilting or shaking table.",

@@ -473,3 +473,18 @@ def test_taichi_start_banner_is_not_printed():
     r = subprocess.run([sys.executable, "-c", "import dem.ti_runtime as t; t.init()"],
                        capture_output=True, text=True, check=True)
     assert "Starting on arch" not in r.stdout + r.stderr
+
+
+def test_an_unforeseen_exception_ends_in_one_line_and_the_mapped_exit_code():
+    """What no command turned into a message still ends without a traceback (exit 1 for a
+    failure, 2 for a ValueError, dem.commands.exit_codes)."""
+    import subprocess
+    import sys
+
+    for exc, code in (("ZeroDivisionError('boom')", 1), ("ValueError('bad')", 2)):
+        src = ("import dem.cli as c, dem.commands.post as p\n"
+               f"def fail(d):\n    raise {exc}\n"
+               "p.post_command = fail\nc.app(['post', '.'])\n")
+        r = subprocess.run([sys.executable, "-c", src], capture_output=True, text=True)
+        assert r.returncode == code, r.stderr
+        assert "Traceback" not in r.stderr and len(r.stderr.strip().splitlines()) == 1
