@@ -12,7 +12,8 @@ The files go into the drawn run's directory (``--out`` elsewhere).  ``--frames N
 evenly over the recording (first and last included) at ``--fps``; ``--panels`` in the strip.
 A shaken run's motion relative to the table is millimetres on a metre-sized model: it is drawn
 magnified (``--magnify``, default: the factor, 1, 2 or 5 times a power of ten, that makes the
-largest block displacement 5 % of the model's size; 1 for a tilt), and the title says so.
+largest block displacement 5 % of the model's size, at most 1000; 1 for a tilt), and the
+title says so.
 Exit codes: 0 written, 1 a drawing failed, 2 bad input (not a run, no frames.npz, a --point that
 is not there, an unknown --format).
 """
@@ -133,9 +134,12 @@ def pick_run(path: Path, point: str | None) -> tuple[Path, str | None]:
                     f"ensemble (no ensemble.json)")
 
 
+MAX_AUTO_MAGNIFY = 1000.0  # beyond it the drawing shows the joints' elastic jitter
+
+
 def auto_magnify(size, pos) -> float:
     """1, 2 or 5 x 10^k that makes the largest block displacement from the first frame 5 % of
-    the model's size (its largest extent), at least 1."""
+    the model's size (its largest extent), at least 1 and at most MAX_AUTO_MAGNIFY."""
     pos = np.asarray(pos, float)
     span = float(np.ptp(pos[0], axis=0).max() + np.max(size))
     dmax = float(np.linalg.norm(pos - pos[0][None], axis=2).max())
@@ -143,7 +147,7 @@ def auto_magnify(size, pos) -> float:
         return 1.0
     want = 0.05 * span / dmax
     k = 10.0 ** math.floor(math.log10(want))
-    return max(1.0, max(m * k for m in (1.0, 2.0, 5.0) if m * k <= want))
+    return min(MAX_AUTO_MAGNIFY, max(1.0, max(m * k for m in (1.0, 2.0, 5.0) if m * k <= want)))
 
 
 def view_command(path, out=None, point: str | None = None, frames: int = 60, fps: float = 10.0,
@@ -188,6 +192,8 @@ def view_command(path, out=None, point: str | None = None, frames: int = 60, fps
         tilt_axis=data["tilt_axis"], magnify=magnify)
     title = data["name"] + (f" (motion relative to the table drawn x {magnify:g})"
                             if magnify != 1.0 else "")
+    if magnify != 1.0:
+        echo(f"the motion relative to the table drawn x {magnify:g} (--magnify)")
     view = animation.view_angles(data["tilt_axis"] if data["tilt_angle"] is not None else None)
     movie = out / f"animation.{fmt}"
     strip = out / "strip.png"

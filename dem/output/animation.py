@@ -148,9 +148,17 @@ class _Drawing:
         ax.set_xlabel("x (m)", fontsize=7)
         ax.set_ylabel("y (m)", fontsize=7)
         ax.set_zlabel("z (m)", fontsize=7)
-        ax.tick_params(labelsize=6)
-        self.table = Poly3DCollection([poses.table[0]], facecolors="#d9d9d9", edgecolors="none")
-        self.blocks = Poly3DCollection([], edgecolors="#333333", linewidths=0.3)
+        ax.tick_params(labelsize=6, pad=0)
+        from matplotlib.ticker import MaxNLocator
+
+        for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
+            axis.set_major_locator(MaxNLocator(3))
+        # the blocks stand on the table and the camera looks from above it: draw them after it
+        # (matplotlib's depth sort between two collections can put the table in front)
+        ax.computed_zorder = False
+        self.table = Poly3DCollection([poses.table[0]], facecolors="#d9d9d9", edgecolors="none",
+                                      zorder=1)
+        self.blocks = Poly3DCollection([], edgecolors="#333333", linewidths=0.3, zorder=2)
         ax.add_collection3d(self.table)
         ax.add_collection3d(self.blocks)
 
@@ -177,7 +185,8 @@ def _colour_scale(poses: Poses) -> float:
     return float(poses.disp.max())
 
 
-def _colourbar(fig, axes, vmax: float, magnify: float) -> None:
+def _colourbar(fig, vmax: float, magnify: float, left: float) -> None:
+    """The colour scale in its own axes at ``left`` (figure fraction), right of the drawings."""
     import matplotlib
     from matplotlib.cm import ScalarMappable
 
@@ -185,7 +194,7 @@ def _colourbar(fig, axes, vmax: float, magnify: float) -> None:
                         cmap="viridis")
     label = "displacement on the table (mm" + \
         (f"; drawn x {magnify:g})" if magnify != 1.0 else ")")
-    cb = fig.colorbar(sm, ax=axes, shrink=0.6, pad=0.02)
+    cb = fig.colorbar(sm, cax=fig.add_axes([left, 0.15, 0.012, 0.62]))
     cb.set_label(label, fontsize=7)
     cb.ax.tick_params(labelsize=6)
 
@@ -209,10 +218,10 @@ def write_animation(path, size, poses: Poses, title: str, fps: float = 10.0,
         raise ValueError("MP4 needs ffmpeg (on PATH, or `pip install imageio-ffmpeg`); "
                          "write a .gif instead")
     fig = plt.figure(figsize=(6.4, 5.2), dpi=dpi)
-    ax = fig.add_subplot(projection="3d")
+    ax = fig.add_axes([0.0, 0.02, 0.84, 0.88], projection="3d")
     vmax = _colour_scale(poses)
     drawing = _Drawing(ax, size, poses, vmax, view)
-    _colourbar(fig, ax, vmax, magnify)
+    _colourbar(fig, vmax, magnify, 0.86)
     fig.suptitle(title, fontsize=9)
     anim = FuncAnimation(fig, lambda k: drawing.draw(k), frames=len(poses.labels),
                          blit=False, repeat=False)
@@ -236,16 +245,17 @@ def write_strip(path, size, poses: Poses, title: str, panels: int = 6,
     from dem.output.atomic import atomic_path
 
     idx = frame_indices(len(poses.labels), panels)
-    fig = plt.figure(figsize=(2.6 * len(idx) + 0.9, 3.0), dpi=dpi)
-    fig.subplots_adjust(left=0.0, right=0.94, bottom=0.02, top=0.86, wspace=0.0)
+    width = 2.6 * len(idx) + 1.0
+    fig = plt.figure(figsize=(width, 3.0), dpi=dpi)
+    right = 1.0 - 1.0 / width  # the last inch holds the colour scale
     vmax = _colour_scale(poses)
-    axes = []
     for j, k in enumerate(idx):
-        ax = fig.add_subplot(1, len(idx), j + 1, projection="3d")
-        _Drawing(ax, size, poses, vmax, view).draw(int(k), poses.labels[int(k)].replace(", ", "\n", 1))
-        axes.append(ax)
-    _colourbar(fig, axes, vmax, magnify)
-    fig.suptitle(title, fontsize=9)
+        ax = fig.add_axes([right * j / len(idx), 0.02, right / len(idx), 0.78],
+                          projection="3d")
+        _Drawing(ax, size, poses, vmax, view).draw(
+            int(k), poses.labels[int(k)].replace(", ", "\n", 1))
+    _colourbar(fig, vmax, magnify, right + 0.15 / width)
+    fig.suptitle(title, fontsize=9, y=0.99)
     with atomic_path(Path(path)) as tmp:
         fig.savefig(tmp, format="png")
     plt.close(fig)
