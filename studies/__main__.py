@@ -36,6 +36,8 @@ STUDIES = {
                     "the large-brick in-plane walls: limit analysis and DEM diagnostics"),
     "two-body-report": ("studies.two_body.report",
                         "the two-body rocking model's tables (docs: results/rocking)"),
+    "diagnosis": ("studies.diagnosis.cli",
+                  "why the laboratory's models rocked and the DEM's did not (issue 33)"),
     "two-body-vs-dem": ("studies.two_body.vs_dem_sweep",
                         "the two-body model against the DEM's Model II y rocking sweep"),
 }

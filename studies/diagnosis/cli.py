@@ -1,0 +1,32 @@
+"""``python -m studies diagnosis ...``: the diagnosis' experiments (issue 33)."""
+
+from __future__ import annotations
+
+import typer
+
+app = typer.Typer(add_completion=False, no_args_is_help=True,
+                  help="The diagnosis (issue 33): why the laboratory's models rocked and the "
+                       "DEM's did not.  results/diagnosis/.")
+
+
+@app.callback()
+def diagnosis() -> None:
+    """One subcommand per experiment (issue 33's table)."""
+
+
+@app.command()
+def e4(workers: int = typer.Option(1, help="dem sweep workers (one single-threaded run each)"),
+       stop_at: str = typer.Option(None, help="UTC HH:MM after which no new sweep starts"),
+       report: bool = typer.Option(False, "--report", help="only rebuild the report")) -> None:
+    """E4: Model II y at 2.4-3.2 Hz x 1.9-3.0 m/s2 x 3 seeds, 10 cycles: the onset acceleration
+    of the rocking branch (resumable; touch runs/diagnosis/e4/DRAIN to end softly)."""
+    from studies.diagnosis import e4 as exp
+
+    if not report:
+        exp.run(workers=workers, stop_at=stop_at)
+    exp.report()
+
+
+def main(argv=None) -> int:
+    app(args=argv, prog_name="python -m studies diagnosis", standalone_mode=True)
+    return 0
