@@ -1,5 +1,5 @@
-"""The numbers that decide a tilt's result, shown with it: the closed form of rigid blocks standing
-alone on the table, and the joint's elastic offset of tipping (dem.compliance).
+"""The closed form of rigid blocks standing alone on a tilting table (one of the numbers that
+decide a tilt's result, shown with it: postprocess/decisive.py).
 
 Closed form (statics of one rigid box on a tilted plane; the tipping threshold is Housner's
 tan(alpha) = b/h, Housner 1963, BSSA 53(2)).  A box of width b along the load (m) and height h
@@ -30,7 +30,6 @@ import math
 
 import numpy as np
 
-from dem.compliance import RIGID_OFFSET
 
 FORMULA = "lone rigid block: lambda = min(mu_base, b/h)"
 
@@ -93,57 +92,3 @@ def reference_limit(case, scene, frames: dict, summary: dict) -> dict:
     g = float(np.linalg.norm(case.gravity_vector()))
     ref = lone_block_limits(case, scene, loading_from_case(case).load_direction, kn, g)
     return {"reference": ref} if ref is not None else {}
-
-
-def _pct(x: float) -> str:
-    return f"{100.0 * x:+.2f} %"
-
-
-def reference_text(summary: dict) -> str | None:
-    """The closed form beside the run's lambda, for the result line: "closed form 0.500
-    (sliding; lone rigid block: lambda = min(mu_base, b/h)), error +0.13 %"; None without
-    one."""
-    ref = summary.get("reference")
-    col = summary.get("collapse") or {}
-    if not ref or not col.get("detected") or col.get("load_factor") is None:
-        return None
-    lam, exact = col["load_factor"], ref["load_factor"]
-    text = (f"closed form {exact:.3f} ({ref['mode']}; {ref['formula']}), error "
-            f"{_pct(lam / exact - 1.0)}")
-    el = ref.get("elastic_load_factor")
-    if el is not None and abs(el / exact - 1.0) > 1e-3:
-        text += (f"; {el:.3f} with the joint's elastic offset at kn = "
-                 f"{ref['normal_stiffness_Pa_m']:.3g} Pa/m (error {_pct(lam / el - 1.0)})")
-    return text
-
-
-def elastic_offset_text(summary: dict) -> str | None:
-    """The joint's elastic offset of tipping when it is larger than ``normal_stiffness: rigid``
-    keeps it (dem.compliance, summary.json ``joints.elastic_offset``), with the way to remove it
-    and its cost: steps scale as kn^(1/2) and the offset as kn^(-1/3), so bringing the offset r
-    down to 0.5 % costs (r / 0.5 %)^(3/2) times the steps."""
-    joints = summary.get("joints") or {}
-    eo = joints.get("elastic_offset") or {}
-    parts = [eo.get(k) or {} for k in ("block", "column")]
-    r = max([p.get("relative") or 0.0 for p in parts] + [0.0])
-    if str(joints.get("chosen", "")).startswith("rigid") or r <= RIGID_OFFSET * 1.01:
-        return None
-    return (f"elastic offset of tipping at kn = {joints.get('normal_stiffness_Pa_m', 0.0):.3g} "
-            f"Pa/m: up to {100 * r:.1f} % below the rigid-block value (material.normal_stiffness: "
-            f"rigid brings it to {100 * RIGID_OFFSET:.1f} %, at ~{(r / RIGID_OFFSET) ** 1.5:.0f}x "
-            f"the steps)")
-
-
-def decisive_numbers(summary: dict) -> list[str]:
-    """What the result line of a tilt adds after lambda: the closed form where there is one
-    (with the elastic value of a tipping block), and the joint's elastic offset where it
-    matters (a tipping closed form, or no closed form) and ``rigid`` was not chosen."""
-    out = []
-    ref = reference_text(summary)
-    if ref is not None:
-        out.append(ref)
-    if ref is None or (summary.get("reference") or {}).get("mode") == "tipping":
-        eo = elastic_offset_text(summary)
-        if eo is not None:
-            out.append(eo)
-    return out

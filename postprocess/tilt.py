@@ -316,7 +316,22 @@ def plot_lean(run_dir, collapse: dict | None = None) -> Path:
     n_top = int(top_blocks(scene).sum())
     ax.set_title(f"{case.name}: lean of the top ({n_top} block{'s' * (n_top != 1)}) along the "
                  f"load, relative to the table", fontsize=10)
-    fig.tight_layout()
+    from postprocess.decisive import lean_notes  # the closed form, the elastic offset
+
+    ref_deg, notes = lean_notes(run_dir)
+    if ref_deg is not None:
+        for a in (ax, axl):
+            a.axvline(ref_deg, color="k", ls=":", lw=1.0, label=f"closed form: {ref_deg:.2f} deg")
+        ax.legend(loc="upper left", fontsize=9)
+    if notes:
+        import textwrap
+
+        lines = [w for n in notes for w in textwrap.wrap(n, 110)]
+        fig.text(0.01, 0.005, "\n".join(lines), fontsize=7, va="bottom")
+        fig.set_size_inches(7.0, 6.5 + 0.13 * len(lines))
+        fig.tight_layout(rect=(0, 0.13 * len(lines) / (6.5 + 0.13 * len(lines)), 1, 1))
+    else:
+        fig.tight_layout()
     path = run_dir / "lean.png"
     savefig(fig, path, dpi=110)
     plt.close(fig)

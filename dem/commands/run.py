@@ -14,7 +14,8 @@ import numpy as np
 
 from dem.commands.exit_codes import ExitCode, exit_code_for
 from dem.run import OutputError, run_case
-from postprocess.lone_block import decisive_numbers, reference_limit
+from postprocess.decisive import decisive_numbers
+from postprocess.lone_block import reference_limit
 from postprocess.survival import survival_analysis
 from postprocess.tilt import plot_lean, tilt_mechanism
 
