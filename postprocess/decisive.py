@@ -53,11 +53,31 @@ def elastic_offset_text(summary: dict) -> str | None:
             f"the steps)")
 
 
+def threshold_text(summary: dict) -> str | None:
+    """The collapse criterion lambda was read with (summary.json ``collapse``): a quasi-static
+    tilt's bisection width and equilibrium tolerance (dem.run.quasi_static), a constant-rate
+    tilt's onset speed and confirming motion (dem.collapse); None for no collapse."""
+    col = summary.get("collapse") or {}
+    if not col.get("detected"):
+        return None
+    crit = col.get("criterion") or {}
+    if col.get("method") == "quasi_static" and crit:
+        width = col.get("resolution_deg", crit.get("resolution_deg"))
+        return (f"read as the last angle in equilibrium (unbalanced-force ratio < "
+                f"{crit.get('tolerance'):g}), the first failing one {width:g} deg above")
+    th = col.get("thresholds") or {}
+    if th:
+        return (f"read at the onset (the collapsing blocks last slower than "
+                f"{th.get('onset_speed_m_s'):g} m/s before moving {th.get('confirm_m'):g} m)")
+    return None
+
+
 def decisive_numbers(summary: dict) -> list[str]:
-    """What the result line of a tilt adds after lambda: the closed form where there is one
-    (with the elastic value of a tipping block), and the joint's elastic offset where it
-    matters (a tipping closed form, or no closed form) and ``rigid`` was not chosen."""
-    out = []
+    """What the result line of a tilt adds after lambda: the collapse criterion it was read
+    with, the closed form where there is one (with the elastic value of a tipping block), and
+    the joint's elastic offset where it matters (a tipping closed form, or no closed form) and
+    ``rigid`` was not chosen."""
+    out = [t for t in (threshold_text(summary),) if t is not None]
     ref = reference_text(summary)
     if ref is not None:
         out.append(ref)

@@ -82,6 +82,10 @@ def test_the_result_line_shows_the_closed_form_and_the_error(view_runs):
     assert err == pytest.approx(100 * (s["collapse"]["load_factor"] / 0.5 - 1), abs=0.006)
     assert abs(err) < 0.2    # the quasi-static search's tolerance (1e-3 in force ratio)
     assert "elastic offset" not in line  # a sliding block: the joint's offset does not matter
+    # the criterion lambda was read with: the quasi-static search's tolerance and bisection
+    col = s["collapse"]
+    assert (f"unbalanced-force ratio < {col['criterion']['tolerance']:g}), the first failing "
+            f"one {col['resolution_deg']:g} deg above") in line
 
 
 def test_a_tipping_result_names_the_elastic_offset_the_rigid_option_and_its_cost():
@@ -103,7 +107,7 @@ def test_a_tipping_result_names_the_elastic_offset_the_rigid_option_and_its_cost
                "collapse": {"detected": True, "load_factor": float(np.tan(np.radians(12.36)))},
                "reference": _limits(case, kn=kn), "loading": {"type": "tilt"}}
     texts = decisive_numbers(summary)
-    assert len(texts) == 2
+    assert len(texts) == 2  # no criterion text: the summary has none
     assert texts[0].startswith("closed form 0.250 (tipping")
     el = elastic_tipping_factor(0.1, 0.4, 2000.0, kn)
     assert f"{el:.3f} with the joint's elastic offset" in texts[0]
@@ -123,5 +127,5 @@ def test_lean_png_gets_the_closed_form_and_the_notes(view_runs):
     angle, notes = lean_notes(view_runs["tilt"])
     assert angle == pytest.approx(math.degrees(math.atan(0.5)), rel=1e-12)
     s = json.loads((view_runs["tilt"] / "summary.json").read_text())
-    assert notes == decisive_numbers(s) and notes[0].startswith("closed form 0.500")
+    assert notes == decisive_numbers(s) and notes[1].startswith("closed form 0.500")
     assert (view_runs["tilt"] / "lean.png").is_file()
