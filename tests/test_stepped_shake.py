@@ -135,3 +135,25 @@ def test_dem_check_names_a_bad_stepped_field(tmp_path, change, message):
     r = CliRunner().invoke(app, ["check", str(path)])
     assert r.exit_code == 2, r.output
     assert f"{path}:" in r.output and message in r.output, r.output
+
+
+def test_the_start_applies_to_the_first_step():
+    """A ramp start raises the first step's amplitude as a ramped shake does (u, v, a from rest);
+    a lab start's velocity jump is the first step's A_0 w_0."""
+    from dem.table_motion import SineMotion
+
+    ramped = SteppedSineMotion(STEPS, peak_acceleration=A_P, start="ramp", ramp_cycles=2)
+    alone = SineMotion(A_P / (2 * np.pi * 2.0) ** 2, 2.0, ramped.cycles_run[0], "ramp", 2)
+    t = np.linspace(0.0, ramped.t0[1] - 1e-6, 2001)
+    for q in ("displacement", "velocity", "acceleration"):
+        np.testing.assert_allclose(getattr(ramped, q)(t), getattr(alone, q)(t), atol=1e-15,
+                                   err_msg=q)
+    assert float(ramped.velocity(0.0)) == 0.0 and float(ramped.acceleration(0.0)) == 0.0
+    # after the ramp the first step is the held sine, so the switch joins as without a ramp
+    plain = SteppedSineMotion(STEPS, peak_acceleration=A_P)
+    later = np.linspace(ramped.t0[1] - 0.2, ramped.t_end + 0.1, 501)
+    np.testing.assert_allclose(ramped.acceleration(later), plain.acceleration(later),
+                               atol=1e-9 * A_P)
+    lab = SteppedSineMotion(STEPS, peak_acceleration=A_P, start="lab")
+    assert lab.velocity_jump == pytest.approx(A_P / (2 * np.pi * 2.0))
+    assert plain.velocity_jump == 0.0
