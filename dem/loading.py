@@ -289,3 +289,26 @@ def stepped_shake_errors(ld, dt: float, min_steps: int, where) -> list[str]:
                 f"({min_steps} x {dt:.3g} s): the table motion cannot be resolved (highest "
                 f"frequency for this scene: {1.0 / (min_steps * dt):.4g} Hz)")
     return out
+
+
+def stepped_shake_plausibility(ld, table_plausibility, where) -> tuple[list[str], list[str]]:
+    """dem check's (warnings, errors) on a stepped shake's table motion: every step through
+    ``table_plausibility(a_p, A, f, where_freq, where)`` (dem.validate: impossible table speeds
+    refused, implausible accelerations and strokes warned of) with its own amplitude along the
+    direction, and the whole excursion max |u(t)| (the steps' displacement offsets included:
+    dem.table_motion.SteppedSineMotion) against the stroke."""
+    motion = ld.motion()
+    scale = float(np.linalg.norm(ld.direction))
+    field = "amplitude" if ld.amplitude is not None else "peak_acceleration"
+    warnings, errors = [], []
+    for k, st in enumerate(motion.steps_run()):
+        w, e = table_plausibility(st["peak_acceleration_m_s2"] * scale, st["amplitude_m"] * scale,
+                                  st["frequency_hz"], "", where(("loading", "steps", k)))
+        warnings += w
+        errors += e
+    if not errors:
+        t = np.linspace(0.0, motion.t_end, 200 * len(ld.steps) + 1)
+        excursion = float(np.abs(motion.displacement(t)).max()) * scale
+        w, _ = table_plausibility(0.0, excursion, None, "", where(("loading", field)))
+        warnings += w
+    return warnings, errors

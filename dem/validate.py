@@ -525,9 +525,12 @@ def check_case(case: Case, source: str | Path | None = None,
                 f"({MIN_STEPS_PER_PERIOD} x {dt:.3g} s): the table motion cannot be resolved "
                 f"(highest frequency for this scene: {1.0 / (MIN_STEPS_PER_PERIOD * dt):.4g} Hz)")
     elif isinstance(ld, SteppedShakeLoading):  # issue 32: each step as a shake (dem.loading)
-        from dem.loading import stepped_shake_errors
+        from dem.loading import stepped_shake_errors, stepped_shake_plausibility
 
         out.errors += stepped_shake_errors(ld, dt, MIN_STEPS_PER_PERIOD, where)
+        w, e = stepped_shake_plausibility(ld, table_plausibility, where)
+        out.warnings += w
+        out.errors += e
     elif isinstance(ld, RecordLoading):
         try:
             t, acc = ld.samples()

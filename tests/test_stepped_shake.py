@@ -120,6 +120,10 @@ def test_a_block_that_does_not_move_gives_each_step_the_analysis_of_a_separate_r
     ({"start": "ramp", "ramp_cycles": 5}, "ramp_cycles: 5 is more than steps[0].cycles = 3"),
     ({"steps": [{"frequency": 2.0, "cycles": 3}, {"frequency": 5000.0, "cycles": 3}]},
      "loading.steps[1].frequency: 5000 Hz has a period"),
+    # amplitude 2 m at 10 Hz: 126 m/s, beyond any table (dem.validate.table_plausibility)
+    ({"peak_acceleration": None, "amplitude": 2.0,
+      "steps": [{"frequency": 2.0, "cycles": 3}, {"frequency": 10.0, "cycles": 3}]},
+     "loading.steps[1]: the table would move at up to 126 m/s"),
 ])
 def test_dem_check_names_a_bad_stepped_field(tmp_path, change, message):
     import yaml
@@ -157,3 +161,20 @@ def test_the_start_applies_to_the_first_step():
     lab = SteppedSineMotion(STEPS, peak_acceleration=A_P, start="lab")
     assert lab.velocity_jump == pytest.approx(A_P / (2 * np.pi * 2.0))
     assert plain.velocity_jump == 0.0
+
+
+def test_dem_check_warns_of_an_implausible_stepped_table(tmp_path):
+    """500 m/s2 (51 g) at every step, and a stroke of 3.2 m at 2 Hz: warned, not refused."""
+    import yaml
+    from typer.testing import CliRunner
+
+    from dem.cli import app
+
+    case = _case({"type": "stepped_shake", "peak_acceleration": 500.0,
+                  "steps": [{"frequency": f, "cycles": n} for f, n in STEPS]}, 2.7).model_dump()
+    path = tmp_path / "case.yaml"
+    path.write_text(yaml.safe_dump(case))
+    r = CliRunner().invoke(app, ["check", str(path)])
+    assert r.exit_code == 0, r.output
+    assert "loading.steps[0]: IMPLAUSIBLE: peak table acceleration 500 m/s2" in r.output, r.output
+    assert "loading.steps[0]: IMPLAUSIBLE: table displacement amplitude 3.17 m" in r.output
