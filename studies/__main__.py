@@ -18,7 +18,7 @@ STUDIES = {
                    "blind prediction of the Chapter 4 shaking-table tests (issue 13 steps 3-5)"),
     "point-pool": ("studies.prediction.pool",
                    "chosen prediction points in a process pool, without dask (a borrowed machine)"),
-    "calibration": ("studies.calibration.study",
+    "calibration": ("studies.calibration.cli",
                     "calibration of the imperfections on the Chapter 3 tilts (issue 13 steps 1-2)"),
     "chapter3-check": ("studies.chapter3.check",
                        "the frozen set's calibration tilts re-run on today's engine (step 4)"),

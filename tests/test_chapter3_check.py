@@ -1,6 +1,6 @@
 """studies.chapter3.check (`python -m studies chapter3-check`): the Chapter 3 criterion of issue 13 (the calibrated tilt results
 unchanged within 5 %), judged seed by seed against the committed calibration.  Hand-made
-ensemble records; nothing runs the engine (run_point is calibration_study's, tested there)."""
+ensemble records; nothing runs the engine (run_point: studies.calibration.points, tested there)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,8 @@ import json
 import pytest
 import yaml
 
-from studies.calibration import study as cal
+from studies.calibration import points as cal_points
+from studies.calibration import specimens as cal_specimens
 from studies.chapter3 import check as c3
 from studies.prediction import criteria as crit
 
@@ -60,14 +61,14 @@ def test_the_frozen_set_must_be_its_candidate_naming_the_file(tmp_path):
 
 def test_compare_reads_both_records_and_recognises_the_calibrations_case(tmp_path):
     spec_name = "ip-small-5x5"
-    spec = cal.specimens()[spec_name]
-    case = cal.specimen_case(spec["path"], PARAMS, f"cal-bed-0.1-planar-{spec_name}")
+    spec = cal_specimens.specimens()[spec_name]
+    case = cal_specimens.specimen_case(spec["path"], PARAMS, f"cal-bed-0.1-planar-{spec_name}")
     calib_dir, out = tmp_path / "calibration", tmp_path / "check"
     for root, data in (
             (calib_dir, _ens({0: 0.8044, 1: 0.799}, n_realisations=20,
-                             fingerprint=cal.fingerprint(case, 20, None))),
+                             fingerprint=cal_specimens.fingerprint(case, 20, None))),
             (out, _ens({0: 0.8053}, n_realisations=1, cpu_seconds=20.0))):
-        dest = cal.point_path(root, "bed-0.1-planar", spec_name)
+        dest = cal_points.point_path(root, "bed-0.1-planar", spec_name)
         dest.parent.mkdir(parents=True)
         dest.write_text(json.dumps(data))
     rec = c3.compare(out, calib_dir, "bed-0.1-planar", {spec_name: spec}, [0], PARAMS)

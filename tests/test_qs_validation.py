@@ -6,19 +6,20 @@ import json
 
 import pytest
 
-from studies.calibration import study as cs
+from studies.calibration import points as cal_points
+from studies.calibration import specimens as cal_specimens
 from studies.qs_validation import study as qv
 
 
 def test_the_rate_case_is_the_calibration_case_on_a_constant_rate_tilt():
-    spec = cs.specimens()["ip-small-5x7"]
-    params = cs.load_candidates()["bed-0.1-planar"]
-    qs = cs.specimen_case(spec["path"], params, "a")
-    slow = cs.specimen_case(spec["path"], params, "a", rate=0.5)
+    spec = cal_specimens.specimens()["ip-small-5x7"]
+    params = cal_specimens.load_candidates()["bed-0.1-planar"]
+    qs = cal_specimens.specimen_case(spec["path"], params, "a")
+    slow = cal_specimens.specimen_case(spec["path"], params, "a", rate=0.5)
     assert qs.loading.method == "quasi_static"
     assert slow.loading.method == "constant_rate" and slow.loading.rate == 0.5
     assert slow.loading.start_angle == 0.0
-    assert slow.loading.collapse.confirm == cs.RUNAWAY_COLLAPSE["confirm"] == 0.02
+    assert slow.loading.collapse.confirm == cal_specimens.RUNAWAY_COLLAPSE["confirm"] == 0.02
     assert slow.loading.collapse.onset_speed == qs.loading.collapse.onset_speed
     assert slow.imperfections == qs.imperfections and slow.material == qs.material
     # long enough to reach the case's largest angle at that rate
@@ -26,10 +27,10 @@ def test_the_rate_case_is_the_calibration_case_on_a_constant_rate_tilt():
 
 
 def test_the_quasi_static_case_is_unchanged_by_the_rate_option():
-    spec = cs.specimens()["ip-small-5x5"]
-    params = cs.load_candidates()["perfect"]
-    assert cs.specimen_case(spec["path"], params, "b").model_dump() == \
-        cs.specimen_case(spec["path"], params, "b", rate=None).model_dump()
+    spec = cal_specimens.specimens()["ip-small-5x5"]
+    params = cal_specimens.load_candidates()["perfect"]
+    assert cal_specimens.specimen_case(spec["path"], params, "b").model_dump() == \
+        cal_specimens.specimen_case(spec["path"], params, "b", rate=None).model_dump()
 
 
 def test_compare_extrapolates_to_rate_zero_and_flags_a_far_quasi_static_value():
@@ -68,12 +69,12 @@ def test_smoke_run_resumes_and_reports(tmp_path):
             "--rates", "2", "1", "0.5", "--max-steps", "300"]
     assert qv.main(args) == 0
     for r in (2.0, 1.0, 0.5):
-        p = json.loads(cs.point_path(qv.rate_dir(out, r), "perfect", "ip-small-5x5").read_text())
+        p = json.loads(cal_points.point_path(qv.rate_dir(out, r), "perfect", "ip-small-5x5").read_text())
         assert p["calibration"]["rate_deg_per_s"] == r
         assert p["calibration"]["finished"]
-    first = cs.point_path(qv.rate_dir(out, 0.5), "perfect", "ip-small-5x5").stat().st_mtime_ns
+    first = cal_points.point_path(qv.rate_dir(out, 0.5), "perfect", "ip-small-5x5").stat().st_mtime_ns
     assert qv.main(args) == 0                      # finished: nothing runs again
-    assert cs.point_path(qv.rate_dir(out, 0.5), "perfect",
+    assert cal_points.point_path(qv.rate_dir(out, 0.5), "perfect",
                          "ip-small-5x5").stat().st_mtime_ns == first
     s = json.loads((out / "summary.json").read_text())
     assert s["specimens"]["ip-small-5x5"]["rows"] == []       # no quasi-static point here
@@ -113,7 +114,7 @@ def test_a_slower_rate_on_disk_joins_the_specimens_that_have_it(tmp_path):
     out, cal = tmp_path / "v", tmp_path / "cal"
 
     def point(d, spec, lam):
-        p = cs.point_path(d, "perfect", spec)
+        p = cal_points.point_path(d, "perfect", spec)
         p.parent.mkdir(parents=True, exist_ok=True)
         p.write_text(json.dumps({"realisations": [{"name": "seed-0", "status": "ok",
                                                    "lambda": lam}]}))
@@ -124,13 +125,13 @@ def test_a_slower_rate_on_disk_joins_the_specimens_that_have_it(tmp_path):
         for r in (0.5, 1.0, 2.0):
             point(qv.rate_dir(out, r), spec, lam[r])
     point(qv.rate_dir(out, 0.25), "ip-small-5x15", lam[0.25])
-    orig = cs.point_finished
-    cs.point_finished = lambda data: data is not None      # the synthetic points are complete
+    orig = cal_points.point_finished
+    cal_points.point_finished = lambda data: data is not None      # the synthetic points are complete
     try:
         res = qv.collect(out, cal, "perfect", {"ip-small-5x15": {}, "ip-small-5x20": {}},
                          (2.0, 1.0, 0.5))
     finally:
-        cs.point_finished = orig
+        cal_points.point_finished = orig
     assert qv.rates_on_disk(out) and 0.25 in qv.rates_on_disk(out)
     (a,), (b,) = res["ip-small-5x15"]["rows"], res["ip-small-5x20"]["rows"]
     assert set(a["rates"]) == {"0.25", "0.5", "1", "2"} and set(b["rates"]) == {"0.5", "1", "2"}

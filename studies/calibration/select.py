@@ -18,9 +18,9 @@ A candidate pending on some specimen is not eligible (rule 1), but it could stil
 leader once finished.  So :func:`select` only calls a choice ``decided`` when no pending
 candidate could outrank the leader even if every one of its pending checks passed: at most its
 finished passes plus its pending thesis checks, compared with the leader by the same ranking.
-The freeze (``calibration_study --freeze``) is refused until the choice is decided.
+The freeze (``python -m studies calibration --freeze``) is refused until the choice is decided.
 
-Inputs are calibration_study's ``collect`` (candidate -> specimen -> point_summary) and
+Inputs are studies.calibration.report.collect (candidate -> specimen -> point_summary) and
 ``score_candidate`` results; nothing is run here.  Units: bed unevenness in m.
 """
 

@@ -8,8 +8,8 @@ the criterion "Chapter 3: the calibrated results unchanged within 5 %").
 
 What it runs.  For the frozen candidate (``candidate:`` of studies/calibration/frozen.yaml, whose
 ``imperfections:`` must equal that candidate's entry in studies/calibration/candidates.yaml), every
-calibration specimen (studies.calibration.study.specimens) with the first N of the
-calibration's seeds (default N = 1: seed 0), through studies.calibration.study.run_point: the same case,
+calibration specimen (studies.calibration.specimens.specimens) with the first N of the
+calibration's seeds (default N = 1: seed 0), through studies.calibration.points.run_point: the same case,
 the same quasi-static tilt, the same ``dem ensemble`` child with one thread.  The committed record
 of a point goes to ``<out>/<candidate>/<specimen>/ensemble.json`` (default out
 results/prediction/chapter3-check), its raw runs under ``--runs`` (default
@@ -40,7 +40,9 @@ from pathlib import Path
 import yaml
 
 from dem.engine import RESULTS_REVISION
-from studies.calibration import study as cal
+from studies.calibration import points as cal_points
+from studies.calibration import specimens as cal_specimens
+from studies.kit import provenance
 from studies.kit import child as dem_child
 from studies.kit.provenance import rel
 from studies.kit.records import read_json
@@ -136,23 +138,23 @@ def compare(out: Path, calibration: Path, candidate: str, specs: dict, seeds: li
     """check.json's content from the committed calibration and the re-run points."""
     points = {}
     for s, spec in specs.items():
-        calib = read_json(cal.point_path(calibration, candidate, s))
-        rerun = read_json(cal.point_path(out, candidate, s))
+        calib = read_json(cal_points.point_path(calibration, candidate, s))
+        rerun = read_json(cal_points.point_path(out, candidate, s))
         p = compare_point(calib, rerun, seeds, tol)
-        case = cal.specimen_case(spec["path"], params, f"cal-{candidate}-{s}")
+        case = cal_specimens.specimen_case(spec["path"], params, f"cal-{candidate}-{s}")
         n_cal = ((calib or {}).get("calibration") or {}).get("n_realisations")
         p["same_case"] = (None if n_cal is None else
-                          cal.fingerprint(case, n_cal, None) ==
+                          cal_specimens.fingerprint(case, n_cal, None) ==
                           (calib or {}).get("calibration", {}).get("fingerprint"))
         p["cpu_seconds"] = ((rerun or {}).get("calibration") or {}).get("cpu_seconds")
         p["source"] = ((rerun or {}).get("calibration") or {}).get("source")
         points[s] = p
     return {"kind": "chapter3-check", "candidate": candidate, "parameters": params,
             "calibration": rel(calibration), "seeds": seeds, "tolerance": tol,
-            "engine_results_revision": RESULTS_REVISION, "source": cal.source_state(),
+            "engine_results_revision": RESULTS_REVISION, "source": provenance.source_state(),
             "cpu_seconds": sum(p["cpu_seconds"] or 0.0 for p in points.values()),
             "specimens": points,
-            "verdict": verdict(points, tol, len(cal.specimens()))}
+            "verdict": verdict(points, tol, len(cal_specimens.specimens()))}
 
 
 def main(argv=None) -> int:
@@ -166,7 +168,7 @@ def main(argv=None) -> int:
     ap.add_argument("--seeds", type=int, default=1, metavar="N",
                     help="re-run the calibration's seeds 0 .. N-1 of each specimen")
     ap.add_argument("--specimens", nargs="*", default=None, help="names (default: all)")
-    ap.add_argument("--candidates-file", type=Path, default=cal.CANDIDATES_FILE)
+    ap.add_argument("--candidates-file", type=Path, default=cal_specimens.CANDIDATES_FILE)
     ap.add_argument("--max-steps", type=int, default=None,
                     help="cap each run (smoke: a capped point is not the calibration's case)")
     ap.add_argument("--compare-only", action="store_true", help="run nothing")
@@ -174,9 +176,9 @@ def main(argv=None) -> int:
     try:
         if args.seeds < 1:
             raise CheckInputError("--seeds must be >= 1")
-        candidate, params = frozen_candidate(args.frozen, cal.load_candidates(
+        candidate, params = frozen_candidate(args.frozen, cal_specimens.load_candidates(
             args.candidates_file))
-        all_s = cal.specimens()
+        all_s = cal_specimens.specimens()
         bad = [s for s in args.specimens or [] if s not in all_s]
         if bad:
             raise CheckInputError(f"--specimens: unknown {bad}; known: {list(all_s)}")
@@ -191,7 +193,7 @@ def main(argv=None) -> int:
         for s, spec in specs.items():
             if dem_child.stopped():
                 break
-            states.append(cal.run_point(args.out, args.runs, candidate, params, s, spec,
+            states.append(cal_points.run_point(args.out, args.runs, candidate, params, s, spec,
                                         args.seeds, args.max_steps,
                                         log=lambda m: print(m, flush=True)))
     from dem.output.atomic import write_json

@@ -5,7 +5,7 @@
     python -m studies qs-validation --out results/calibration/qs-validation \\
         --specimens ip-small-9x15-s10 --candidate bed-0.1-planar --realisations 2
 
-Why.  The calibration (studies.calibration.study) reads lambda from the quasi-static search
+Why.  The calibration (studies.calibration) reads lambda from the quasi-static search
 (dem.run.quasi_static: increments relaxed with local damping, bisection of the first that
 fails).  That search was checked against the rate -> 0 limit of constant-rate tilts on two walls
 only (the perfect 5 x 7 wall and the 5 x 9 facade without wings; benchmarks/speed_error.md,
@@ -14,14 +14,14 @@ the runaway of a 1 deg/s tilt (0.5104; speed_error.md, "Quasi-static tilt of imp
 the 0.5 deg/s "collapse" there was a 9.8 mm slip that stopped).  This study repeats that check
 on every calibration specimen.
 
-What it runs.  For each specimen (studies.calibration.study.specimens) and each rate of ``--rates``
+What it runs.  For each specimen (studies.calibration.specimens.specimens) and each rate of ``--rates``
 (default 2, 1, 0.5 deg/s): the calibration's own case of that specimen and candidate
-(studies.calibration.study.specimen_case with ``rate``: friction, stiffness, imperfections and output
+(studies.calibration.specimens.specimen_case with ``rate``: friction, stiffness, imperfections and output
 settings unchanged), tilted from 0 deg at that constant rate, its collapse read at the runaway
-(studies.calibration.study.RUNAWAY_COLLAPSE: confirmed at 20 mm of motion instead of the case files'
+(studies.calibration.specimens.RUNAWAY_COLLAPSE: confirmed at 20 mm of motion instead of the case files'
 5 mm, so that a slip that stops after a few mm is not the collapse), one ``dem ensemble`` of N
 realisations (``--realisations``; seeds 0 .. N-1; a perfect candidate runs one), resumable
-exactly as the calibration's points (studies.calibration.study.run_point):
+exactly as the calibration's points (studies.calibration.points.run_point):
 ``<out>/rate-<r>/<candidate>/<specimen>/ensemble.json``, raw runs under ``<out>/runs/``.
 
 What it reports (``<out>/README.md``, ``<out>/summary.json``), per specimen and seed: lambda at
@@ -57,7 +57,9 @@ from pathlib import Path
 
 import numpy as np
 
-from studies.calibration import study as cs
+from studies.calibration import points as cal_points
+from studies.calibration import report as cal_report
+from studies.calibration import specimens as cal_specimens
 from studies.kit import child as dem_child
 from studies.kit import session
 from studies.kit.provenance import repo_rel
@@ -67,7 +69,7 @@ from studies.tilt.study import rate_extrapolation
 RATES = (2.0, 1.0, 0.5)  # deg/s: r, 2r, 4r for the extrapolation; 2 deg/s is the case files'
 FLAG_TOLERANCE = 0.03
 VERDICT_TEXT = {"ok": "ok", "flag": "**> 3 %**", "unconfirmed": "unconfirmed (bound only)"}
-DEFAULT_OUT = cs.ROOT / "results" / "calibration" / "qs-validation"
+DEFAULT_OUT = cal_specimens.ROOT / "results" / "calibration" / "qs-validation"
 
 
 def rate_dir(out: Path, rate: float) -> Path:
@@ -76,7 +78,7 @@ def rate_dir(out: Path, rate: float) -> Path:
 
 def _lambdas(data: dict | None) -> dict[str, float | None]:
     """seed name -> lambda of a finished point's ok realisations ({} unless finished)."""
-    if not cs.point_finished(data):
+    if not cal_points.point_finished(data):
         return {}
     return {r["name"]: r.get("lambda") for r in data.get("realisations") or []
             if r.get("status") == "ok"}
@@ -141,10 +143,10 @@ def collect(out: Path, calibration: Path, candidate: str, specs: dict, rates) ->
     res = {}
     extra = sorted(set(rates_on_disk(out)) - set(rates))
     for s in specs:
-        qs = _lambdas(read_json(cs.point_path(calibration, candidate, s)))
+        qs = _lambdas(read_json(cal_points.point_path(calibration, candidate, s)))
         by_rate, pending, cpu = {}, [], 0.0
         for r in list(rates) + extra:
-            data = read_json(cs.point_path(rate_dir(out, r), candidate, s))
+            data = read_json(cal_points.point_path(rate_dir(out, r), candidate, s))
             if data is None and r in extra:
                 continue
             cpu += ((data or {}).get("calibration") or {}).get("cpu_seconds") or 0.0
@@ -192,8 +194,8 @@ def report(out: Path, calibration: Path, candidate: str, specs: dict, rates, com
         for row in v["rows"]:
             pct = (lambda x: "-" if x is None else f"{100 * x:+.1f} %")
             L.append(f"| {s} | {row['seed']} | "
-                     + " | ".join(cs.fmt_fixed(row["rates"].get(r), 4) for r in rs)
-                     + " | " + (cs.fmt_fixed(row["lambda0"], 4) if row["lambda0"] is not None
+                     + " | ".join(cal_report.fmt_fixed(row["rates"].get(r), 4) for r in rs)
+                     + " | " + (cal_report.fmt_fixed(row["lambda0"], 4) if row["lambda0"] is not None
                                 else row["rate_limit"])
                      + f" | {row['qs']:.4f} | "
                      f"{pct(row['qs_vs_lambda0'])} | {pct(row['qs_vs_slowest'])} | "
@@ -222,7 +224,7 @@ def _command(args) -> str:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     ap.add_argument("--out", type=Path, default=DEFAULT_OUT)
-    ap.add_argument("--calibration", type=Path, default=cs.ROOT / "results" / "calibration",
+    ap.add_argument("--calibration", type=Path, default=cal_specimens.ROOT / "results" / "calibration",
                     help="the calibration study's --out (its committed quasi-static points)")
     ap.add_argument("--runs", type=Path, default=None, help="raw runs (default <out>/runs)")
     ap.add_argument("--candidate", default="perfect",
@@ -237,7 +239,7 @@ def main(argv=None) -> int:
     ap.add_argument("--stop-at", default=None, help="UTC HH:MM after which no new run starts")
     ap.add_argument("--report", action="store_true", help="only rebuild the report")
     args = ap.parse_args(argv)
-    cands, all_s = cs.load_candidates(), cs.specimens()
+    cands, all_s = cal_specimens.load_candidates(), cal_specimens.specimens()
     if args.candidate not in cands:
         ap.error(f"--candidate: unknown {args.candidate!r}; known: {list(cands)}")
     bad = [x for x in args.specimens or [] if x not in all_s]
@@ -260,7 +262,7 @@ def main(argv=None) -> int:
                 if session.should_stop(stop_at=args.stop_at,
                                        log=lambda m: print(m, flush=True)):
                     break
-                cs.run_point(rate_dir(out, r), runs / f"rate-{r:g}", args.candidate, params, s,
+                cal_points.run_point(rate_dir(out, r), runs / f"rate-{r:g}", args.candidate, params, s,
                              spec, args.realisations, args.max_steps,
                              log=lambda m: print(m, flush=True),
                              record={"rate_deg_per_s": r}, rate=r)
