@@ -142,3 +142,20 @@ def test_frame_indices_and_auto_magnification():
     assert k == 100.0 and 1e-4 * k <= 0.05 * 0.2 < 1e-4 * k * 2.5
     pos[2, 0, 0] = 0.05                        # a large motion is drawn as it is
     assert auto_magnify(size, pos) == 1.0
+
+
+def test_drawings_of_several_blocks(tmp_path):
+    """Three blocks of different sizes, three frames: every frame drawn (the GIF's frames), the
+    strip written, and the colour of each block is its own displacement on the table."""
+    size = np.array([[0.2, 0.1, 0.1], [0.1, 0.1, 0.3], [0.3, 0.2, 0.05]])
+    pos0 = np.array([[0.0, 0.0, 0.05], [0.5, 0.0, 0.15], [1.0, 0.0, 0.025]])
+    moves = np.array([0.0, 1e-3, 2e-3])
+    pos = np.stack([pos0 + np.outer(moves, [1.0, 0.0, 0.0]) * k for k in range(3)])
+    quat = np.tile([1.0, 0.0, 0.0, 0.0], (3, 3, 1))
+    poses = animation.lab_poses(size, np.array([0.0, 0.1, 0.2]), pos, quat,
+                                base_disp=np.zeros((3, 3)))
+    assert np.allclose(poses.disp[2], 2 * moves, rtol=0, atol=1e-15)
+    animation.write_animation(tmp_path / "a.gif", size, poses, "three")
+    animation.write_strip(tmp_path / "s.png", size, poses, "three", panels=3)
+    assert _gif_frames(tmp_path / "a.gif") == 3
+    assert (tmp_path / "s.png").stat().st_size > 0

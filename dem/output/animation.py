@@ -134,8 +134,9 @@ class _Drawing:
         self.ax, self.size, self.poses = ax, np.asarray(size, float), poses
         self.cmap = matplotlib.colormaps["viridis"]
         self.vmax = max(colours_scale, 1e-12)
-        corners = block_corners(self.size, poses.pos.reshape(-1, 3),
-                                poses.quat.reshape(-1, 4)).reshape(len(poses.labels), -1, 3)
+        n_frames = len(poses.labels)
+        corners = block_corners(np.tile(self.size, (n_frames, 1)), poses.pos.reshape(-1, 3),
+                                poses.quat.reshape(-1, 4)).reshape(n_frames, -1, 3)
         pts = np.concatenate([corners, poses.table], axis=1).reshape(-1, 3)
         lo, hi = pts.min(axis=0), pts.max(axis=0)
         mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
