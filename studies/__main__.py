@@ -30,7 +30,7 @@ STUDIES = {
                    "sensitivity of Model II y at 2.8 Hz to the bed unevenness"),
     "resonance": ("studies.resonance.study",
                   "the sweeps continued above the thesis' range: where is the resonance?"),
-    "impact-dissipation": ("studies.impact_dissipation.study",
+    "impact-dissipation": ("studies.impact_dissipation.cli",
                            "energy lost per impact: DEM against Housner and the two-body model"),
     "large-brick": ("studies.large_brick.study",
                     "the large-brick in-plane walls: limit analysis and DEM diagnostics"),

@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from studies.impact_dissipation.study import (
-    G, amplitude_after_impact, half_cycle_peaks, housner_r, housner_r_block, impact_ratios,
-    omega_ratios, rigid_impact_r, rocking_energy, two_body_forced, two_body_free,
-    two_body_params)
+from studies.impact_dissipation.physics import (G, amplitude_after_impact, half_cycle_peaks,
+                                                housner_r, housner_r_block, impact_ratios,
+                                                omega_ratios, rigid_impact_r, rocking_energy)
+from studies.impact_dissipation.two_body import two_body_forced, two_body_free, two_body_params
 
 
 def test_housner_r_known_values():
