@@ -282,7 +282,8 @@ def view(
                                                        "directory)"),
     point: str = typer.Option(None, "--point", help="the sweep point (f2.800Hz, or 2.8) or "
                                                     "realisation (seed-5) to draw"),
-    frames: int = typer.Option(60, "--frames", help="frames drawn, spread over the recording"),
+    frames: int = typer.Option(40, "--frames", help="frames drawn, spread over the recording "
+                                                    "(a 142-block wall: ~1-3 s each)"),
     fps: float = typer.Option(10.0, "--fps", help="frames per second of the animation"),
     panels: int = typer.Option(6, "--panels", help="panels of the frame strip"),
     fmt: str = typer.Option("gif", "--format", help="gif, or mp4 (needs ffmpeg)"),

@@ -150,7 +150,7 @@ def auto_magnify(size, pos) -> float:
     return min(MAX_AUTO_MAGNIFY, max(1.0, max(m * k for m in (1.0, 2.0, 5.0) if m * k <= want)))
 
 
-def view_command(path, out=None, point: str | None = None, frames: int = 60, fps: float = 10.0,
+def view_command(path, out=None, point: str | None = None, frames: int = 40, fps: float = 10.0,
                  panels: int = 6, fmt: str = "gif", magnify: float | None = None,
                  echo=print, err=print) -> int:
     """Body of ``dem view``; returns the exit code."""
