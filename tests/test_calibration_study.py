@@ -74,6 +74,8 @@ def test_a_candidate_may_not_tune_friction(tmp_path):
 
 
 # ---- a smoke point and its resume --------------------------------------------------------------
+@pytest.mark.slow  # ~3 min of dem ensemble children (the suite's 4th slowest, 2026-11-27); the
+# default run keeps the calibration's end-to-end child run in test_held_out_smoke_run_...
 def test_smoke_point_runs_then_resumes_without_rerunning(tmp_path, monkeypatch):
     cfile = tmp_path / "candidates.yaml"
     cfile.write_text(yaml.safe_dump({"smoke": CAND}))
