@@ -1,0 +1,75 @@
+"""studies/kit (what every study shares) and the one entry point ``python -m studies``
+(issue 34 item 1)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import time
+
+from typer.testing import CliRunner
+
+from studies.__main__ import STUDIES, app
+from studies.kit import child, session
+from studies.kit.provenance import ROOT
+from studies.kit.records import merge_json, read_json
+
+
+def test_command_echo_leaves_defaults_out_and_spreads_lists():
+    assert session.command("resonance", seeds=(3, 3), cycles=(20.0, 20.0)) == \
+        "python -m studies resonance"
+    assert session.command("qs-validation", out="results/x", candidate=("c", "perfect"),
+                           rates=([2.0, 1.0, 0.25], [2.0, 1.0, 0.5]), max_steps=None,
+                           specimens=None) == \
+        "python -m studies qs-validation --out results/x --candidate c --rates 2 1 0.25"
+
+
+def test_the_cpu_ledger_adds_up_over_sessions_and_keys(tmp_path):
+    path = tmp_path / "cpu.json"
+    session.add_cpu(path, "a", 1.5)
+    session.add_cpu(path, "b", 2.0)
+    assert session.add_cpu(path, "a", 0.25) == {"a": 1.75, "b": 2.0}
+    assert json.loads(path.read_text()) == {"a": 1.75, "b": 2.0}
+    assert read_json(tmp_path / "missing.json") is None
+
+
+def test_merge_json_under_the_lock_keeps_both_writers(tmp_path):
+    """Two processes adding to one record at once (the prediction's --seeds split) lose
+    nothing: each read-change-write holds the lock."""
+    path = tmp_path / "points.json"
+    code = ("import sys, time; from studies.kit.records import merge_json\n"
+            "def add(d, k=sys.argv[1]):\n"
+            "    v = d.get(k, 0); time.sleep(0.01); d[k] = v + 1\n"
+            f"for _ in range(20): merge_json({str(path)!r}, add)\n")
+    procs = [subprocess.Popen([sys.executable, "-c", code, key], cwd=ROOT)
+             for key in ("x", "x")]
+    assert all(p.wait(timeout=120) == 0 for p in procs)
+    assert read_json(path) == {"x": 40}
+    assert merge_json(path, lambda d: {"y": 1}) == {"y": 1}      # a returned dict replaces
+
+
+def test_should_stop_on_a_drain_file_or_at_the_stop_time(tmp_path, monkeypatch):
+    monkeypatch.setattr(child, "_STOP", [False])
+    drain = tmp_path / "DRAIN"
+    assert not session.should_stop(drain)
+    drain.touch()
+    assert session.should_stop(drain)
+    past = time.strftime("%H:%M", time.gmtime(time.time() - 120))
+    said = []
+    assert session.should_stop(stop_at=past, log=said.append) and said
+    assert child.stopped()            # the stop time requests the stop: later checks agree
+
+
+def test_one_entry_point_lists_every_study_and_hands_over_the_arguments():
+    runner = CliRunner()
+    res = runner.invoke(app, ["--help"])
+    assert res.exit_code == 0
+    for name in STUDIES:
+        assert name in res.output
+    # the study's own parser gets what follows its name: a missing frozen set exits 2
+    res = runner.invoke(app, ["prediction", "--frozen", str(ROOT / "no-such.yaml"), "--report"])
+    assert res.exit_code == 2
+    for module, _ in STUDIES.values():      # every subcommand's module has main(argv)
+        mod = __import__(module, fromlist=["main"])
+        assert callable(mod.main)
