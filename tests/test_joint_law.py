@@ -307,3 +307,41 @@ def test_record_of_a_hyperbolic_pair():
     assert (j.normal_law, j.max_closure, j.closure_limit) == ("hyperbolic", DMAX, 0.6)
     lin = PairMaterial(0.6, 5e9, 2e9, 0.5)
     assert (lin.law, lin.d_max, lin.d_lim, lin.stable_stiffness()) == (0, 0.0, 0.0, 5e9)
+
+
+def test_hyperbolic_kernels_cold_compile_without_narrowing():
+    """The kernels compiled for the hyperbolic law (serial, parallel, imperfect faces) and its
+    energy kernel, compiled with an empty offline cache in a fresh process: no lossy assignment
+    and no f32 in the f64 engine (as tests/test_engine_launch.py checks the default kernels)."""
+    import os
+    import subprocess
+    import sys
+    import tempfile
+    import textwrap
+
+    code = textwrap.dedent("""
+        import numpy as np
+        from dem.builders import build_wall
+        from dem.case import Material, SolverSpec
+        from dem.engine import Simulation
+        from dem.run.build import joint_law, step_options
+        mat = Material(friction=0.6, normal_law="hyperbolic", normal_stiffness=1e8,
+                       max_closure=1e-4)
+        for mode, arris in (("serial", 0.0), ("parallel", 0.0), ("serial", 1e-3)):
+            scene = build_wall("small", length=2, courses=2)
+            scene.arris[:] = arris
+            sim = Simulation(scene, joint_law(mat), step_options(SolverSpec(mode=mode)))
+            g = np.array([0.0, 0.0, -9.81])
+            sim.advance(3, lambda t: (np.tile(g, (len(t), 1)), np.zeros((len(t), 3))))
+            sim.mechanical_energy()
+        print("COMPILED")
+    """)
+    with tempfile.TemporaryDirectory() as cache:
+        env = dict(os.environ, TI_OFFLINE_CACHE_FILE_PATH=cache, TI_LOG_LEVEL="warn")
+        out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                             text=True, timeout=900)
+        assert os.listdir(cache), "the offline cache was not written: not a cold compile"
+    text = out.stdout + out.stderr
+    assert out.returncode == 0 and "COMPILED" in out.stdout, text[-3000:]
+    assert "lose precision" not in text, text[-3000:]
+    assert "f32" not in text, text[-3000:]

@@ -193,3 +193,29 @@ def test_unknown_names_exit_2_with_file_line_and_field(tmp_path, old, new, line,
     assert code == 2, out
     assert f"{path}:{line}: {field}: " in out, out
     assert words in out, out
+
+
+def test_a_case_without_the_new_fields_dumps_as_before():
+    """The new fields stay out of a case's dump while they hold their defaults: case.json,
+    summary.json's material and the studies' resume fingerprints and restart points (all
+    case.model_dump_json) of every case written before them are unchanged; the dump of a case
+    that uses them reads back to the same case."""
+    import json
+
+    from dem.case import Case
+
+    old = _case([{"size": CUBE, "position": [0, 0, 0.05], "mass": 1.0}], {"friction": 0.6})
+    dump = json.loads(old.model_dump_json())
+    assert set(dump["material"]) == {"friction", "normal_stiffness", "shear_stiffness",
+                                     "damping", "base_friction"}
+    assert "material" not in dump["scene"]["blocks"][0]
+    box = parse_case({"name": "m2", "scene": {"box_model": {"model": "II"}},
+                      "material": {"friction": 0.81}, "run": {"duration": 1.0}})
+    assert "materials" not in json.loads(box.model_dump_json())["scene"]["box_model"]
+    new = parse_case({"name": "m2", "scene": {"box_model": {
+        "model": "II", "materials": {"roof-beam": "timber"}}},
+        "material": {"friction": 0.81, "materials": ["timber"], "normal_law": "hyperbolic",
+                     "max_closure": 1e-4, "closure_limit": 0.7,
+                     "pairs": [{"between": ["timber", "brick"], "friction": 0.5}]},
+        "run": {"duration": 1.0}})
+    assert Case.model_validate(json.loads(new.model_dump_json())) == new

@@ -83,7 +83,7 @@ class _Placed(_Strict):
         "default 0.15 x brick length",
     )
     materials: dict[str, str] = Field(
-        default_factory=dict,
+        default_factory=dict, exclude_if=lambda v: not v,  # not in the dump while empty
         description="material per group of this builder's blocks, e.g. {roof-beam: timber} "
         "(names declared in material.materials; the other groups are brick)")
 

@@ -83,27 +83,30 @@ class Material(_Strict):
         default=None, ge=0.0, le=MAX_FRICTION,
         description="friction against the table (default: friction; at most 10)"
     )
+    # the new fields are left out of a case's dump (case.json, summary.json, the studies' resume
+    # fingerprints and restart points) while they hold their defaults: the dump of every case
+    # written before them stays the same
     normal_law: Literal["linear", "hyperbolic"] = Field(
-        default="linear",
+        default="linear", exclude_if=lambda v: v == "linear",
         description="the joint's pressure p at closure d: 'linear' p = kn d, or 'hyperbolic' "
         "p = kn0 d / (1 - d/max_closure) (Bandis et al. 1983: soft at low stress, stiffening "
         "as the joint closes; normal_stiffness is then kn0; docs/engine.md section 4)")
     max_closure: float | None = Field(
-        default=None, gt=0.0,
+        default=None, gt=0.0, exclude_if=lambda v: v is None,
         description="d_max, m: the largest closure of a hyperbolic joint (required by "
         "normal_law: hyperbolic)")
     closure_limit: float = Field(
-        default=0.5, gt=0.0, lt=1.0,
+        default=0.5, gt=0.0, lt=1.0, exclude_if=lambda v: v == 0.5,
         description="hyperbolic law: the time step is made stable for closures up to this "
         "fraction of max_closure (tangent stiffness kn0 / (1 - closure_limit)^2: 4 kn0 at 0.5); "
         "a joint that closes further stops the run, -")
     materials: list[MaterialName] = Field(
-        default_factory=list,
+        default_factory=list, exclude_if=lambda v: not v,
         description="names of block materials besides 'brick' (every block's default) and "
         "'table', e.g. [timber, steel]; blocks take them with scene.blocks[k].material or a "
         "builder's materials: {group: name}")
     pairs: list[PairMaterial] = Field(
-        default_factory=list,
+        default_factory=list, exclude_if=lambda v: not v,
         description="joint constants per pair of materials (later entries win); every other "
         "pair takes the fields above")
 

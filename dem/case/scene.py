@@ -28,7 +28,7 @@ class BlockSpec(_Strict):
     fixed: bool = Field(default=False, description="a fixed support box (does not move)")
     group: str = Field(default="blocks", description="label used in the output (wall, roof ...)")
     material: str = Field(
-        default="brick", min_length=1,
+        default="brick", min_length=1, exclude_if=lambda v: v == "brick",
         description="the block's material: brick (default), table or a name declared in "
         "material.materials (joint constants per pair of materials: material.pairs)")
 
