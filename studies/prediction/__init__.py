@@ -37,7 +37,7 @@ The protocol (issue 13: calibrate -> freeze -> predict, in this order in the git
   committed ``<out>/<sweep>/points.json`` does not already hold finished for the same
   fingerprint (case, seeds, frequencies, cycles, step cap, engine results revision); its raw
   runs under ``--runs`` (default ``<out>/runs/``, git-ignored by ``results/*/runs/``).
-  points.json is merged after every seed (:func:`update_points`, under a lock): a point
+  points.json is merged after every seed (points.update_points, under a lock): a point
   finished in an earlier session counts even where its run directory is gone (a new
   checkout, another machine) and never runs again; ``dem sweep`` itself skips every point whose
   run directory holds a finished run, so an interrupted seed resumes.  A sweep whose
@@ -61,13 +61,13 @@ The protocol (issue 13: calibrate -> freeze -> predict, in this order in the git
   da_front (the front facade's centre accelerometer), a's amplification at each cutoff of the
   low-pass sensitivity (``a_lowpass``), the first-harmonic ratio and dominant frequency of ds,
   lags of ds and dsr (s), the excited portion, collapse_suspected, the mechanism labels.
-* ``<out>/summary.json`` and ``<out>/README.md`` (:func:`report`): per sweep the predicted
+* ``<out>/summary.json`` and ``<out>/README.md`` (report.report): per sweep the predicted
   characteristic frequency (the rule of postprocess.sweep.effective_range on the median curve
   over the surviving realisations; null with the reason when the peak is at the edge of the
   sweep or not clear), the effective range, amplification of ds inside and outside (median and
   10-90 % over the realisations), lag inside, excited bricks, survival rate, CPU time; the
-  criteria of issue 13 step 4 (:func:`criteria`) and the false-success checks of step 5
-  (:func:`false_success_checks`), each pass / fail / pending; beside them, not criteria, the
+  criteria of issue 13 step 4 (criteria.criteria) and the false-success checks of step 5
+  (criteria.false_success_checks), each pass / fail / pending; beside them, not criteria, the
   acceleration table, the front / back table and the cycles checks (below).
 
 Thesis numbers: ../shared/REFERENCE.md, "Shaking-table tests (Chapter 4)" (characteristic
@@ -86,13 +86,13 @@ Shown, not scored (none is one of issue 13's criteria):
   of the highest test frequency, 3.6 Hz).  The answer depends on the cutoff (Model II y, 0.2 mm
   planar beds, 2.8 Hz, 10 cycles: raw 6.29; 50 / 20 / 10 Hz: 4.64 / 3.15 / 2.65), so the report
   gives a's amplification inside the thesis' range raw and at 10, 20 and 50 Hz
-  (:func:`acceleration_inside`, from each point's ``a_lowpass_sensitivity``: no rerun).
+  (analysis.acceleration_inside, from each point's ``a_lowpass_sensitivity``: no rerun).
 * Front / back facades (thesis Section 4.3.4, Tables 4.9 - 4.11: front / back 0.359 Model II y,
   0.618 II x, 0.587 III y, constant over frequency).  The front facade carried only its centre
   accelerometer (A5), so the thesis' front amplification is an accelerometer quantity, a or da
   (it does not say which); here da_front / da (the headline: no impact spikes, no assumed
   cutoff) and a_front_lp / a_lp per row, then per-seed means inside the range
-  (:func:`front_back_inside`) and the median ratio per frequency.  The DEM's box model is
+  (analysis.front_back_inside) and the median ratio per frequency.  The DEM's box model is
   symmetric front to back but for the imperfections' draws and the excitation's sign.
 * Fewer cycles (issue 13 step 3: "show that the cut does not change the answer").  The table's
   sine (dem.table_motion) has no ramp-in or taper, the settle phase of an imperfect scene ends
@@ -103,9 +103,9 @@ Shown, not scored (none is one of issue 13's criteria):
   tests/test_shake_truncation.py on a small settling wall).  So ``--cycles-check N``
   re-analyses the finished runs of a sweep over their first N cycles
   (postprocess.shake.analyze_run(cycles=N): no simulation) and compares with the full cycles
-  (:func:`cycles_verdict`, rule CYCLES_RULE): characteristic frequency, ds amplification inside
+  (cycles.cycles_verdict, rule CYCLES_RULE): characteristic frequency, ds amplification inside
   and outside, survival.  The analyses of the first N cycles for N in TRUNCATED_CYCLES are made
-  as the points finish, while their raw runs exist (:func:`record_truncated`; a point_pool
+  as the points finish, while their raw runs exist (cycles.record_truncated; a point_pool
   machine makes them beside its runs), and committed in ``<out>/<sweep>/truncated.json``, so
   that the check does not depend on raw runs surviving between sessions.  Both sides use the
   same runs: those with a kept analysis or a raw run (frames.npz) here; a finished point with
@@ -119,7 +119,7 @@ Shown, not scored (none is one of issue 13's criteria):
 * The cut itself (``--cut-cycles N --only SWEEPS``): the sweeps named, not yet planned and not
   Model II y, are planned at N cycles, and only once Model II y finished at the plan's cycles
   and its cycles-check-N.json, made from the finished sweep, says the answer is unchanged
-  (:func:`cut_record`).  The plan records the cut per sweep with that file and its verdict; a
+  (cycles.cut_record).  The plan records the cut per sweep with that file and its verdict; a
   planned sweep's cycles never change; the false-success check on the excitation names every
   cut and fails one without its record.  Survival is then over N cycles, which the report says.
 
