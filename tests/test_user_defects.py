@@ -488,3 +488,37 @@ def test_an_unforeseen_exception_ends_in_one_line_and_the_mapped_exit_code():
         r = subprocess.run([sys.executable, "-c", src], capture_output=True, text=True)
         assert r.returncode == code, r.stderr
         assert "Traceback" not in r.stderr and len(r.stderr.strip().splitlines()) == 1
+
+
+def test_a_quasi_static_tilts_progress_follows_its_table_angle(tmp_path, monkeypatch):
+    """A quasi-static tilt (no rate) of a slender block (b/h = 0.25: tips below 14 deg at the
+    default kn): the bar counts the table angle in degrees up to the last angle tried, not the
+    relaxations' few simulated seconds (it stopped near t = 0.95 s of a 22.5 s total)."""
+    import dem.run.loop as loop
+    from dem.case import load_case
+    from dem.run import run_case
+
+    seen = []
+
+    class Recorder(loop.Progress):
+        def __init__(self, enabled, total, name, unit="s", label="t"):
+            super().__init__(False, total, name)
+            seen.append({"total": total, "unit": unit, "values": []})
+
+        def update(self, value, rate):
+            seen[-1]["values"].append(value)
+
+    monkeypatch.setattr(loop, "Progress", Recorder)
+    data = {"name": "slender", "scene": {"blocks": [
+        {"size": [0.1, 0.1, 0.4], "position": [0, 0, 0.2], "density": 2000.0}]},
+        "material": {"friction": 0.5},
+        "loading": {"type": "tilt", "axis": "x", "max_angle": 30.0},
+        "run": {"duration": 20.0, "output_interval": 0.05, "vtk": False, "snapshot": False}}
+    path = tmp_path / "slender.yaml"
+    path.write_text(yaml.safe_dump(data))
+    res = run_case(load_case(path), tmp_path / "out", progress=True)
+    bar = seen[-1]
+    assert bar["unit"] == "deg" and bar["total"] == 30.0
+    col = res.summary["collapse"]
+    assert bar["values"] and max(bar["values"]) >= col["angle_deg"] - 1e-9
+    assert max(bar["values"]) <= 30.0

@@ -147,12 +147,15 @@ def run_case(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
                         f"{type(err).__name__}: {err}"
         writer.finish(summary, status, error)
 
-    bar = Progress(progress, stop.t_end, case.name)
+    held = isinstance(loading, HeldTilt)  # the bar follows its table angle (dem.run.progress)
+    bar = Progress(progress, case.loading.max_angle, case.name, "deg", "table angle") if held \
+        else Progress(progress, stop.t_end, case.name)
     run0 = time.perf_counter()
 
-    def progressed(*_) -> None:
+    def progressed(*args) -> None:
         raise_if_stopped()  # one swallowed by Taichi's compiler (dem.signals)
-        bar.update(sim.t, sim.step_count / max(time.perf_counter() - run0, 1e-9))
+        bar.update(float(args[0]) if held and args else sim.t,
+                   sim.step_count / max(time.perf_counter() - run0, 1e-9))
         writer.checkpoint(summary, sim, time.perf_counter() - wall0)
 
     try:
