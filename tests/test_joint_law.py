@@ -310,9 +310,11 @@ def test_record_of_a_hyperbolic_pair():
 
 
 def test_hyperbolic_kernels_cold_compile_without_narrowing():
-    """The kernels compiled for the hyperbolic law (serial, parallel, imperfect faces) and its
-    energy kernel, compiled with an empty offline cache in a fresh process: no lossy assignment
-    and no f32 in the f64 engine (as tests/test_engine_launch.py checks the default kernels)."""
+    """The serial kernel compiled for the hyperbolic law and its energy kernel, compiled with an
+    empty offline cache in a fresh process: no lossy assignment and no f32 in the f64 engine (as
+    tests/test_engine_launch.py checks the default kernels).  One stepping kernel: the parallel
+    and imperfect-face variants run the same law functions (a cold compile costs ~1-2 min of
+    CPU each on the 2-core machine)."""
     import os
     import subprocess
     import sys
@@ -327,9 +329,8 @@ def test_hyperbolic_kernels_cold_compile_without_narrowing():
         from dem.run.build import joint_law, step_options
         mat = Material(friction=0.6, normal_law="hyperbolic", normal_stiffness=1e8,
                        max_closure=1e-4)
-        for mode, arris in (("serial", 0.0), ("parallel", 0.0), ("serial", 1e-3)):
+        for mode in ("serial",):
             scene = build_wall("small", length=2, courses=2)
-            scene.arris[:] = arris
             sim = Simulation(scene, joint_law(mat), step_options(SolverSpec(mode=mode)))
             g = np.array([0.0, 0.0, -9.81])
             sim.advance(3, lambda t: (np.tile(g, (len(t), 1)), np.zeros((len(t), 3))))
