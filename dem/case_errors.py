@@ -59,7 +59,7 @@ def _no_duplicates(node) -> None:
             _no_duplicates(v)
 
 
-def _walk(node, data, loc) -> tuple[list[str], int | None]:
+def _walk(node, data, loc, name_missing: bool = True) -> tuple[list[str], int | None]:
     """Follow ``loc`` through the YAML nodes and the loaded data.
 
     Returns the printable path (keys and list indices that exist, plus a final missing key) and the
@@ -82,7 +82,8 @@ def _walk(node, data, loc) -> tuple[list[str], int | None]:
             if isinstance(node, yaml.SequenceNode) and part < len(node.value):
                 node = node.value[part]
                 line = node.start_mark.line + 1
-        elif last and isinstance(data, dict) and isinstance(part, str) and part.isidentifier():
+        elif last and name_missing and isinstance(data, dict) and isinstance(part, str) \
+                and part.isidentifier():
             path.append(part)  # a missing (or unknown) key: name it, point at its parent
         # anything else is a union tag inserted by pydantic: skip it
     return path, line
@@ -132,7 +133,10 @@ def format_errors(
     merged: dict[tuple[str, int | None], list[str]] = {}
     for e in err.errors():
         loc = tuple(e["loc"])
-        path, line = _walk(node, data, loc) if data is not None else ([str(p) for p in loc], None)
+        # a last part that is not a key of the file is a missing / unknown key, or else a
+        # union tag of a model-level check (loading.shake): dropped then
+        path, line = _walk(node, data, loc, e["type"] in ("missing", "extra_forbidden")) \
+            if data is not None else ([str(p) for p in loc], None)
         msg = e["msg"].removeprefix("Value error, ")
         if e["type"] in _NUMBER_ERRORS and isinstance(e.get("input"), str):
             desc = field_description(model, loc)

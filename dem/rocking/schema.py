@@ -157,6 +157,21 @@ class ShakeLoading(DemShakeLoading):
         return v
 
     @model_validator(mode="after")
+    def _sine_only(self):
+        """The two-body model shakes with dem.table_motion.SineMotion as given (the DEM's
+        default start); the DEM's other starts (``start``, ``ramp_cycles``) are not implemented
+        here: refused rather than ignored."""
+        fields = getattr(type(self), "model_fields", {})
+        start = getattr(self, "start", None)
+        default = fields["start"].default if "start" in fields else None
+        if start is not None and start != default:
+            raise ValueError(f"start: {start!r} is not implemented in the two-body model (only "
+                             f"the default {default!r})")
+        if getattr(self, "ramp_cycles", None) is not None:
+            raise ValueError("ramp_cycles: not implemented in the two-body model")
+        return self
+
+    @model_validator(mode="after")
     def _table_frame_start(self) -> "ShakeLoading":
         """The DEM's ``start: lab`` / ``ramp`` (issue 32) are not taken by the two-body model:
         it starts in the table's frame (dem.table_motion), as it always has."""
