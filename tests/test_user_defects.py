@@ -522,3 +522,37 @@ def test_a_quasi_static_tilts_progress_follows_its_table_angle(tmp_path, monkeyp
     col = res.summary["collapse"]
     assert bar["values"] and max(bar["values"]) >= col["angle_deg"] - 1e-9
     assert max(bar["values"]) <= 30.0
+
+
+def test_post_of_a_sweep_ensemble_reaggregates_it(tmp_path, monkeypatch):
+    """`dem sweep --realisations` directory: each realisation's sweep re-analysed (planted
+    here: post_sweep returns the sweep.json as it is), ensemble.json rebuilt from them."""
+    import dem.commands.post as post
+
+    root = tmp_path / "sw"
+    root.mkdir()
+    amps = {"seed-1": {2.0: 1.2, 2.8: 3.0}, "seed-2": {2.0: 1.4, 2.8: 2.0}}
+    for name, pts in amps.items():
+        (root / name).mkdir()
+        (root / name / "sweep.json").write_text(json.dumps({
+            "points": [{"frequency_hz": f, "status": "ok", "amplification": {"ds": a},
+                        "lag": {"ds": {"s": 0.01}}} for f, a in pts.items()],
+            "failed": [], "aggregate": {"characteristic_frequency_hz": 2.8,
+                                        "peak_amplification": max(pts.values()),
+                                        "effective_range_hz": [2.8, 2.8]}}))
+    (root / "ensemble.json").write_text(json.dumps({
+        "kind": "sweep-ensemble", "case": "m2", "source": "m2.yaml", "imperfections": {},
+        "realisations": [{"name": "seed-1", "seed": 1}, {"name": "seed-2", "seed": 2}]}))
+
+    def planted(d):
+        data = json.loads((d / "sweep.json").read_text())
+        return data, 0
+
+    monkeypatch.setattr(post, "post_sweep", planted)
+    res = _invoke("post", root)
+    assert res.exit_code == 0, res.output
+    data = json.loads((root / "ensemble.json").read_text())
+    assert data["amplification"]["2.8"]["median"] == pytest.approx(2.5)
+    assert data["amplification"]["2"]["n"] == 2
+    assert data["characteristic_frequency_hz"]["median"] == 2.8
+    assert (root / "amplification_band.png").is_file()

@@ -7,7 +7,9 @@
 * an ensemble (``ensemble.json`` of ``dem ensemble``): every realisation's results re-read (a
   shaking realisation re-analysed), the statistics re-aggregated (postprocess.ensemble) and
   ensemble.json / lambda.png rewritten;
-* an ensemble of sweeps (``dem sweep --realisations``): every realisation's sweep re-analysed;
+* an ensemble of sweeps (``dem sweep --realisations``): every realisation's sweep re-analysed,
+  ensemble.json and amplification_band.png re-aggregated
+  (dem.commands.sweep.aggregate_sweep_realisations);
 * a two-body rocking run: nothing to do (``dem rocking`` writes its analysis);
 * anything else: one line saying what DIR is, exit 2.
 
@@ -230,7 +232,15 @@ def post_sweep_ensemble(path: Path) -> int:
         n_failed += failed
         say(f"{d}/sweep.json: {len(data['points'])} points, {failed} failed; "
             f"{characteristic_text(data['aggregate'])}")
-    say(f"{path}: {len(names)} realisations re-analysed; ensemble.json and "
-        f"amplification_band.png are rebuilt by rerunning the same `dem sweep --realisations` "
-        f"(it keeps every finished point)")
+    from dem.commands.sweep import aggregate_sweep_realisations
+
+    seeds = [r.get("seed") for r in old.get("realisations") or [] if isinstance(r, dict)
+             and "name" in r]
+    meta = {"case": old.get("case"), "source": old.get("source"),
+            "imperfections": old.get("imperfections")}
+    result = aggregate_sweep_realisations(path, meta, list(zip(names, seeds)))
+    fc = result["characteristic_frequency_hz"]
+    fc_txt = (f"; characteristic frequency median {fc['median']:.3g} Hz over {fc['n']}"
+              if fc.get("n") else "")
+    say(f"{path}/ensemble.json: {len(names)} realisations re-aggregated{fc_txt}")
     return ExitCode.RUN_FAILED if n_failed else ExitCode.OK

@@ -202,9 +202,7 @@ def _run_sweep_realisations(case_path, out: Path, frequencies, rng, cycles, marg
     """``dem sweep --realisations N``: one sweep per realisation, then their statistics."""
     from dem.batch import Drained
     from dem.case import CaseError, load_case
-    from dem.output.atomic import write_json
     from dem.run.sweep import realisation_cases
-    from postprocess.ensemble import plot_amplification_band, statistics
 
     try:
         case = load_case(case_path)
@@ -239,17 +237,34 @@ def _run_sweep_realisations(case_path, out: Path, frequencies, rng, cycles, marg
         say(f"stopped by {signal_name(err)}: realisation(s) {', '.join(left)} not finished; a "
             f"rerun of the same command keeps every finished point")
         return exit_code_for(err)
+    aggregate_sweep_realisations(
+        out, {"case": case.name, "source": str(case_path),
+              "imperfections": case.imperfections.model_dump()},
+        [(name, c.imperfections.seed) for name, c in cases])
+    say(f"{len(cases)} realisations; {out}/ensemble.json, {out}/amplification_band.png")
+    return ExitCode.RUN_FAILED if any(c != ExitCode.OK for c in codes) else ExitCode.OK
+
+
+def aggregate_sweep_realisations(out: Path, meta: dict, names_seeds: list[tuple[str, int]]
+                                 ) -> dict:
+    """OUT/ensemble.json and amplification_band.png of ``dem sweep --realisations`` from each
+    realisation's OUT/<name>/sweep.json (also ``dem post OUT``): per frequency, the statistics
+    of the amplification and lag of MAIN_QUANTITY over the realisations; the characteristic
+    frequencies' statistics.  ``meta``: case, source, imperfections."""
+    from dem.output.atomic import write_json
+    from postprocess.ensemble import plot_amplification_band, statistics
+
     curves: dict[float, list] = {}
     lags: dict[float, list] = {}
     per_seed = []
-    for name, c in cases:
+    for name, seed in names_seeds:
         try:
             data = json.loads((out / name / "sweep.json").read_text())
         except (OSError, ValueError):
-            per_seed.append({"name": name, "seed": c.imperfections.seed, "status": "missing"})
+            per_seed.append({"name": name, "seed": seed, "status": "missing"})
             continue
         agg = data.get("aggregate") or {}
-        per_seed.append({"name": name, "seed": c.imperfections.seed,
+        per_seed.append({"name": name, "seed": seed,
                          "characteristic_frequency_hz": agg.get("characteristic_frequency_hz"),
                          "failed_points": len(data.get("failed") or [])})
         for p in data.get("points", []):
@@ -260,8 +275,8 @@ def _run_sweep_realisations(case_path, out: Path, frequencies, rng, cycles, marg
             lag = (p.get("lag") or {}).get(MAIN_QUANTITY)
             lags.setdefault(f, []).append(lag.get("s") if isinstance(lag, dict) else lag)
     fcs = [r.get("characteristic_frequency_hz") for r in per_seed]
-    result = {"kind": "sweep-ensemble", "case": case.name, "source": str(case_path),
-              "quantity": MAIN_QUANTITY, "imperfections": case.imperfections.model_dump(),
+    result = {"kind": "sweep-ensemble", "case": meta["case"], "source": meta["source"],
+              "quantity": MAIN_QUANTITY, "imperfections": meta["imperfections"],
               "realisations": per_seed,
               "amplification": {f"{f:g}": statistics(v) for f, v in sorted(curves.items())},
               "lag_s": {f"{f:g}": statistics(v) for f, v in sorted(lags.items())},
@@ -270,6 +285,5 @@ def _run_sweep_realisations(case_path, out: Path, frequencies, rng, cycles, marg
                   sum(1 for x in fcs if x is None)}
     write_json(out / "ensemble.json", result, indent=1, strict=True)
     plot_amplification_band(curves, out / "amplification_band.png", MAIN_QUANTITY,
-                            f"{case.name}: {len(cases)} realisations")
-    say(f"{len(cases)} realisations; {out}/ensemble.json, {out}/amplification_band.png")
-    return ExitCode.RUN_FAILED if any(c != ExitCode.OK for c in codes) else ExitCode.OK
+                            f"{meta['case']}: {len(names_seeds)} realisations")
+    return result
