@@ -516,6 +516,9 @@ def test_committed_points_are_not_run_again_when_their_run_directories_are_gone(
     assert calls == [(2, [freqs[-1]])]                  # nothing ran
 
 
+@pytest.mark.slow  # two dem sweep children (the slowest study test, 351 s beside other jobs,
+# 2026-11-27); the default run keeps a real child run of the prediction in
+# tests/test_point_pool.py::test_a_pooled_point_is_taken_by_the_study_without_a_rerun
 def test_smoke_one_frequency_two_realisations_then_resume(tmp_path, monkeypatch):
     monkeypatch.setenv("DEM_THREADS", "1")
     _, path = _repo(tmp_path)
