@@ -45,10 +45,15 @@ def rocking_command(path, out, plots: bool = True, force: bool = False, echo=pri
     except RunDirError as e:
         err(f"error: {e}")
         return exit_code_for(e)
+    code = ExitCode.RUN_FAILED
     try:
-        return run_rocking_case_file(path, out, plots=plots, echo=echo, err=err, case=case)
+        code = run_rocking_case_file(path, out, plots=plots, echo=echo, err=err, case=case)
+        return code
     finally:
-        rd.release()
+        if code == ExitCode.BAD_INPUT:
+            rd.abandon()  # refused by the model before anything was written: no empty --out
+        else:
+            rd.release()
 
 
 def run_rocking_case_file(path, out, plots: bool = True, echo=print, err=print,
