@@ -41,21 +41,20 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
 
-from studies.kit import child as dem_child
+from postprocess.ensemble import statistics
+from postprocess.sweep import effective_range
+from postprocess.verdicts import band_text, is_rocking
 from studies.kit import session
 from studies.kit.records import read_json
-from postprocess.verdicts import band_text, is_rocking
 from studies.prediction.analysis import survived
 from studies.prediction.plan import frozen_or_none, sweep_case
 from studies.prediction.points import collect_rows, points_path
 from studies.prediction.protocol import DEFAULT_FROZEN
-from postprocess.ensemble import statistics
-from postprocess.sweep import effective_range
+from studies.prediction.run import sweep_realisations
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -124,25 +123,11 @@ def prediction_fit(rows) -> dict:
 def run_sweep(runs: Path, frozen: dict, name: str, seeds: int, cycles: float, log=print,
               drain_file: Path | None = None) -> tuple[int, float]:
     """One ``dem sweep --realisations`` of ``name``'s case above its range; (exit code, CPU s)."""
-    import yaml
-
     case = sweep_case(name, frozen["parameters"])
     data = case.model_dump()
     data["name"] = f"res-{name}"
-    case = type(case).model_validate(data)
-    case_file = runs / f"{name}.yaml"
-    case_file.parent.mkdir(parents=True, exist_ok=True)
-    case_file.write_text(yaml.safe_dump(case.model_dump(mode="json"), sort_keys=False))
-    args = ["sweep", str(case_file), "--out", str(runs / name),
-            "--frequencies", ",".join(f"{f:g}" for f in FREQUENCIES[name]),
-            "--cycles", f"{cycles:g}", "--realisations", str(seeds), "--seed", "0",
-            "--workers", "1"]
-    if drain_file is not None:
-        args += ["--drain-file", str(drain_file)]
-    log(f"[{time.strftime('%H:%M:%S', time.gmtime())} UTC] {name}: {seeds} realisations at "
-        f"{', '.join(f'{f:g}' for f in FREQUENCIES[name])} Hz, {cycles:g} cycles ...")
-    rc, cpu, _ = dem_child.run_dem(args, log)
-    return rc, cpu
+    return sweep_realisations(runs, name, type(case).model_validate(data), FREQUENCIES[name],
+                              cycles, seeds, log, drain_file)
 
 
 def sweep_summary(pred_rows, above_rows, seeds: int) -> dict:

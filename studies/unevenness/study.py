@@ -32,18 +32,17 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
 from pathlib import Path
 
-from studies.kit import child as dem_child
+from postprocess.ensemble import statistics
+from postprocess.verdicts import band_text, is_rocking
 from studies.kit import session
 from studies.kit.records import read_json
-from postprocess.verdicts import band_text, is_rocking
 from studies.prediction.analysis import survived
 from studies.prediction.plan import frozen_or_none, sweep_case
 from studies.prediction.points import collect_rows
 from studies.prediction.protocol import DEFAULT_FROZEN
-from postprocess.ensemble import statistics
+from studies.prediction.run import sweep_realisations
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -70,21 +69,8 @@ def level_case(frozen: dict, b: float):
 def run_level(runs: Path, frozen: dict, b: float, seeds: int, cycles: float, log=print,
               drain_file: Path | None = None) -> tuple[int, float]:
     """One ``dem sweep --realisations`` for level ``b``; returns (exit code, CPU s)."""
-    import yaml
-
-    case = level_case(frozen, b)
-    case_file = runs / f"{level_name(b)}.yaml"
-    case_file.parent.mkdir(parents=True, exist_ok=True)
-    case_file.write_text(yaml.safe_dump(case.model_dump(mode="json"), sort_keys=False))
-    args = ["sweep", str(case_file), "--out", str(runs / level_name(b)),
-            "--frequencies", f"{FREQUENCY_HZ:g}", "--cycles", f"{cycles:g}",
-            "--realisations", str(seeds), "--seed", "0", "--workers", "1"]
-    if drain_file is not None:
-        args += ["--drain-file", str(drain_file)]
-    log(f"[{time.strftime('%H:%M:%S', time.gmtime())} UTC] {level_name(b)}: {seeds} "
-        f"realisations at {FREQUENCY_HZ:g} Hz, {cycles:g} cycles ...")
-    rc, cpu, _ = dem_child.run_dem(args, log)
-    return rc, cpu
+    return sweep_realisations(runs, level_name(b), level_case(frozen, b), [FREQUENCY_HZ],
+                              cycles, seeds, log, drain_file)
 
 
 def level_summary(rows: list[dict]) -> dict:
