@@ -506,10 +506,13 @@ def check_case(case: Case, source: str | Path | None = None,
         w, e = table_plausibility(a_peak, stroke, ld.frequency, "",
                                   where(("loading", "amplitude" if ld.amplitude is not None
                                          else "peak_acceleration")))
+        resolved = 1.0 / ld.frequency >= MIN_STEPS_PER_PERIOD * dt
+        if not resolved:
+            w, e = [], []  # a motion the step cannot resolve: that error (below) comes first
         out.warnings += w
         out.errors += e
         v_peak = stroke * 2.0 * math.pi * ld.frequency
-        if not e and v_peak >= sv.max_speed and a_peak > case.material.friction * \
+        if resolved and not e and v_peak >= sv.max_speed and a_peak > case.material.friction * \
                 float(np.linalg.norm(case.gravity_vector())):
             out.errors.append(
                 f"{where(('loading',))}: the table moves at up to {v_peak:.3g} m/s, at or above "
