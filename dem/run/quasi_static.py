@@ -19,7 +19,13 @@ analysis predicts), as 3DEC / UDEC find static solutions:
    the tolerance, every block at rest) found a new equilibrium: the blocks re-seated on warped
    beds (issue 32 item 4: a 3-brick column with 0.3 mm unevenness snaps through 4 mm at the top
    at 1.4-2.1 deg and stands until 25 deg); the angle is in equilibrium (``why``:
-   "re-seated").  Until issue 32 a motion of ``collapse.confirm`` (5 mm) ended the relaxation as
+   "re-seated").  Where no new equilibrium comes, the relaxation is put back (Simulation.snapshot
+   / restore: state, clock, time step) to where the motion first reached ``collapse.confirm``
+   and the angle fails there, so the search goes on exactly as before this rule: a later trial
+   depends on the clock and time step an earlier failed trial left (save_point keeps neither),
+   and near the limit that moved a wall's lambda by a bisection step (the calibration's 5 x 5
+   wall, seed 0: 0.8044 -> 0.8035 without the put-back).  The look-ahead costs time: its steps
+   are counted in ``lookahead_steps``.  Until issue 32 a motion of ``collapse.confirm`` (5 mm) ended the relaxation as
    a loss of equilibrium, which read that re-seating as the collapse (lambda 0.043 instead of
    ~0.47).  Faster
    rules were tried and removed, each wrong on some Chapter 3 walls: a rise of the block speeds
@@ -84,6 +90,7 @@ class QuasiStaticTilt:
         self.relax_steps = 0
         self.angles: list[dict] = []  # every angle tried: angle, equilibrium, R, time, steps
         self.undecided = False  # run.duration or the step limit ran out during a relaxation
+        self.lookahead_steps = 0  # steps spent looking for a re-seating that did not come
 
     # -- one angle -----------------------------------------------------------------------
     def relax(self, angle: float) -> tuple[bool, float, float]:
@@ -98,11 +105,17 @@ class QuasiStaticTilt:
         sim.set_local_damping(sp.local_damping)
         ok, ratio, moved, why = False, math.inf, 0.0, "max_relax_time"
         calm = 0
+        failed_at = None  # (snapshot, R, motion) where the motion first reached confirm
         while True:
             sim.advance(self._chunk(CHECK_STEPS), self.loading)
             ratio = sim.unbalanced_force_ratio(self.loading.gravity(np.array([sim.t]))[0])
             moved = float(motion_measure(pos0, quat0, st.pos[: self.n], st.quat[: self.n],
                                          self.radius).max())
+            if moved >= self.collapse.confirm and failed_at is None:
+                # look ahead for a new equilibrium (a re-seating); without one the relaxation
+                # is put back to this point, so that the search goes on exactly as it did when
+                # confirm ended the relaxation (perfect walls: results unchanged bit for bit)
+                failed_at = (sim.snapshot(), ratio, moved)
             if moved >= self.collapse.stop:
                 why = "moved"  # the motion kept growing: a mechanism
                 break
@@ -122,12 +135,21 @@ class QuasiStaticTilt:
                 if moved < REST_MOTION * self.collapse.confirm:
                     ok, why = True, "at rest"
                 break
+        lookahead = None
+        if not ok and failed_at is not None:  # no new equilibrium: a loss of equilibrium
+            lookahead = {"lookahead_s": sim.t, "lookahead_motion_m": moved}
+            steps_end = sim.step_count
+            snap, ratio, moved = failed_at
+            sim.restore(snap)
+            lookahead["lookahead_s"] -= sim.t
+            self.lookahead_steps += steps_end - sim.step_count
+            why, self.undecided = "moved", False
         self.relaxations += 1
         self.relax_steps += sim.step_count - steps0
         self.angles.append({"angle_deg": angle, "equilibrium": ok, "why": why,
                             "unbalanced_ratio": ratio, "motion_m": moved,
                             "speed_m_s": self._speed(),
-                            "relax_time_s": sim.t - t0})
+                            "relax_time_s": sim.t - t0, **(lookahead or {})})
         if self.on_progress is not None:
             self.on_progress(angle)
         return ok, ratio, moved
@@ -252,6 +274,7 @@ class QuasiStaticTilt:
                              "max_relax_time_s": sp.max_relax_time,
                              "confirm_m": self.collapse.confirm},
                "relaxations": self.relaxations, "relax_steps": self.relax_steps,
+               "lookahead_steps": self.lookahead_steps,
                "angles": self.angles}
         if not detected:
             out.update({"last_angle_deg": eq, "note": note})
