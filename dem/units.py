@@ -66,7 +66,8 @@ SUMMARY_UNITS: dict[str, str] = {
     "loading.cycles": "-",
     "loading.samples": "-",
     "loading.steps": "-",
-    "loading.steps[].*": "-",
+    "loading.steps[].cycles_run": "-",   # a stepped shake's steps (dem.table_motion)
+    "loading.steps[].end_side": "-",
     "collapse.load_factor": "-",
     "collapse.relaxations": "-",
     "collapse.relax_steps": "-",
@@ -105,7 +106,8 @@ FRAMES_UNITS: dict[str, str] = {
 # instruments.npz (dem/instruments.py)
 INSTRUMENTS_UNITS: dict[str, str] = {
     "t": "s", "disp": "m", "vel": "m/s", "acc": "m/s2", "table_disp": "m", "table_acc": "m/s2",
-    "table_vel": "m/s", "names": "", "kind": "", "group": "", "block": "-", "point": "m", "direction": "-",
+    "table_vel": "m/s", "names": "", "kind": "", "group": "", "block": "-", "point": "m",
+    "direction": "-",
 }
 
 # key endings and their units, longest first (so _m_s2 wins over _s2 and _m)
@@ -120,8 +122,9 @@ SUFFIXES: tuple[tuple[str, str], ...] = tuple(sorted({
 # names of dimensionless numbers (matched against the last key of a path, list marks removed)
 DIMENSIONLESS_WORDS = re.compile(
     r"(^n_|^n$|_count$|^count|ratio|fraction|relative|factor|amplification|^mu$|friction|"
-    r"^seed$|^steps?$|^index$|^frame$|^block$|^blocks$|^ok$|^detected$|^survived$|tolerance|"
-    r"^damping$|_damping$|^revision$|^looks$|^relaxations$|^attempts$|^candidates$)")
+    r"^seed$|(^|_)steps$|^step$|^index$|^frame$|^block$|^blocks$|^ok$|^detected$|^survived$|tolerance|"
+    r"^damping$|_damping$|^revision$|^looks$|^relaxations$|^attempts$|^candidates$|share$|"
+    r"cycles?$|^courses?$|_listed$)")
 
 
 def _last_key(path: str) -> str:

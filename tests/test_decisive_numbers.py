@@ -52,7 +52,9 @@ def test_closed_form_of_lone_blocks_slides_at_mu_and_tips_at_b_over_h():
 
     kn = 5e9
     ref = _limits(_case([slender], mu=0.8, axis="y"), kn=kn)
-    f = lambda t: math.tan(t) - 0.25 + (6 * 2000 * 9.81 * 0.1 * math.cos(t) / (kn * 0.4)) ** (1 / 3)  # noqa: E731
+    def f(t):
+        return math.tan(t) - 0.25 + (6 * 2000 * 9.81 * 0.1 * math.cos(t) / (kn * 0.4)) ** (1 / 3)
+
     assert ref["elastic_load_factor"] == pytest.approx(math.tan(brentq(f, 0.01, 0.5)), rel=1e-10)
     assert elastic_tipping_factor(0.1, 0.4, 2000.0, kn) < 0.25
 

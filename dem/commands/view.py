@@ -75,11 +75,12 @@ def pick_sweep_point(path: Path, point: str | None) -> tuple[Path, str]:
         return float(v) if isinstance(v, (int, float)) and math.isfinite(v) else -math.inf
 
     best = max(dirs, key=ds)
+    names = ", ".join(d.name for d in dirs)
     if ds(best) == -math.inf:
-        return dirs[0], (f"the first of {len(dirs)} points with frames ({', '.join(d.name for d in dirs)}); "
+        return dirs[0], (f"the first of {len(dirs)} points with frames ({names}); "
                          f"--point NAME for another")
-    return best, (f"the largest ds amplification ({ds(best):.3g}) of {len(dirs)} points with frames "
-                  f"({', '.join(d.name for d in dirs)}); --point NAME for another")
+    return best, (f"the largest ds amplification ({ds(best):.3g}) of {len(dirs)} points with "
+                  f"frames ({names}); --point NAME for another")
 
 
 def pick_realisation(path: Path, point: str | None) -> tuple[Path, str]:
