@@ -14,7 +14,7 @@ from studies.calibration.points import run_point
 from studies.calibration.report import report
 from studies.calibration.specimens import (CANDIDATES_FILE, DEFAULT_REALISATIONS, HELD_OUT_DIR,
                                            held_out_specimens, load_candidates, ROOT, specimens)
-from studies.kit import child as dem_child, session
+from studies.kit import session
 from studies.kit.provenance import repo_rel
 
 
@@ -69,11 +69,8 @@ def main(argv=None) -> int:
             ap.error(f"unknown {what}(s) {bad}; known: {list(known)}")
     cands = {c: all_c[c] for c in (args.candidates or all_c)}
     specs = {s: all_s[s] for s in all_s if args.specimens is None or s in args.specimens}
-    out = args.out
-    runs = args.runs or out / "runs"
-    out.mkdir(parents=True, exist_ok=True)
+    out, runs = session.begin(args.out, args.runs)
     command = _command(args)
-    dem_child.install_signal_handlers()
     if not args.report:
         for c, params in cands.items():
             for s, spec in specs.items():
@@ -127,9 +124,7 @@ def _main_held_out(ap, args) -> int:
         ap.error(f"unknown held-out specimen(s) {bad}; known: {list(all_s)}")
     record = {"frozen": {"file": frozen["path"], "commit": frozen["commit"],
                          "sha256": frozen["sha256"]}}
-    out, runs = args.out, args.runs or args.out / "runs"
-    out.mkdir(parents=True, exist_ok=True)
-    dem_child.install_signal_handlers()
+    out, runs = session.begin(args.out, args.runs)
     for s, spec in all_s.items():
         if args.specimens and s not in args.specimens:
             continue

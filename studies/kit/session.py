@@ -71,3 +71,13 @@ def command(prog: str, *parts, **options) -> str:
         else:
             cmd += [flag, text(value)]
     return " ".join(cmd)
+
+
+def begin(out: Path, runs: Path | None = None) -> tuple[Path, Path]:
+    """Begin a session of a study that stops on signals and a stop time only (calibration,
+    qs-validation): ``out`` made, the raw runs' folder (default ``<out>/runs``) and the signal
+    handlers installed; returns (out, runs)."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    child.install_signal_handlers()
+    return out, Path(runs) if runs is not None else out / "runs"

@@ -60,7 +60,6 @@ import numpy as np
 from studies.calibration import points as cal_points
 from studies.calibration import report as cal_report
 from studies.calibration import specimens as cal_specimens
-from studies.kit import child as dem_child
 from studies.kit import session
 from studies.kit.provenance import repo_rel
 from studies.kit.records import read_json
@@ -251,11 +250,8 @@ def main(argv=None) -> int:
         ap.error("--realisations must be >= 1")
     specs = {s: all_s[s] for s in all_s if args.specimens is None or s in args.specimens}
     params = cands[args.candidate]
-    out = args.out
-    runs = args.runs or out / "runs"
-    out.mkdir(parents=True, exist_ok=True)
+    out, runs = session.begin(args.out, args.runs)
     command = _command(args)
-    dem_child.install_signal_handlers()
     if not args.report:
         for s, spec in specs.items():
             for r in sorted(args.rates, reverse=True):        # the fast rate first: cheapest
