@@ -94,24 +94,3 @@ def run_sweep_point(out: Path, runs: Path, name: str, plan: dict, workers: int |
     state = "finished" if data["prediction"]["finished"] else "pending"
     log(f"    -> {state}: {cpu_all:.0f} CPU-s this call")
     return state
-
-
-
-def sweep_realisations(runs: Path, name: str, case, freqs, cycles: float, seeds: int, log=print,
-                       drain_file: Path | None = None) -> tuple[int, float]:
-    """The studies that run the prediction's cases beside it (unevenness, resonance): the case
-    written to ``<runs>/<name>.yaml`` (:func:`write_run_case`), then one child
-    ``dem sweep ... --out <runs>/<name> --frequencies F --cycles C --realisations N --seed 0
-    --workers 1`` (seeds 0 .. N-1; ``drain_file`` handed on).  Returns (exit code, CPU s of the
-    child's process tree)."""
-    case_file = write_run_case(runs, name, case)
-    fs = ",".join(f"{f:g}" for f in freqs)
-    args = ["sweep", str(case_file), "--out", str(Path(runs) / name), "--frequencies", fs,
-            "--cycles", f"{cycles:g}", "--realisations", str(seeds), "--seed", "0",
-            "--workers", "1"]
-    if drain_file is not None:
-        args += ["--drain-file", str(drain_file)]
-    log(f"[{time.strftime('%H:%M:%S', time.gmtime())} UTC] {name}: {seeds} realisations at "
-        f"{fs.replace(',', ', ')} Hz, {cycles:g} cycles ...")
-    rc, cpu, _ = dem_child.run_dem(args, log)
-    return rc, cpu

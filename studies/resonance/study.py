@@ -38,7 +38,6 @@ departs from the fit, says the linear reading is wrong.  Either answer is report
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 from pathlib import Path
@@ -49,12 +48,11 @@ from postprocess.ensemble import statistics
 from postprocess.sweep import effective_range
 from postprocess.verdicts import band_text, is_rocking
 from studies.kit import session
-from studies.kit.records import read_json
 from studies.prediction.analysis import survived
-from studies.prediction.plan import frozen_or_none, sweep_case
+from studies.prediction.plan import sweep_case
 from studies.prediction.points import collect_rows, points_path
-from studies.prediction.protocol import DEFAULT_FROZEN
-from studies.prediction.run import sweep_realisations
+from studies.prediction import side
+from studies.prediction.side import sweep_realisations
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -252,40 +250,25 @@ def _plot(path: Path, sweeps: dict) -> None:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
-    ap.add_argument("--frozen", type=Path, default=DEFAULT_FROZEN)
+    ap = side.parser(__doc__, ROOT / "results" / "prediction" / "resonance-search", SEEDS, CYCLES)
     ap.add_argument("--prediction", type=Path, default=ROOT / "results" / "prediction",
                     help="the prediction's output folder (its <sweep>/points.json are fitted)")
-    ap.add_argument("--out", type=Path,
-                    default=ROOT / "results" / "prediction" / "resonance-search")
     ap.add_argument("--only", default=",".join(FREQUENCIES),
                     help="comma-separated sweeps to run (default: all)")
-    ap.add_argument("--seeds", type=int, default=SEEDS)
-    ap.add_argument("--cycles", type=float, default=CYCLES)
-    ap.add_argument("--report", action="store_true", help="only rebuild the report")
     args = ap.parse_args(argv)
-    frozen = frozen_or_none(args.frozen)
+    frozen = side.frozen_and_checked(args)
     if frozen is None:
         return 2
     only = [s for s in args.only.split(",") if s]
     bad = [s for s in only if s not in FREQUENCIES]
-    if bad or args.seeds < 1 or not args.cycles > 0:
-        print(f"error: --only must name sweeps of {list(FREQUENCIES)} (got {bad}); --seeds >= 1 "
-              "and --cycles > 0", file=sys.stderr)
+    if bad:
+        print(f"error: --only must name sweeps of {list(FREQUENCIES)} (got {bad})",
+              file=sys.stderr)
         return 2
-    out, runs = Path(args.out), Path(args.out) / "runs"
-    cpu_path = out / "cpu.json"
-    cpu = read_json(cpu_path) or {}
-    codes = []
-    if not args.report:
-        drain = session.start(runs)
-        for name in only:
-            if session.should_stop(drain):
-                break
-            rc, c = run_sweep(runs, frozen, name, args.seeds, args.cycles, drain_file=drain)
-            codes.append(rc)
-            # under a lock, re-read: a call on another sweep may run beside this one
-            cpu = session.add_cpu(cpu_path, name, c)
+    out = Path(args.out)
+    # a call on another sweep may run beside this one: the ledger is merged under its lock
+    cpu, codes = side.run_items(out, [] if args.report else only, lambda name, drain: (
+        run_sweep(out / "runs", frozen, name, args.seeds, args.cycles, drain_file=drain)))
     cmd = session.command("resonance", seeds=(args.seeds, SEEDS), cycles=(args.cycles, CYCLES))
     report(out, Path(args.prediction), frozen, args.seeds, args.cycles, cpu, cmd)
     print(f"{out}/summary.json, {out}/README.md", file=sys.stderr)

@@ -30,19 +30,17 @@ against the swing measured here; the report says so beside the table.
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
 from postprocess.ensemble import statistics
 from postprocess.verdicts import band_text, is_rocking
 from studies.kit import session
-from studies.kit.records import read_json
 from studies.prediction.analysis import survived
-from studies.prediction.plan import frozen_or_none, sweep_case
+from studies.prediction.plan import sweep_case
 from studies.prediction.points import collect_rows
-from studies.prediction.protocol import DEFAULT_FROZEN
-from studies.prediction.run import sweep_realisations
+from studies.prediction import side
+from studies.prediction.side import sweep_realisations
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -174,32 +172,17 @@ def _plot(path: Path, levels: dict, frozen: dict) -> None:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
-    ap.add_argument("--frozen", type=Path, default=DEFAULT_FROZEN)
-    ap.add_argument("--out", type=Path,
-                    default=ROOT / "results" / "prediction" / "unevenness-sensitivity")
-    ap.add_argument("--seeds", type=int, default=SEEDS)
-    ap.add_argument("--cycles", type=float, default=CYCLES)
-    ap.add_argument("--report", action="store_true", help="only rebuild the report")
+    ap = side.parser(__doc__, ROOT / "results" / "prediction" / "unevenness-sensitivity", SEEDS,
+                     CYCLES)
     args = ap.parse_args(argv)
-    frozen = frozen_or_none(args.frozen)
+    frozen = side.frozen_and_checked(args)
     if frozen is None:
         return 2
-    if args.seeds < 1 or not args.cycles > 0:
-        print("error: --seeds must be >= 1 and --cycles > 0", file=sys.stderr)
-        return 2
-    out, runs = Path(args.out), Path(args.out) / "runs"
-    cpu_path = out / "cpu.json"
-    cpu = read_json(cpu_path) or {}
-    codes = []
-    if not args.report:
-        drain = session.start(runs)
-        for b in sorted(LEVELS_M, reverse=True):   # the largest first: the 0.2 mm question
-            if session.should_stop(drain):
-                break
-            rc, c = run_level(runs, frozen, b, args.seeds, args.cycles, drain_file=drain)
-            codes.append(rc)
-            cpu = session.add_cpu(cpu_path, level_name(b), c)
+    out, levels = Path(args.out), {level_name(b): b for b in sorted(LEVELS_M, reverse=True)}
+    # the largest level first: the 0.2 mm question
+    cpu, codes = side.run_items(out, [] if args.report else list(levels), lambda name, drain: (
+        run_level(out / "runs", frozen, levels[name], args.seeds, args.cycles,
+                  drain_file=drain)))
     cmd = session.command("unevenness", seeds=(args.seeds, SEEDS), cycles=(args.cycles, CYCLES))
     report(out, frozen, args.seeds, args.cycles, cpu, cmd)
     print(f"{out}/summary.json, {out}/README.md", file=sys.stderr)

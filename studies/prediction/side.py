@@ -1,0 +1,76 @@
+"""What the studies that run the prediction's cases beside it share (the unevenness and
+resonance studies): their command line's common options, the session loop (drain file, one
+``dem sweep --realisations`` child per item, the CPU ledger ``<out>/cpu.json``) and the child
+run itself."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+from studies.kit import child as dem_child
+from studies.kit import session
+from studies.kit.records import read_json
+from studies.prediction.plan import frozen_or_none
+from studies.prediction.protocol import DEFAULT_FROZEN
+from studies.prediction.run import write_run_case
+
+
+def parser(doc: str, out: Path, seeds: int, cycles: float) -> argparse.ArgumentParser:
+    """--frozen, --out, --seeds, --cycles and --report with the study's defaults."""
+    ap = argparse.ArgumentParser(description=doc, formatter_class=argparse.RawTextHelpFormatter)
+    ap.add_argument("--frozen", type=Path, default=DEFAULT_FROZEN)
+    ap.add_argument("--out", type=Path, default=out)
+    ap.add_argument("--seeds", type=int, default=seeds)
+    ap.add_argument("--cycles", type=float, default=cycles)
+    ap.add_argument("--report", action="store_true", help="only rebuild the report")
+    return ap
+
+
+def frozen_and_checked(args) -> dict | None:
+    """The frozen set, or None after printing why (bad --frozen, --seeds < 1, --cycles <= 0):
+    the caller exits 2."""
+    frozen = frozen_or_none(args.frozen)
+    if frozen is not None and (args.seeds < 1 or not args.cycles > 0):
+        print("error: --seeds must be >= 1 and --cycles > 0", file=sys.stderr)
+        return None
+    return frozen
+
+
+def run_items(out: Path, items, run_one) -> tuple[dict, list[int]]:
+    """Run ``run_one(item, drain) -> (exit code, CPU s)`` for each item (a key of the CPU
+    ledger) until a stop signal or the drain file ``<out>/runs/DRAIN``; the CPU seconds added to
+    ``<out>/cpu.json`` under its lock after each.  Returns (the ledger, the exit codes)."""
+    runs, cpu_path = Path(out) / "runs", Path(out) / "cpu.json"
+    cpu, codes = read_json(cpu_path) or {}, []
+    if items:
+        drain = session.start(runs)
+        for item in items:
+            if session.should_stop(drain):
+                break
+            rc, c = run_one(item, drain)
+            codes.append(rc)
+            cpu = session.add_cpu(cpu_path, item, c)
+    return cpu, codes
+
+
+def sweep_realisations(runs: Path, name: str, case, freqs, cycles: float, seeds: int, log=print,
+                       drain_file: Path | None = None) -> tuple[int, float]:
+    """The studies that run the prediction's cases beside it (unevenness, resonance): the case
+    written to ``<runs>/<name>.yaml`` (:func:`write_run_case`), then one child
+    ``dem sweep ... --out <runs>/<name> --frequencies F --cycles C --realisations N --seed 0
+    --workers 1`` (seeds 0 .. N-1; ``drain_file`` handed on).  Returns (exit code, CPU s of the
+    child's process tree)."""
+    case_file = write_run_case(runs, name, case)
+    fs = ",".join(f"{f:g}" for f in freqs)
+    args = ["sweep", str(case_file), "--out", str(Path(runs) / name), "--frequencies", fs,
+            "--cycles", f"{cycles:g}", "--realisations", str(seeds), "--seed", "0",
+            "--workers", "1"]
+    if drain_file is not None:
+        args += ["--drain-file", str(drain_file)]
+    log(f"[{time.strftime('%H:%M:%S', time.gmtime())} UTC] {name}: {seeds} realisations at "
+        f"{fs.replace(',', ', ')} Hz, {cycles:g} cycles ...")
+    rc, cpu, _ = dem_child.run_dem(args, log)
+    return rc, cpu
