@@ -13,7 +13,8 @@ analysis predicts), as 3DEC / UDEC find static solutions:
    ``collapse.onset_speed``) at ``CALM_CHECKS`` looks in a row;
 2. equilibrium is lost at an angle when, while relaxing, a block moves ``collapse.stop`` (the
    motion measure of dem.collapse, from the poses at the start of the relaxation: the motion
-   kept growing) or ``max_relax_time`` passes with R above the tolerance and a block moved more
+   kept growing) or finds no new equilibrium within ``collapse.after`` s of moving
+   ``collapse.confirm`` (the constant-rate detector's rule, dem.collapse), or ``max_relax_time`` passes with R above the tolerance and a block moved more
    than ``REST_MOTION`` x confirm (less: in equilibrium, whatever R and the speeds say).  A
    relaxation in which a block moved ``collapse.confirm`` or more and then came to rest (R below
    the tolerance, every block at rest) found a new equilibrium: the blocks re-seated on warped
@@ -115,9 +116,12 @@ class QuasiStaticTilt:
                 # look ahead for a new equilibrium (a re-seating); without one the relaxation
                 # is put back to this point, so that the search goes on exactly as it did when
                 # confirm ended the relaxation (perfect walls: results unchanged bit for bit)
-                failed_at = (sim.snapshot(), ratio, moved)
+                failed_at = (sim.snapshot(), ratio, moved, sim.t)
             if moved >= self.collapse.stop:
                 why = "moved"  # the motion kept growing: a mechanism
+                break
+            if failed_at is not None and sim.t - failed_at[3] >= self.collapse.after:
+                why = "moved"  # no new equilibrium within collapse.after (dem.collapse)
                 break
             turned = sim.t - t0 >= sp.ramp_time
             at_rest = self._speed() < self.collapse.onset_speed
@@ -139,7 +143,7 @@ class QuasiStaticTilt:
         if not ok and failed_at is not None:  # no new equilibrium: a loss of equilibrium
             lookahead = {"lookahead_s": sim.t, "lookahead_motion_m": moved}
             steps_end = sim.step_count
-            snap, ratio, moved = failed_at
+            snap, ratio, moved, _ = failed_at
             sim.restore(snap)
             lookahead["lookahead_s"] -= sim.t
             self.lookahead_steps += steps_end - sim.step_count
