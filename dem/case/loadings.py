@@ -21,7 +21,10 @@ class CollapseSpec(_Strict):
     onset_speed: float = Field(
         default=1e-3, gt=0.0, description="m/s: blocks slower than this are at rest (onset)"
     )
-    confirm: float = Field(default=5e-3, gt=0.0, description="motion (m) that confirms collapse")
+    confirm: float = Field(
+        default=5e-3, gt=0.0,
+        description="motion (m) from the settled pose that confirms collapse, unless every block "
+                    "comes to rest again before stop / after (a re-seating)")
     after: float = Field(default=1.0, ge=0.0, description="s to run on after confirmation")
     stop: float = Field(default=0.03, gt=0.0, description="stop earlier once a block moved this, m")
 
@@ -39,8 +42,9 @@ class QuasiStaticSpec(_Strict):
     damping (``local_damping``: it does not change a static equilibrium, it only removes the
     motion) until the unbalanced-force ratio (sum over blocks of |net force| + |net torque| /
     radius, over the sum of their weights) is below ``tolerance`` with every block at rest;
-    equilibrium is lost when a block moves ``collapse.confirm`` while relaxing, or when
-    ``max_relax_time`` passes without that and a block moved more than a tenth of
+    equilibrium is lost when a block moves ``collapse.confirm`` while relaxing and no new
+    equilibrium follows within ``collapse.after`` s (one that does is a re-seating on warped
+    beds), or when ``max_relax_time`` passes without that and a block moved more than a tenth of
     ``collapse.confirm`` (less: in equilibrium).  The first failing increment is bisected down to
     ``resolution``; lambda = tan(last angle in equilibrium).  Then the run goes on dynamically
     (no local damping) at the first failing increment's angle for ``collapse.after`` s or until
