@@ -27,6 +27,15 @@ def e4(workers: int = typer.Option(1, help="dem sweep workers (one single-thread
     exp.report()
 
 
+@app.command()
+def e7() -> None:
+    """E7: the thesis' accelerations read as relative to the table, from the first prediction's
+    committed rows (analysis only: no run)."""
+    from studies.diagnosis import e7 as exp
+
+    exp.report()
+
+
 def main(argv=None) -> int:
     app(args=argv, prog_name="python -m studies diagnosis", standalone_mode=True)
     return 0
