@@ -35,16 +35,11 @@ scenes are timed interleaved (median of --repeats x 20 runs, CPU time), so the r
 warped / perfect come from one run on one machine state; the contact and integrate stages run
 on copies of the snapshot put back before every timed run.  Besides the stages above: the
 face frame + incident face + four rectangle clips alone (what a reuse of cut patches would
-keep), and, for planar warps, the gap at 2 npoly + 1 points per pair evaluated as
-geometry.warped_patch does (two bilinear forms a point) and from affine coefficients found once
-per pair (``geometry.planar_gap``); and the planar patch (gap clip, quadrature, points) by
-geometry.warped_patch and by a copy of the code before geometry.planar_gap
-(``_planar_tail_before``, two bilinear forms a point), timed in the same process, with the
-differences of their points, weights and resultants on the snapshot (``planar_tail_diff``:
-speed and error side by side).  A census kernel (``census``, mirroring geometry.face_contact) counts
-touching pairs, points, the face pairs that are whole (no vertex of the overlap polygon with
-gap <= 0: the last clip cuts nothing, as flat_patch's ``whole``), planar / twisted pairs and the
-largest difference between the gap and its affine form; ``_critical_step`` says which block
+keep).  (The comparisons with frozen copies of older engine code, the planar patch before
+geometry.planar_gap and its gap evaluation, are gone: git keeps them.)  A census kernel
+(``census``, mirroring geometry.face_contact) counts touching pairs, points, the face pairs
+that are whole (no vertex of the overlap polygon with gap <= 0: the last clip cuts nothing, as
+flat_patch's ``whole``), planar / twisted pairs and the largest difference between the gap and its affine form; ``_critical_step`` says which block
 and which mode set dt_crit (dem.engine.timestep's bound split into its terms), and
 ``_rotating`` how many of the free rotation's five factors call sin / cos.
 """
@@ -105,7 +100,8 @@ def _kernels():
     """The timing and diagnostic kernels of --stages, made once per process (after ti.init).
 
     ``warped`` (compile time) selects the imperfect kernels' code, as
-    dem.engine.step.advance_serial_warped does; the perfect wall's figures use False, as before.
+    dem.engine.step.advance_serial(..., warped=True, ...) does; the perfect wall's figures use
+    False, as before.
     ``_overlap`` mirrors dem.engine.geometry.face_contact up to the four rectangle clips (the
     patch before the gap clip: what a reuse of cut patches would keep), so that the census can
     evaluate the gap at the overlap's vertices; it reads, never writes, the containers."""
@@ -164,7 +160,7 @@ def _kernels():
         ti.loop_config(serialize=True)
         for _ in range(reps):
             for p in range(n_pairs):
-                step.contact_stage(p, dt, model, state, contacts, control, warped)
+                step.contact_stage(p, dt, model, state, contacts, control, warped, False)
 
     @ti.kernel
     def integrate(reps: ti.i32, n_bodies: ti.i32, dt: ti.f64, model: ModelArgs,
@@ -296,222 +292,8 @@ def _kernels():
                 acc += npoly + xs[0] + ys[1] + ci[2] + oR[0] + oI[0]
         return acc
 
-    @ti.kernel
-    def gap(reps: ti.i32, n_pairs: ti.i32, model: ModelArgs, state: StateArgs,
-            contacts: ContactArgs, affine: ti.template()) -> ti.f64:
-        """_overlap, then for planar warped pairs the gap at 2 npoly + 1 points (the overlap's
-        vertices, as many patch points and the centroid: what warped_patch's planar branch
-        evaluates for a whole patch) either as today (two bilinear forms per point) or from
-        affine coefficients found once per pair (geometry.planar_gap, then a + bx x + by y)."""
-        acc = 0.0
-        ti.loop_config(serialize=True)
-        for _ in range(reps):
-            for p in range(n_pairs):
-                xs = geometry.point_buffer()
-                ys = geometry.point_buffer()
-                xt = geometry.point_buffer()
-                yt = geometry.point_buffer()
-                npoly, imp_pair, c, n, u1, u2, nI, ci, hR1, hR2, RI, hI, m, oR, oI = _overlap(
-                    p, model, state, contacts, xs, ys, xt, yt)
-                d0, gx, gy = geometry.affine_gap(c, u1, u2, n, nI, ci)
-                tw = ti.abs(0.25 * (oR[0] - oR[1] - oR[2] + oR[3])) + ti.abs(
-                    0.25 * (oI[0] - oI[1] - oI[2] + oI[3]))
-                if npoly > 0 and imp_pair > 0 and tw <= geometry.TWIST_FLOOR:
-                    d1, d2, inv1, inv2, invI1, invI2, cc = _gap_frame(RI, hI, m, hR1, hR2, c, ci)
-                    sx = 0.0
-                    sy = 0.0
-                    if ti.static(affine):
-                        a, bx, by = geometry.planar_gap(cc, u1, u2, inv1, inv2, oR, d1, d2, invI1,
-                                                            invI2, oI, d0, gx, gy)
-                        for q in range(npoly):
-                            acc += a + bx * xs[q] + by * ys[q]
-                            acc += a + bx * (0.9 * xs[q]) + by * (0.9 * ys[q])
-                            sx += xs[q]
-                            sy += ys[q]
-                        acc += a + (bx * sx + by * sy) / npoly
-                    else:
-                        for q in range(npoly):
-                            acc += _gap(xs[q], ys[q], cc, u1, u2, inv1, inv2, oR, d1, d2, invI1,
-                                        invI2, oI, d0, gx, gy)
-                            acc += _gap(0.9 * xs[q], 0.9 * ys[q], cc, u1, u2, inv1, inv2, oR,
-                                        d1, d2, invI1, invI2, oI, d0, gx, gy)
-                            sx += xs[q]
-                            sy += ys[q]
-                        acc += _gap(sx / npoly, sy / npoly, cc, u1, u2, inv1, inv2, oR, d1, d2,
-                                    invI1, invI2, oI, d0, gx, gy)
-                else:
-                    acc += npoly + d0
-        return acc
-
-    @ti.func
-    def _planar_tail_before(c, n, u1, u2, hR1, hR2, oR, ci, RI, hI, m, oI, d0, gx, gy, npoly,
-                            xs: ti.template(), ys: ti.template(), xt: ti.template(),
-                            yt: ti.template(), px: ti.template(), py: ti.template(),
-                            pz: ti.template(), dep: ti.template(), w: ti.template()):
-        """geometry.warped_patch's planar branch as it was before planar_gap (commit 2a8676f):
-        the two bilinear forms evaluated at every vertex, the centroid and every point."""
-        m1 = (m + 1) % 3
-        m2 = (m + 2) % 3
-        d1 = vec3(RI[0, m1], RI[1, m1], RI[2, m1])
-        d2 = vec3(RI[0, m2], RI[1, m2], RI[2, m2])
-        inv1 = 1.0 / hR1
-        inv2 = 1.0 / hR2
-        invI1 = 1.0 / hI[m1]
-        invI2 = 1.0 / hI[m2]
-        cc = c - ci
-        npts = 0
-        fs = geometry.point_buffer()
-        for q in range(npoly):
-            r = cc + xs[q] * u1 + ys[q] * u2
-            fs[q] = -(d0 + gx * xs[q] + gy * ys[q]
-                      + geometry.bilinear(oR, xs[q] * inv1, ys[q] * inv2)
-                      + geometry.bilinear(oI, r.dot(d1) * invI1, r.dot(d2) * invI2))
-        npoly = geometry.clip_values(xs, ys, fs, npoly, xt, yt)
-        area, shrink, gcx, gcy = geometry.polygon_quadrature(xt, yt, npoly, w)
-        rc = cc + gcx * u1 + gcy * u2
-        dc = ti.max(d0 + gx * gcx + gy * gcy + geometry.bilinear(oR, gcx * inv1, gcy * inv2)
-                    + geometry.bilinear(oI, rc.dot(d1) * invI1, rc.dot(d2) * invI2), 0.0)
-        centroid = c + gcx * u1 + gcy * u2 - 0.5 * dc * n
-        if area > 0.0:
-            npts = ti.min(npoly, geometry.MAXP)
-            for q in range(npts):
-                r = cc + xt[q] * u1 + yt[q] * u2
-                dq = ti.max(d0 + gx * xt[q] + gy * yt[q]
-                            + geometry.bilinear(oR, xt[q] * inv1, yt[q] * inv2)
-                            + geometry.bilinear(oI, r.dot(d1) * invI1, r.dot(d2) * invI2), 0.0)
-                p = c + xt[q] * u1 + yt[q] * u2 - 0.5 * dq * n
-                px[q] = p[0]
-                py[q] = p[1]
-                pz[q] = p[2]
-                dep[q] = dq
-        return npts, shrink, centroid
-
-    @ti.func
-    def _is_planar(imp_pair, oR, oI):
-        tw = ti.abs(0.25 * (oR[0] - oR[1] - oR[2] + oR[3])) + ti.abs(
-            0.25 * (oI[0] - oI[1] - oI[2] + oI[3]))
-        return imp_pair > 0 and tw <= geometry.TWIST_FLOOR
-
-    @ti.func
-    def _tail(now: ti.template(), c, n, u1, u2, hR1, hR2, oR, ci, RI, hI, m, oI, d0, gx, gy,
-              npoly, xs: ti.template(), ys: ti.template(), xt: ti.template(),
-              yt: ti.template()):
-        """One planar pair's gap clip, quadrature and points, now or before; returns a sum of
-        the results (so that nothing is optimised away)."""
-        px = geometry.point_buffer()
-        py = geometry.point_buffer()
-        pz = geometry.point_buffer()
-        dep = geometry.point_buffer()
-        w = geometry.point_buffer()
-        npts = 0
-        shrink = 1.0
-        centroid = vec3(0.0)
-        if ti.static(now):
-            npts, shrink, centroid = geometry.warped_patch(
-                c, n, u1, u2, hR1, hR2, oR, ci, RI, hI, m, oI, d0, gx, gy, npoly, xs, ys, xt, yt,
-                px, py, pz, dep, w)
-        else:
-            npts, shrink, centroid = _planar_tail_before(
-                c, n, u1, u2, hR1, hR2, oR, ci, RI, hI, m, oI, d0, gx, gy, npoly, xs, ys, xt, yt,
-                px, py, pz, dep, w)
-        return npts + shrink + centroid[0] + dep[0] + w[0] + px[0]
-
-    @ti.kernel
-    def planar_tail(reps: ti.i32, n_pairs: ti.i32, model: ModelArgs, state: StateArgs,
-                    contacts: ContactArgs, now: ti.template()) -> ti.f64:
-        """_overlap, then for planar warped pairs the gap clip, quadrature and points: the
-        engine's geometry.warped_patch (``now``: planar_gap, a + bx x + by y) or the code before
-        it (:func:`_planar_tail_before`).  Other pairs: _overlap alone."""
-        acc = 0.0
-        ti.loop_config(serialize=True)
-        for _ in range(reps):
-            for p in range(n_pairs):
-                xs = geometry.point_buffer()
-                ys = geometry.point_buffer()
-                xt = geometry.point_buffer()
-                yt = geometry.point_buffer()
-                npoly, imp_pair, c, n, u1, u2, nI, ci, hR1, hR2, RI, hI, m, oR, oI = _overlap(
-                    p, model, state, contacts, xs, ys, xt, yt)
-                if npoly > 0 and _is_planar(imp_pair, oR, oI):
-                    d0, gx, gy = geometry.affine_gap(c, u1, u2, n, nI, ci)
-                    acc += _tail(now, c, n, u1, u2, hR1, hR2, oR, ci, RI, hI, m, oI, d0, gx, gy,
-                                 npoly, xs, ys, xt, yt)
-                else:
-                    acc += npoly + xs[0]
-        return acc
-
-    @ti.kernel
-    def planar_tail_diff(n_pairs: ti.i32, model: ModelArgs, state: StateArgs,
-                         contacts: ContactArgs, out: ti.types.ndarray(ndim=2)):
-        """Per planar warped pair, the engine's patch (planar_gap) against the code before it
-        (:func:`_planar_tail_before`) on the same overlap: out[p] = (planar pair, points now,
-        points before, largest |depth difference| (m), largest |point position difference|
-        (m), largest |weight difference| (m^2), |centroid difference| (m), largest depth now
-        (m))."""
-        ti.loop_config(serialize=True)
-        for p in range(n_pairs):
-            xs = geometry.point_buffer()
-            ys = geometry.point_buffer()
-            xt = geometry.point_buffer()
-            yt = geometry.point_buffer()
-            npoly, imp_pair, c, n, u1, u2, nI, ci, hR1, hR2, RI, hI, m, oR, oI = _overlap(
-                p, model, state, contacts, xs, ys, xt, yt)
-            for k in ti.static(range(8)):
-                out[p, k] = 0.0
-            if npoly > 0 and _is_planar(imp_pair, oR, oI):
-                d0, gx, gy = geometry.affine_gap(c, u1, u2, n, nI, ci)
-                px0 = geometry.point_buffer()
-                py0 = geometry.point_buffer()
-                pz0 = geometry.point_buffer()
-                dep0 = geometry.point_buffer()
-                w0 = geometry.point_buffer()
-                n0, s0, c0 = _planar_tail_before(c, n, u1, u2, hR1, hR2, oR, ci, RI, hI, m, oI,
-                                                 d0, gx, gy, npoly, xs, ys, xt, yt, px0, py0,
-                                                 pz0, dep0, w0)
-                px1 = geometry.point_buffer()
-                py1 = geometry.point_buffer()
-                pz1 = geometry.point_buffer()
-                dep1 = geometry.point_buffer()
-                w1 = geometry.point_buffer()
-                n1, s1, c1 = geometry.warped_patch(c, n, u1, u2, hR1, hR2, oR, ci, RI, hI, m,
-                                                   oI, d0, gx, gy, npoly, xs, ys, xt, yt, px1,
-                                                   py1, pz1, dep1, w1)
-                out[p, 0] = 1.0
-                out[p, 1] = n1
-                out[p, 2] = n0
-                if n0 == n1:
-                    for q in range(n1):
-                        out[p, 3] = ti.max(out[p, 3], ti.abs(dep1[q] - dep0[q]))
-                        dpos = vec3(px1[q] - px0[q], py1[q] - py0[q], pz1[q] - pz0[q]).norm()
-                        out[p, 4] = ti.max(out[p, 4], dpos)
-                        out[p, 5] = ti.max(out[p, 5], ti.abs(w1[q] - w0[q]))
-                        out[p, 7] = ti.max(out[p, 7], dep1[q])
-                out[p, 6] = (c1 - c0).norm()
-                # the patch's resultant: sum w d (m^3, the normal force / kn) and its moment
-                # sum w d p about the world origin (m^4), now and before
-                f0 = 0.0
-                f1 = 0.0
-                mo0 = vec3(0.0)
-                mo1 = vec3(0.0)
-                for q in range(n0):
-                    f0 += w0[q] * dep0[q]
-                    mo0 += w0[q] * dep0[q] * vec3(px0[q], py0[q], pz0[q])
-                for q in range(n1):
-                    f1 += w1[q] * dep1[q]
-                    mo1 += w1[q] * dep1[q] * vec3(px1[q], py1[q], pz1[q])
-                out[p, 8] = ti.abs(f1 - f0)
-                out[p, 9] = f0
-                out[p, 10] = (mo1 - mo0).norm()
-                a, bx, by = geometry.planar_gap(
-                    c - ci, u1, u2, 1.0 / hR1, 1.0 / hR2, oR,
-                    vec3(RI[0, (m + 1) % 3], RI[1, (m + 1) % 3], RI[2, (m + 1) % 3]),
-                    vec3(RI[0, (m + 2) % 3], RI[1, (m + 2) % 3], RI[2, (m + 2) % 3]),
-                    1.0 / hI[(m + 1) % 3], 1.0 / hI[(m + 2) % 3], oI, d0, gx, gy)
-                out[p, 11] = ti.sqrt(bx * bx + by * by)
-
     _KERNELS = SimpleNamespace(sat=sat, narrow=narrow, contact=contact, integrate=integrate,
-                               census=census, overlap=overlap, gap=gap, planar_tail=planar_tail,
-                               planar_tail_diff=planar_tail_diff)
+                               census=census, overlap=overlap)
     return _KERNELS
 
 
@@ -784,42 +566,7 @@ def _imperfect_stages(repeats, bed, shapes, seed=0, case_path=None, load_time=0.
                                       dt=sim.dt: k.integrate(r, B, dt, m.args, st.args, c.args,
                                                              ctl.args), reset_int)
         runs[(label, "step")] = (1, 200, lambda r, sim=sim, ld=loading: sim.advance(r, ld))
-        if warped:
-            if True:  # under the code before planar_gap: the old code against itself (0)
-                diff = np.zeros((P, 12))
-                k.planar_tail_diff(P, m.args, st.args, c.args, diff)
-                pl = diff[:, 0] > 0
-                same = pl & (diff[:, 1] == diff[:, 2])
-                res["tail_diff"] = {
-                    "planar_pairs": int(pl.sum()),
-                    "planar_pairs_with_points": int((pl & (diff[:, 1] > 0)).sum()),
-                    "point_count_differs": int((pl & ~same).sum()),
-                    "depth_m": float(diff[same, 3].max()) if same.any() else 0.0,
-                    "position_m": float(diff[same, 4].max()) if same.any() else 0.0,
-                    "weight_m2": float(diff[same, 5].max()) if same.any() else 0.0,
-                    "centroid_m": float(diff[pl, 6].max()) if pl.any() else 0.0,
-                    "depth_max_m": float(diff[same, 7].max()) if same.any() else 0.0,
-                    "force_rel": float((diff[pl, 8] / np.maximum(diff[pl, 9], 1e-300)).max())
-                    if pl.any() else 0.0,
-                    "force_m3": float(diff[pl, 8].max()) if pl.any() else 0.0,
-                    "moment_m4": float(diff[pl, 10].max()) if pl.any() else 0.0}
-                if same.any():  # the pair whose points moved most: how flat its gap is
-                    worst = int(np.argmax(np.where(same, diff[:, 4], -1.0)))
-                    res["tail_diff"]["worst_position_pair"] = {
-                        "pair": worst, "position_m": float(diff[worst, 4]),
-                        "gap_slope": float(diff[worst, 11]),
-                        "depth_m": float(diff[worst, 3]),
-                        "force_m3": float(diff[worst, 9])}
-                runs[(label, "tail_before")] = (P, 200, lambda r, P=P, m=m, st=st, c=c:
-                                                k.planar_tail(r, P, m.args, st.args, c.args,
-                                                              False))
-                runs[(label, "tail_now")] = (P, 200, lambda r, P=P, m=m, st=st, c=c:
-                                             k.planar_tail(r, P, m.args, st.args, c.args, True))
-            runs[(label, "gap_bilinear")] = (P, 200, lambda r, P=P, m=m, st=st, c=c:
-                                             k.gap(r, P, m.args, st.args, c.args, False))
-            runs[(label, "gap_affine")] = (P, 200, lambda r, P=P, m=m, st=st, c=c:
-                                           k.gap(r, P, m.args, st.args, c.args, True))
-        else:
+        if not warped:
             c2 = copy.deepcopy(c)
             ctl_r = Control(sim.skin, 50.0, 0.0, patch_reuse)
             sim_r = info["sim_reuse"]
@@ -886,18 +633,6 @@ def _print_imperfect(r, bed, seed, where, load_time, repeats):
     row("median point depth", lambda x: f"{x['depth_median_m'] * 1e6:.2f} um")
     row("planar pairs: largest |gap - affine fit| at a vertex",
         lambda x: f"{x['fit_err_max_m']:.1e} m" if x["imperfect_planar"] else "-")
-    row("planar pairs: engine's patch (planar_gap) against the bilinear code before it: "
-        "pairs (with points), pairs whose point count differs",
-        lambda x: (f"{x['tail_diff']['planar_pairs']} ({x['tail_diff']['planar_pairs_with_points']})"
-                   f", {x['tail_diff']['point_count_differs']}") if "tail_diff" in x else "-")
-    row("... largest |difference|: depth / point position / weight / centroid",
-        lambda x: (f"{x['tail_diff']['depth_m']:.1e} m / {x['tail_diff']['position_m']:.1e} m / "
-                   f"{x['tail_diff']['weight_m2']:.1e} m2 / {x['tail_diff']['centroid_m']:.1e} m"
-                   f" (largest depth {x['tail_diff']['depth_max_m'] * 1e6:.1f} um)")
-        if "tail_diff" in x else "-")
-    row("... largest |difference| of the patch's sum w d (relative; m3) / of its moment (m4)",
-        lambda x: (f"{x['tail_diff']['force_rel']:.1e}; {x['tail_diff']['force_m3']:.1e} m3 / "
-                   f"{x['tail_diff']['moment_m4']:.1e} m4") if "tail_diff" in x else "-")
     row("patches kept by reuse 1e-7 m", lambda x: str(x["kept"]) if "kept" in x else "-")
     row("settling: simulated s, steps, CPU s",
         lambda x: (f"{x['settling']['time_s']:.2f} s, {x['settling']['steps']}, "
@@ -935,12 +670,6 @@ def _print_imperfect(r, bed, seed, where, load_time, repeats):
               ("overlap", "face frame + incident face + 4 rectangle clips", "ns/pair"),
               ("narrow", "narrow phase (box_contact; warped kernel on warped scenes)", "ns/pair"),
               ("narrow_warped_kernel", "narrow phase, warped kernel", "ns/pair"),
-              ("gap_bilinear", "planar gap at 2 npoly + 1 points, two bilinear forms each", "ns/pair"),
-              ("gap_affine", "the same, affine coefficients once per pair (planar_gap)", "ns/pair"),
-              ("tail_before", "face frame + clips + planar gap clip, quadrature, points: "
-               "two bilinear forms a point (before planar_gap)", "ns/pair"),
-              ("tail_now", "the same, geometry.warped_patch now (planar_gap once per pair)",
-               "ns/pair"),
               ("contact", "contact stage (narrow + law + history)", "ns/pair"),
               ("contact_reuse", "contact stage, patch reuse 1e-7 m", "ns/pair"),
               ("integrate", "integrate stage", "ns/body"),
@@ -960,18 +689,6 @@ def _print_imperfect(r, bed, seed, where, load_time, repeats):
         ref = per_step.get("perfect")
         ratios = [f"{per_step[lab] / ref:.2f}" if lab in per_step and ref else "-" for lab in imp]
         print(f"| {what} | " + " | ".join(cells + ratios) + " |")
-    for lab in imp:  # the planar path now against before, same process, same snapshot
-        st = r[lab]["stages"]
-        if "tail_now" in st and "tail_before" in st:
-            now, before = st["tail_now"][0], st["tail_before"][0]
-            print(f"\n{lab}: planar patch (frame + clips + gap clip + quadrature + points) "
-                  f"{before * 1e9:.0f} -> {now * 1e9:.0f} ns/pair, now / before = "
-                  f"{now / before:.3f} (median of {20 * repeats}; min "
-                  f"{st['tail_before'][1] * 1e9:.0f} -> {st['tail_now'][1] * 1e9:.0f}); "
-                  f"{(before - now) * st['tail_now'][2] * 1e6:.1f} us per step of "
-                  f"{st['step'][0] * 1e6:.1f}")
-        if "tail_diff" in r[lab]:
-            print(f"{lab}: error of the change at this snapshot: {r[lab]['tail_diff']}")
 
 
 def _launch_cost(repeats):
@@ -1004,15 +721,15 @@ def _launch_cost(repeats):
         return float(np.median(times))
 
     out = {}
-    out["serial, Taichi call"] = per_call(lambda: step.advance_serial(0, 0, 1e-5, *packs))
-    fast = CachedLaunch(step.advance_serial, (0, 0, 1e-5), *packs)
+    out["serial, Taichi call"] = per_call(lambda: step.advance_serial(0, 0, 1e-5, *packs, False, False))
+    fast = CachedLaunch(step.advance_serial, (0, 0, 1e-5), *packs, False, False)
     out["serial, cached launch"] = per_call(lambda: fast(0, 0, 1e-5), 3000)
     # the parallel kernel with no pairs still integrates the bodies: give it none by launching
     # the probe kernel (one parallel loop over 0 pairs) instead
     depth = np.zeros(1)
     out["probe (1 parallel loop, 0 pairs), Taichi call"] = per_call(
-        lambda: step.probe_contacts(0, depth, depth, *packs[:3]))
-    probe = CachedLaunch(step.probe_contacts, (0,), depth, depth, *packs[:3])
+        lambda: step.probe_contacts(0, depth, depth, *packs[:3], False))
+    probe = CachedLaunch(step.probe_contacts, (0,), depth, depth, *packs[:3], False)
     out["probe (1 parallel loop, 0 pairs), cached launch"] = per_call(lambda: probe(0), 3000)
     a = np.zeros(64)
 

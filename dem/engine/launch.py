@@ -41,7 +41,9 @@ class CachedLaunch:
     once through Taichi, then ``launch(*scalars)`` relaunches it with new scalar values.
 
     ``scalars`` are the leading int/float arguments (their Python types decide int or float);
-    ``arrays`` the remaining arguments (argpacks or arrays), which must keep their addresses.
+    ``arrays`` the remaining arguments (argpacks or arrays), which must keep their addresses,
+    and last any compile-time (``ti.template()``) arguments, fixed for this launch (Taichi
+    leaves them out of the launch context, so the scalars keep their slots 0, 1, ...).
     """
 
     def __init__(self, kernel, scalars: tuple, *arrays):

@@ -216,7 +216,8 @@ class Simulation:
             return patch
         depth = ti_nd_real(c.capacity)
         area = ti_nd_real(c.capacity)
-        self._probe(c.n_pairs, depth, area, self.model.args, self.state.args, c.args)
+        stepk.probe_contacts(c.n_pairs, depth, area, self.model.args, self.state.args, c.args,
+                             self._warped)
         d = depth[: c.n_pairs]
         worst = int(np.argmax(d))
         if d[worst] > tolerance:
@@ -389,29 +390,25 @@ class Simulation:
         """Compile every kernel (or load it from Taichi's offline cache) with zero work, and
         record the stepping kernel's launch (dem.engine.launch: later launches skip Taichi's
         per-call argument handling unless ``fast_launch`` is False)."""
-        m, st, c = self.model.args, self.state.args, self.contacts.args
-        # kernels that read the imperfections only for scenes that have some: a perfect scene
-        # runs the perfect model's code (bit for bit, at its speed)
-        warped = bool(self.model.imperfect.any())
-        self._probe = stepk.probe_contacts_warped if warped else stepk.probe_contacts
-        # kernels that read each pair's normal law only for scenes with a hyperbolic pair
-        hyperbolic = self.model.closure_limit() is not None
-        kernel = stepk.ADVANCE[(self.mode == "serial", warped, hyperbolic)]
+        # the kernels' compile-time variants (dem.engine.step): the imperfect faces' code only
+        # for scenes that have some, each pair's normal law only for scenes with a hyperbolic
+        # pair; a perfect, linear scene runs the perfect model's code (bit for bit, at its speed)
+        self._warped = bool(self.model.imperfect.any())
+        self._hyperbolic = self.model.closure_limit() is not None
+        variants = (self._warped, self._hyperbolic)
         if self.mode == "serial":
-            scalars = (0, 0, float(self.dt))
+            kernel, scalars = stepk.advance_serial, (0, 0, float(self.dt))
         else:
-            scalars = (0, float(self.dt))
+            kernel, scalars = stepk.advance_parallel, (0, float(self.dt))
         if self.fast_launch:
-            self._advance = CachedLaunch(kernel, scalars, *self.containers())
+            self._advance = CachedLaunch(kernel, scalars, *self.containers(), *variants)
         else:
-            kernel(*scalars, *self.containers())
-            self._advance = lambda *sc: kernel(*sc, *self.containers())
+            kernel(*scalars, *self.containers(), *variants)
+            self._advance = lambda *sc: kernel(*sc, *self.containers(), *variants)
+        m, st, c = self.model.args, self.state.args, self.contacts.args
         depth = ti_nd_real(1)
-        self._probe(0, depth, depth, m, st, c)
-        if self.model.closure_limit() is None:
-            stepk.elastic_energy(0, m, c)
-        else:
-            stepk.elastic_energy_hyperbolic(0, m, c)
+        stepk.probe_contacts(0, depth, depth, m, st, c, self._warped)
+        stepk.elastic_energy(0, m, c, self._hyperbolic)
 
     def _raise_instability(self) -> None:
         b = int(self.control.bad_body[0])
@@ -439,9 +436,7 @@ class Simulation:
         c, m = self.contacts, self.model
         if c.n_pairs == 0:
             return 0.0
-        kernel = (stepk.elastic_energy if self._closure_limit is None
-                  else stepk.elastic_energy_hyperbolic)
-        return float(kernel(c.n_pairs, m.args, c.args))
+        return float(stepk.elastic_energy(c.n_pairs, m.args, c.args, self._hyperbolic))
 
     def mechanical_energy(self) -> float:
         return self.kinetic_energy() + self.elastic_energy()

@@ -24,8 +24,14 @@ The broad phase (neighbour list) runs on the host between kernel launches, when 
 more than half the skin (see :mod:`dem.engine.broadphase`).
 
 Every stage is a function of the containers (Model, State, Contacts, Control: see
-:mod:`dem.engine.containers`), which the kernels take as one argpack each.  Two kernels run the
-same stages:
+:mod:`dem.engine.containers`), which the kernels take as one argpack each.  One kernel per job,
+each with the model's variants as compile-time arguments (``ti.template()``: ``warped`` for
+imperfect faces, ``hyperbolic`` for the hyperbolic joint law; Taichi compiles each combination
+the first time it is called, and ``ti.static`` branches leave the code of the others out, so the
+perfect, linear combination is the code that ran before the variants existed, bit for bit):
+:func:`advance_serial`, :func:`advance_parallel`, :func:`probe_contacts` (depths and patch
+areas without touching the history) and :func:`elastic_energy`.  Two kernels run the same
+stages:
 - :func:`advance_serial` runs many steps in one launch on one thread;
 - :func:`advance_parallel` runs one step as two parallel loops (pairs, then bodies), for scenes
   large enough to pay for the thread pool's dispatch (~30-60 us per parallel loop on the 2-core
@@ -52,6 +58,20 @@ from dem.engine.containers import (NONFINITE, REBUILD, RUNAWAY, ContactArgs, Con
 from dem.engine.geometry import point_buffer
 from dem.engine.mathutil import TINY_ANGLE, quat_angle_between, quat_mul, quat_to_mat, vec3, vec4
 from dem.engine.pair import HYPERBOLIC, pair_material, pair_properties
+
+# Tolerances of the stages, in units of the smaller half extent hmin of the pair's blocks (m),
+# so that they scale with the masonry unit:
+AXIS_MARGIN = 1e-3     # a contact axis other than the pair's sticky one (contacts.code) must
+#                        overlap less by more than this x hmin to take over (geometry.choose_axis):
+#                        without it round-off flips a flush joint between two nearly equal axes
+MATCH_RADIUS = 0.05    # a new contact point takes the shear history of the old point at its
+#                        slot if that lies within MATCH_RADIUS x hmin (in body i's frame), else
+#                        the nearest old point's (matched_point): far above a step's motion
+#                        (~1e-6 hmin), far below the spacing of a patch's points (~0.5 hmin)
+FINITE_LIMIT = 1e300   # |x|^2 and speeds at or above this (or NaN) flag NONFINITE: the largest
+#                        f64 is ~1.8e308, so any real state is far below, any overflow above
+REBUILD_FRACTION = 0.5  # rebuild the neighbour list once a body moved this fraction of the
+#                         skin (two bodies moving towards each other close the whole skin)
 
 
 @ti.func
@@ -190,7 +210,7 @@ def contact_stage(p, dt, model: ti.template(), state: ti.template(), contacts: t
     F_i = vec3(0.0)
     T_i = vec3(0.0)
     hmin = ti.min(model.half[i].min(), model.half[j].min())
-    match_tol2 = (0.05 * hmin) ** 2
+    match_tol2 = (MATCH_RADIUS * hmin) ** 2
     e_damp_n = 0.0
     e_shear = 0.0
     e_fric = 0.0
@@ -362,7 +382,7 @@ def integrate_stage(b, s, dt, model: ti.template(), state: ti.template(),
         # checks: bad state, then neighbour-list validity
         speed = v1.norm() + w1.norm() * model.radius[b]
         bad = 0
-        if not (speed < 1e300) or not (x1.norm_sqr() < 1e300):  # catches NaN and inf
+        if not (speed < FINITE_LIMIT) or not (x1.norm_sqr() < FINITE_LIMIT):  # NaN, inf
             bad = NONFINITE
         elif speed > control.max_speed[0]:
             bad = RUNAWAY
@@ -371,7 +391,7 @@ def integrate_stage(b, s, dt, model: ti.template(), state: ti.template(),
             ti.atomic_max(control.bad_body[0], b)
         moved = (x1 - contacts.ref_pos[b]).norm() + model.radius[b] * quat_angle_between(
             q1, contacts.ref_quat[b])
-        if moved > 0.5 * control.skin[0]:
+        if moved > REBUILD_FRACTION * control.skin[0]:
             ti.atomic_or(control.status[0], REBUILD)
 
 
@@ -409,33 +429,21 @@ def deepest_stage(s, n_pairs, contacts: ti.template(), control: ti.template()):
 
 @ti.kernel
 def advance_serial(n_steps: ti.i32, n_pairs: ti.i32, dt: float, model: ModelArgs,
-                   state: StateArgs, contacts: ContactArgs, control: ControlArgs):
+                   state: StateArgs, contacts: ContactArgs, control: ControlArgs,
+                   warped: ti.template(), hyperbolic: ti.template()):
     """Run up to n_steps steps on one thread; stop after a step that raised a status bit.
     control.steps_done returns the number of steps done; control.loads[s] holds step s's loads.
-    Perfect faces only (:func:`advance_serial_warped` for scenes with imperfections).
+
+    Compile-time variants (``ti.template()``: each combination is its own compiled kernel,
+    built on first use): ``warped`` for scenes with imperfect faces (warps, arrises),
+    ``hyperbolic`` for scenes with a hyperbolic joint (dem.engine.laws); (False, False) is the
+    perfect, linear model's code, without a branch of the others (see :func:`contact_stage`).
     """
     n_bodies = state.pos.shape[0]
     s = 0
     while s < n_steps and control.status[0] == 0:
         for p in range(n_pairs):
-            contact_stage(p, dt, model, state, contacts, control, False, False)
-        for b in range(n_bodies):
-            integrate_stage(b, s, dt, model, state, contacts, control)
-        energy_stage(n_pairs, state, contacts, control)
-        deepest_stage(s, n_pairs, contacts, control)
-        s += 1
-    control.steps_done[0] = s
-
-
-@ti.kernel
-def advance_serial_warped(n_steps: ti.i32, n_pairs: ti.i32, dt: float, model: ModelArgs,
-                          state: StateArgs, contacts: ContactArgs, control: ControlArgs):
-    """:func:`advance_serial` for scenes with imperfect faces (warps, arrises)."""
-    n_bodies = state.pos.shape[0]
-    s = 0
-    while s < n_steps and control.status[0] == 0:
-        for p in range(n_pairs):
-            contact_stage(p, dt, model, state, contacts, control, True, False)
+            contact_stage(p, dt, model, state, contacts, control, warped, hyperbolic)
         for b in range(n_bodies):
             integrate_stage(b, s, dt, model, state, contacts, control)
         energy_stage(n_pairs, state, contacts, control)
@@ -446,104 +454,18 @@ def advance_serial_warped(n_steps: ti.i32, n_pairs: ti.i32, dt: float, model: Mo
 
 @ti.kernel
 def advance_parallel(n_pairs: ti.i32, dt: float, model: ModelArgs, state: StateArgs,
-                     contacts: ContactArgs, control: ControlArgs):
-    """One step (control.loads[0]) as two parallel loops, over pairs then over bodies.
-    Perfect faces only (:func:`advance_parallel_warped`)."""
+                     contacts: ContactArgs, control: ControlArgs, warped: ti.template(),
+                     hyperbolic: ti.template()):
+    """One step (control.loads[0]) as two parallel loops, over pairs then over bodies;
+    ``warped``, ``hyperbolic`` as in :func:`advance_serial`."""
     for p in range(n_pairs):
-        contact_stage(p, dt, model, state, contacts, control, False, False)
+        contact_stage(p, dt, model, state, contacts, control, warped, hyperbolic)
     for b in range(state.pos.shape[0]):
         integrate_stage(b, 0, dt, model, state, contacts, control)
     ti.loop_config(serialize=True)
     for _ in range(1):
         energy_stage(n_pairs, state, contacts, control)
         deepest_stage(0, n_pairs, contacts, control)
-
-
-@ti.kernel
-def advance_parallel_warped(n_pairs: ti.i32, dt: float, model: ModelArgs, state: StateArgs,
-                            contacts: ContactArgs, control: ControlArgs):
-    """:func:`advance_parallel` for scenes with imperfect faces."""
-    for p in range(n_pairs):
-        contact_stage(p, dt, model, state, contacts, control, True, False)
-    for b in range(state.pos.shape[0]):
-        integrate_stage(b, 0, dt, model, state, contacts, control)
-    ti.loop_config(serialize=True)
-    for _ in range(1):
-        energy_stage(n_pairs, state, contacts, control)
-        deepest_stage(0, n_pairs, contacts, control)
-
-
-@ti.kernel
-def advance_serial_hyperbolic(n_steps: ti.i32, n_pairs: ti.i32, dt: float, model: ModelArgs,
-                              state: StateArgs, contacts: ContactArgs, control: ControlArgs):
-    """:func:`advance_serial` for scenes with hyperbolic joints (dem.engine.laws)."""
-    n_bodies = state.pos.shape[0]
-    s = 0
-    while s < n_steps and control.status[0] == 0:
-        for p in range(n_pairs):
-            contact_stage(p, dt, model, state, contacts, control, False, True)
-        for b in range(n_bodies):
-            integrate_stage(b, s, dt, model, state, contacts, control)
-        energy_stage(n_pairs, state, contacts, control)
-        deepest_stage(s, n_pairs, contacts, control)
-        s += 1
-    control.steps_done[0] = s
-
-
-@ti.kernel
-def advance_serial_warped_hyperbolic(n_steps: ti.i32, n_pairs: ti.i32, dt: float,
-                                     model: ModelArgs, state: StateArgs, contacts: ContactArgs,
-                                     control: ControlArgs):
-    """:func:`advance_serial` for imperfect faces and hyperbolic joints."""
-    n_bodies = state.pos.shape[0]
-    s = 0
-    while s < n_steps and control.status[0] == 0:
-        for p in range(n_pairs):
-            contact_stage(p, dt, model, state, contacts, control, True, True)
-        for b in range(n_bodies):
-            integrate_stage(b, s, dt, model, state, contacts, control)
-        energy_stage(n_pairs, state, contacts, control)
-        deepest_stage(s, n_pairs, contacts, control)
-        s += 1
-    control.steps_done[0] = s
-
-
-@ti.kernel
-def advance_parallel_hyperbolic(n_pairs: ti.i32, dt: float, model: ModelArgs, state: StateArgs,
-                                contacts: ContactArgs, control: ControlArgs):
-    """:func:`advance_parallel` for scenes with hyperbolic joints."""
-    for p in range(n_pairs):
-        contact_stage(p, dt, model, state, contacts, control, False, True)
-    for b in range(state.pos.shape[0]):
-        integrate_stage(b, 0, dt, model, state, contacts, control)
-    ti.loop_config(serialize=True)
-    for _ in range(1):
-        energy_stage(n_pairs, state, contacts, control)
-        deepest_stage(0, n_pairs, contacts, control)
-
-
-@ti.kernel
-def advance_parallel_warped_hyperbolic(n_pairs: ti.i32, dt: float, model: ModelArgs,
-                                       state: StateArgs, contacts: ContactArgs,
-                                       control: ControlArgs):
-    """:func:`advance_parallel` for imperfect faces and hyperbolic joints."""
-    for p in range(n_pairs):
-        contact_stage(p, dt, model, state, contacts, control, True, True)
-    for b in range(state.pos.shape[0]):
-        integrate_stage(b, 0, dt, model, state, contacts, control)
-    ti.loop_config(serialize=True)
-    for _ in range(1):
-        energy_stage(n_pairs, state, contacts, control)
-        deepest_stage(0, n_pairs, contacts, control)
-
-
-# the stepping kernels by (serial, warped, hyperbolic)
-ADVANCE = {(True, False, False): advance_serial, (True, True, False): advance_serial_warped,
-           (False, False, False): advance_parallel, (False, True, False): advance_parallel_warped,
-           (True, False, True): advance_serial_hyperbolic,
-           (True, True, True): advance_serial_warped_hyperbolic,
-           (False, False, True): advance_parallel_hyperbolic,
-           (False, True, True): advance_parallel_warped_hyperbolic}
 
 
 @ti.func
@@ -561,8 +483,8 @@ def probe_pair(p, out_depth: ti.template(), out_area: ti.template(), model: ti.t
     dep = point_buffer()
     w = point_buffer()
     _axis, _normal, n_points, _shrink, _centroid, _whole = geometry.box_contact(
-        state.pos[i], state.rot[i], hA, state.pos[j], state.rot[j], hB, -1, 1e-3 * hmin,
-        hmin * hmin, model, warped, i, j, px, py, pz, dep, w)
+        state.pos[i], state.rot[i], hA, state.pos[j], state.rot[j], hB, -1,
+        AXIS_MARGIN * hmin, hmin * hmin, model, warped, i, j, px, py, pz, dep, w)
     dmax = 0.0
     patch_area = 0.0
     for q in range(n_points):
@@ -575,49 +497,33 @@ def probe_pair(p, out_depth: ti.template(), out_area: ti.template(), model: ti.t
 @ti.kernel
 def probe_contacts(n_pairs: ti.i32, out_depth: ti.types.ndarray(ndim=1),
                    out_area: ti.types.ndarray(ndim=1), model: ModelArgs, state: StateArgs,
-                   contacts: ContactArgs):
+                   contacts: ContactArgs, warped: ti.template()):
     """Largest penetration (m) and patch area (m^2) of every pair, without touching the
-    history (overlap checks, area caps of the critical step).  Perfect faces only."""
+    history (overlap checks, area caps of the critical step).  ``warped`` (compile time): the
+    narrow phase of imperfect faces, as in :func:`advance_serial`."""
     for p in range(n_pairs):
-        probe_pair(p, out_depth, out_area, model, state, contacts, False)
+        probe_pair(p, out_depth, out_area, model, state, contacts, warped)
 
 
 @ti.kernel
-def probe_contacts_warped(n_pairs: ti.i32, out_depth: ti.types.ndarray(ndim=1),
-                          out_area: ti.types.ndarray(ndim=1), model: ModelArgs,
-                          state: StateArgs, contacts: ContactArgs):
-    """:func:`probe_contacts` for scenes with imperfect faces."""
-    for p in range(n_pairs):
-        probe_pair(p, out_depth, out_area, model, state, contacts, True)
-
-
-@ti.kernel
-def elastic_energy(n_pairs: ti.i32, model: ModelArgs, contacts: ContactArgs) -> float:
-    """Energy stored in the joint springs (J): sum of kn A d^2 / 2 + ks A |u|^2 / 2 (linear
-    normal law; :func:`elastic_energy_hyperbolic` for the hyperbolic one)."""
+def elastic_energy(n_pairs: ti.i32, model: ModelArgs, contacts: ContactArgs,
+                   hyperbolic: ti.template()) -> float:
+    """Energy stored in the joint springs (J).  Linear normal law (``hyperbolic`` False, compile
+    time): sum of kn A d^2 / 2 + ks A |u|^2 / 2.  With ``hyperbolic`` each pair's law: A e(d) +
+    ks A |u|^2 / 2 for a hyperbolic pair, e the integral of the pressure
+    (laws.hyperbolic_energy), linear pairs as above."""
     e = 0.0
     for p in range(n_pairs):
         pm = pair_material(model, contacts.pairs[p][0], contacts.pairs[p][1])
         for q in range(contacts.npts[p]):
             a = contacts.area[p, q]
-            e += 0.5 * a * (pm.kn * contacts.depth[p, q] ** 2
-                            + pm.ks * contacts.shear[p, q].norm_sqr())
-    return e
-
-
-@ti.kernel
-def elastic_energy_hyperbolic(n_pairs: ti.i32, model: ModelArgs, contacts: ContactArgs) -> float:
-    """Energy stored in the joint springs (J) of a scene with hyperbolic joints: sum of
-    A e(d) + ks A |u|^2 / 2, e the integral of the pressure (laws.hyperbolic_energy); linear
-    pairs as in :func:`elastic_energy`."""
-    e = 0.0
-    for p in range(n_pairs):
-        pm = pair_material(model, contacts.pairs[p][0], contacts.pairs[p][1])
-        for q in range(contacts.npts[p]):
-            a = contacts.area[p, q]
-            d = contacts.depth[p, q]
-            e_n = 0.5 * pm.kn * d * d
-            if pm.law == HYPERBOLIC:
-                e_n = laws.hyperbolic_energy(pm.kn, pm.d_max, pm.d_lim, d)
-            e += a * (e_n + 0.5 * pm.ks * contacts.shear[p, q].norm_sqr())
+            if ti.static(hyperbolic):
+                d = contacts.depth[p, q]
+                e_n = 0.5 * pm.kn * d * d
+                if pm.law == HYPERBOLIC:
+                    e_n = laws.hyperbolic_energy(pm.kn, pm.d_max, pm.d_lim, d)
+                e += a * (e_n + 0.5 * pm.ks * contacts.shear[p, q].norm_sqr())
+            else:
+                e += 0.5 * a * (pm.kn * contacts.depth[p, q] ** 2
+                                + pm.ks * contacts.shear[p, q].norm_sqr())
     return e
