@@ -197,44 +197,6 @@ def clip_halfplane(xs: ti.template(), ys: ti.template(), n, ax, ay, off, ox: ti.
 
 
 @ti.func
-def clip_values(xs: ti.template(), ys: ti.template(), fs: ti.template(), n, ox: ti.template(),
-                oy: ti.template()):
-    """Sutherland-Hodgman pass against a function given by its values fs at the vertices: keep
-    where f <= 0, cutting each edge where f changes sign at the linear interpolation of f.  Used
-    for the gap of warped faces before :func:`planar_gap` (2026-11-24); now unused by the engine,
-    kept for benchmarks/engine_speed.py's copy of that code; :func:`clip_halfplane` is the
-    affine case, with f computed from the line."""
-    m = 0
-    if n > 0:
-        px = xs[n - 1]
-        py = ys[n - 1]
-        fp = fs[n - 1]
-        for k in range(n):
-            cx = xs[k]
-            cy = ys[k]
-            fc = fs[k]
-            if fc <= 0.0:
-                if fp > 0.0 and m < MAXP + 1:
-                    t = fp / (fp - fc)
-                    ox[m] = px + t * (cx - px)
-                    oy[m] = py + t * (cy - py)
-                    m += 1
-                if m < MAXP + 1:
-                    ox[m] = cx
-                    oy[m] = cy
-                    m += 1
-            elif fp <= 0.0 and m < MAXP + 1:
-                t = fp / (fp - fc)
-                ox[m] = px + t * (cx - px)
-                oy[m] = py + t * (cy - py)
-                m += 1
-            px = cx
-            py = cy
-            fp = fc
-    return m
-
-
-@ti.func
 def bilinear(o, xi, eta):
     """Bilinear interpolation of the corner values o (vec4, corner c = (s1 > 0) + 2 (s2 > 0)) at
     the face coordinates (xi, eta), clamped to [-1, 1]."""
