@@ -135,15 +135,23 @@ CONTACT_FIELDS = (
 ENERGY_TERMS = ("work_gravity", "work_base", "dissipated_normal_damping",
                 "dissipated_shear_damping", "dissipated_friction", "dissipated_local_damping")
 
-CONTROL_FIELDS = (
+# Control, by role (the kernels take one argpack of the four tables in this order):
+# what the host writes before each launch ...
+CONTROL_LOADS = (
     _f("loads", "vec3", ("S", 2), "m/s^2", "Simulation._launch",
        "per step of a launch: (gravity, base acceleration), table frame"),
+)
+# ... the run's step parameters, set once (local_damping also by Simulation.set_local_damping) ...
+CONTROL_PARAMETERS = (
     _f("skin", "real", (1,), "m", "Simulation", "neighbour-list skin"),
     _f("max_speed", "real", (1,), "m/s", "Simulation", "a faster body stops the run"),
     _f("local_damping", "real", (1,), "-", "Simulation", "Cundall local damping coefficient"),
     _f("patch_tolerance", "real", (1,), "m", "Simulation",
        "patch reuse: largest in-plane drift of a kept contact patch (dem.engine.coherence); "
        "0 = off"),
+)
+# ... what the kernels report back about the launch (diagnostics) ...
+CONTROL_DIAGNOSTICS = (
     _f("status", "i32", (1,), "-", "integrate_stage", "bits REBUILD | NONFINITE | RUNAWAY"),
     _f("bad_body", "i32", (1,), "-", "integrate_stage", "a body that raised NONFINITE/RUNAWAY"),
     _f("steps_done", "i32", (1,), "-", "advance_serial", "steps done by the last launch"),
@@ -151,8 +159,13 @@ CONTROL_FIELDS = (
        "deepest penetration of any contact point at any step since t = 0"),
     _f("deepest_step", "i32", (1,), "-", "deepest_stage",
        "step of the last launch (0 = its first) at which deepest grew; -1 if it did not"),
-) + tuple(_f(name, "real", (1,), "J", "energy_stage", "energy term since t = 0")
-          for name in ENERGY_TERMS)
+)
+# ... and the energy sums since t = 0
+CONTROL_ENERGY = tuple(_f(name, "real", (1,), "J", "energy_stage", "energy term since t = 0")
+                       for name in ENERGY_TERMS)
+CONTROL_ROLES = {"loads": CONTROL_LOADS, "parameters": CONTROL_PARAMETERS,
+                 "diagnostics": CONTROL_DIAGNOSTICS, "energy": CONTROL_ENERGY}
+CONTROL_FIELDS = CONTROL_LOADS + CONTROL_PARAMETERS + CONTROL_DIAGNOSTICS + CONTROL_ENERGY
 
 _ELEM = {"real": (None, ()), "vec3": (ti.math.vec3, (3,)), "vec4": (ti.math.vec4, (4,)),
          "mat3": (ti.math.mat3, (3, 3)), "i32": (ti.i32, ()), "ivec2": (ti.math.ivec2, (2,)),
@@ -365,8 +378,9 @@ class State(_Container):
 
 
 class Control(_Container):
-    """Step control: the loads of the steps of a launch, run parameters, status flags and the
-    energy sums (J since t = 0).  Named fields, no slot numbers (CONTROL_FIELDS)."""
+    """Step control, four roles (CONTROL_ROLES): the loads of the steps of a launch, the run's
+    step parameters, the diagnostics the kernels report (status bits, steps done, deepest
+    penetration) and the energy sums (J since t = 0).  Named fields, no slot numbers."""
 
     FIELDS, ARGS = CONTROL_FIELDS, ControlArgs
 
@@ -380,6 +394,11 @@ class Control(_Container):
 
     def energy(self) -> dict[str, float]:
         return {name: float(getattr(self, name)[0]) for name in ENERGY_TERMS}
+
+    def role(self, name: str) -> dict[str, np.ndarray]:
+        """The arrays of one role of CONTROL_ROLES ("loads", "parameters", "diagnostics",
+        "energy"), by field name (the arrays themselves, not copies)."""
+        return {f.name: getattr(self, f.name) for f in CONTROL_ROLES[name]}
 
 
 class Contacts(_Container):
