@@ -12,6 +12,17 @@ of each of:
   warped     the wall with bed_unevenness 0.1 mm and arris 0.5 mm (settled first, then timed)
 
 and prints the median CPU time per brick-step of each and the ratios to ``before``.
+
+    python benchmarks/imperfection_cost.py --overlap [--before TREE] [--repeats 5] [--tol 1e-7]
+
+(issue 32 item 8) times the warped kernels' overlap reuse (dem.engine.coherence
+.set_overlap_reuse) on the resting 9 x 15 wall with planar 0.1 mm beds (seed 0): one process
+builds and settles the wall once, then alternates, --repeats times, runs of --steps steps from
+that same snapshot with the reuse off (tol 0, today's path) and on (--tol), so the ratio is
+measured on the same machine state; it prints the median CPU time per brick-step of each, their
+ratio, the share of pairs whose overlap was kept, and the largest difference of the final
+positions.  With --before, a fresh process on the code in TREE runs the same wall without the
+option and the final positions of the reuse-off run are compared with it bit for bit.
 """
 
 from __future__ import annotations
@@ -54,6 +65,82 @@ print(json.dumps({"ns_per_brick_step": 1e9 * cpu / (steps * sim.n_blocks),
 """
 
 
+OVERLAP_CHILD = r"""
+import json, sys, time
+import numpy as np
+from dem.case import parse_case
+from dem.run.build import build
+from dem.run.settle import settle
+steps, repeats, tol, with_reuse = int(sys.argv[1]), int(sys.argv[2]), float(sys.argv[3]), \
+    sys.argv[4] == "1"
+data = {"name": "wall", "scene": {"wall": {"brick": "small", "length": 9, "courses": 15}},
+        "material": {"friction": 0.81}, "run": {"duration": 1.0},
+        "solver": {"threads": 1, "mode": "serial"},
+        "imperfections": {"bed_unevenness": 1e-4, "face_shape": "planar", "seed": 0}}
+b = build(parse_case(data))
+sim = b.sim
+g = b.loading.gravity(np.array([0.0]))[0]
+loads = lambda t: (np.tile(g, (len(t), 1)), np.zeros((len(t), 3)))
+settle(sim, b.loading, 0.0)
+snap = sim.snapshot()
+res = {"n_pairs": sim.contacts.n_pairs}
+tols = (0.0, tol) if with_reuse else (0.0,)
+times = {str(t): [] for t in tols}
+for r in range(repeats):
+    for t in tols:
+        sim.restore(snap)
+        if with_reuse:
+            from dem.engine import coherence
+            coherence.set_overlap_reuse(sim.contacts, t)
+        sim.advance(200, loads)  # warm (and the first keep)
+        c0 = time.process_time()
+        sim.advance(steps, loads)
+        times[str(t)].append(1e9 * (time.process_time() - c0) / (steps * sim.n_blocks))
+        res["pos_" + str(t)] = sim.state.pos[:sim.n_blocks].tolist()
+        res["kept_" + str(t)] = int((sim.contacts.patch_shape[:sim.contacts.n_pairs, 0, 3]
+                                     < 0).sum())
+        res["touching_" + str(t)] = int((sim.contacts.npts[:sim.contacts.n_pairs] > 0).sum())
+res["times"] = times
+print(json.dumps(res))
+"""
+
+
+def overlap(args) -> None:
+    """The --overlap measurement (module docstring)."""
+    import numpy as np
+
+    def child(tree: Path, with_reuse: bool) -> dict:
+        env = dict(os.environ, PYTHONPATH=str(tree), DEM_THREADS="1")
+        out = subprocess.run([sys.executable, "-c", OVERLAP_CHILD, str(args.steps),
+                              str(args.repeats), str(args.tol), "1" if with_reuse else "0"],
+                             cwd=tree, env=env, capture_output=True, text=True, check=True)
+        return json.loads(out.stdout.strip().splitlines()[-1])
+
+    r = child(ROOT, True)
+    off, on = (statistics.median(r["times"][k]) for k in ("0.0", str(args.tol)))
+    print(f"resting 9 x 15 wall, planar 0.1 mm beds (seed 0), settled; serial, 1 thread, "
+          f"{args.steps} steps per run, {args.repeats} runs each, alternated in one process "
+          f"(CPU time per brick-step):")
+    print("| overlap reuse | ns per brick-step (median) | min | pairs kept / touching |")
+    print("|---|---|---|---|")
+    for name, k in (("off (today)", "0.0"), (f"on, tol {args.tol:g} m", str(args.tol))):
+        v = r["times"][k]
+        print(f"| {name} | {statistics.median(v):.0f} | {min(v):.0f} | {r['kept_' + k]} / "
+              f"{r['touching_' + k]} |")
+    print(f"ratio on / off: {on / off:.3f} (speed-up {off / on:.3f}x); pairs listed "
+          f"{r['n_pairs']}")
+    dx = np.abs(np.array(r["pos_0.0"]) - np.array(r["pos_" + str(args.tol)])).max()
+    print(f"largest final position difference on / off: {dx:.3e} m")
+    if args.before is not None:
+        b = child(args.before, False)
+        same = b["pos_0.0"] == r["pos_0.0"]
+        print(f"reuse off: final positions identical to the code in {args.before}: {same}"
+              + ("" if same else f" (largest difference "
+                 f"{np.abs(np.array(b['pos_0.0']) - np.array(r['pos_0.0'])).max():.3e} m)"))
+        print(f"that code, same wall: {statistics.median(b['times']['0.0']):.0f} ns per "
+              f"brick-step (median; another process)")
+
+
 def run(tree: Path, imp: dict, steps: int) -> dict:
     env = dict(os.environ, PYTHONPATH=str(tree), DEM_THREADS="1")
     out = subprocess.run([sys.executable, "-c", CHILD, json.dumps(imp), str(steps)], cwd=tree,
@@ -63,10 +150,18 @@ def run(tree: Path, imp: dict, steps: int) -> dict:
 
 def main() -> None:
     ap = argparse.ArgumentParser()
-    ap.add_argument("--before", type=Path, required=True)
+    ap.add_argument("--before", type=Path)
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--steps", type=int, default=20000)
+    ap.add_argument("--overlap", action="store_true",
+                    help="time the warped kernels' overlap reuse (issue 32 item 8)")
+    ap.add_argument("--tol", type=float, default=1e-7, help="overlap reuse tolerance, m")
     args = ap.parse_args()
+    if args.overlap:
+        overlap(args)
+        return
+    if args.before is None:
+        ap.error("--before is required (without --overlap)")
     warped = {"bed_unevenness": 1e-4, "arris": 5e-4, "seed": 0}
     runs = {"before": [], "perfect": [], "warped": []}
     hexes = {"before": set(), "perfect": set()}

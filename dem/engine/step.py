@@ -82,7 +82,10 @@ def narrow_phase(p, i, j, model: ti.template(), state: ti.template(), contacts: 
     keeps the sticky axis in contacts.code.  Returns (reused, n, npts, shrink, centroid).  With
     control.patch_tolerance > 0 a closed flat patch of the last steps is reused (reused = 1)
     while the poses allow it (dem.engine.coherence), and a full narrow phase keeps its patch for
-    that."""
+    that.  In the warped kernels (imperfect faces) that reuse is off; with a tolerance set by
+    coherence.set_overlap_reuse (off by default) the faces' overlap polygon is kept instead and
+    only the gap clip, quadrature and points are redone while the faces do not drift
+    (coherence.reuse_overlap); reused stays 0 then (the points are new: history by position)."""
     reused = 0
     n = vec3(0.0, 0.0, 1.0)
     npts = 0
@@ -93,21 +96,46 @@ def narrow_phase(p, i, j, model: ti.template(), state: ti.template(), contacts: 
         if tol > 0.0:
             reused, n, npts, shrink, centroid = coherence.reuse_patch(
                 p, i, j, tol, model, state, contacts, px, py, pz, dep, w)
-    if reused == 0:
+        if reused == 0:
+            hA = model.half[i]
+            hB = model.half[j]
+            hmin = ti.min(hA.min(), hB.min())
+            code = 0
+            whole = 0
+            code, n, npts, shrink, centroid, whole = geometry.box_contact(
+                state.pos[i], state.rot[i], hA, state.pos[j], state.rot[j], hB,
+                contacts.code[p], 1e-3 * hmin, hmin * hmin, model, warped, i, j, px, py, pz,
+                dep, w)
+            if code >= 0:
+                contacts.code[p] = code
+            if tol > 0.0:
+                coherence.store_patch(p, i, j, code, whole, npts, shrink, centroid, model,
+                                      state, contacts, px, py, pz, w)
+    else:
+        tol_o = contacts.patch_shape[p, 0][0]  # overlap reuse (coherence.set_overlap_reuse)
+        kept = 0
+        if tol_o > 0.0:
+            kept, n, npts, shrink, centroid = coherence.reuse_overlap(
+                p, i, j, tol_o, model, state, contacts, px, py, pz, dep, w)
         hA = model.half[i]
         hB = model.half[j]
         hmin = ti.min(hA.min(), hB.min())
         code = 0
-        whole = 0
-        code, n, npts, shrink, centroid, whole = geometry.box_contact(
-            state.pos[i], state.rot[i], hA, state.pos[j], state.rot[j], hB, contacts.code[p],
-            1e-3 * hmin, hmin * hmin, model, warped, i, j, px, py, pz, dep, w)
-        if code >= 0:
-            contacts.code[p] = code
-        if ti.static(not warped):
-            if tol > 0.0:
-                coherence.store_patch(p, i, j, code, whole, npts, shrink, centroid, model,
-                                      state, contacts, px, py, pz, w)
+        if tol_o > 0.0:
+            if kept == 0:
+                code, n, npts, shrink, centroid = coherence.keep_overlap(
+                    p, i, j, 1e-3 * hmin, hmin * hmin, model, state, contacts, px, py, pz,
+                    dep, w)
+                if code >= 0:
+                    contacts.code[p] = code
+        else:
+            whole = 0
+            code, n, npts, shrink, centroid, whole = geometry.box_contact(
+                state.pos[i], state.rot[i], hA, state.pos[j], state.rot[j], hB,
+                contacts.code[p], 1e-3 * hmin, hmin * hmin, model, warped, i, j, px, py, pz,
+                dep, w)
+            if code >= 0:
+                contacts.code[p] = code
     return reused, n, npts, shrink, centroid
 
 
