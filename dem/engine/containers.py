@@ -126,7 +126,9 @@ CONTACT_FIELDS = (
     _f("patch_shape", "vec4", ("P", 3), "m, m, -, -; m", "narrow phase (coherence.store_patch)",
        "kept patch: [0] area centroid (x, y), shrink factor, number of points (0: nothing kept, "
        "the pair's patch is not reusable); [1], [2] the x's and y's of the incident face's "
-       "corners projected on the reference face"),
+       "corners projected on the reference face; warped kernels (coherence.keep_overlap): [0][0] "
+       "the overlap reuse tolerance (m, 0 off), [0][3] minus the number of vertices of the kept "
+       "overlap polygon (patch_point's x, y), [1], [2] the incident corners"),
     _f("dissipation", "vec3", "P", "J", "contact law",
        "last step's normal-damping, shear-damping and friction dissipation of the pair"),
 )
