@@ -61,8 +61,39 @@ def init(threads: int | None = None, precision: str = "f64", debug: bool = False
             if ln.strip() and not ln.startswith("[Taichi] Starting on arch")]
     if rest:
         print("\n".join(rest), file=sys.stderr)
+    if not debug and not os.environ.get("DEM_TI_SOURCE_CARETS"):
+        short_source_positions()
     _settings = wanted
     return _settings
+
+
+def short_source_positions() -> bool:
+    """Make Taichi's front end record a kernel statement's source position as one line
+    ('File "...", line N, in func') instead of that line re-drawn with a caret underline.
+
+    Why: Taichi 1.7.4 re-runs its Python front end (the AST transform of every kernel and the
+    functions it inlines) in each process even when the compiled kernel comes from the offline
+    cache, and for every statement and expression it builds the position text of a possible
+    error message eagerly, through textwrap: about a quarter of a process's start-up (issue 36
+    defect 8: building the 9 x 15 wall's Simulation took 5.9 -> 4.3 CPU-s, median of 5 fresh
+    processes on the 2-core test machine, benchmarks/startup_time.py and RESULTS.md).  The text only ever appears in compile-error messages
+    (Taichi's DebugInfo); the compiled code and the offline-cache key do not depend on it, so
+    results are the same bit for bit.  Errors still name the file, line and function.  Off with
+    ``DEM_TI_SOURCE_CARETS=1`` or ``init(debug=True)`` (the full text, for kernel development).
+    Returns False, changing nothing, where Taichi's internals are not as expected."""
+    try:
+        from taichi.lang.ast.ast_transformer_utils import ASTTransformerContext
+    except ImportError:
+        return False
+    if not hasattr(ASTTransformerContext, "get_pos_info"):
+        return False
+
+    def get_pos_info(self, node):
+        return (f'File "{self.file}", line {node.lineno + self.lineno_offset}, '
+                f"in {self.func.func.__name__}:\n")
+
+    ASTTransformerContext.get_pos_info = get_pos_info
+    return True
 
 
 def real_dtype():

@@ -1,0 +1,90 @@
+"""Start-up cost of a short run: what a fresh process pays before and around its first steps.
+
+Issue 36 defect 8 ("start-up got slower"): with every kernel in Taichi's offline cache a process
+still runs Taichi's Python front end (AST transform of each kernel it calls) and the first
+launch.  This script runs ``CHILD`` in a fresh interpreter ``--repeat`` times and prints, per
+phase, the median process CPU time (user + system, s; the 2-core test machine is shared, CPU
+time is steadier than wall time) and wall time:
+
+    import       import dem.engine and the case machinery
+    build        read the case, build the scene and the Simulation (ti.init, kernels compiled
+                 or loaded from the offline cache, first launch, overlap probe, dt)
+    advance      the first ``--duration`` s of simulated time (0.02 s: ~500 steps of the wall)
+    energy       one elastic-energy evaluation (its kernel's first call)
+
+Usage::
+
+    .venv/bin/python benchmarks/startup_time.py [--case cases/analytic/wall-at-rest.yaml]
+        [--duration 0.02] [--repeat 5]
+
+Run it once first to fill the offline cache (its first run compiles, ~40 s per new kernel).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import subprocess
+import sys
+
+CHILD = r"""
+import json, resource, sys, time
+
+def clock():
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime, time.perf_counter()
+
+marks = [("start", *clock())]
+from dem.case.document import load_case
+from dem.run.build import build
+import dem.engine  # noqa: F401
+marks.append(("import", *clock()))
+case = load_case(sys.argv[1])
+built = build(case)
+sim = built.sim
+marks.append(("build", *clock()))
+n = max(1, int(round(float(sys.argv[2]) / sim.dt)))
+sim.advance(n, built.loading)
+marks.append(("advance", *clock()))
+sim.elastic_energy()
+marks.append(("energy", *clock()))
+out = {name: {"cpu_s": c - marks[k][1], "wall_s": w - marks[k][2]}
+       for k, (name, c, w) in enumerate(marks[1:])}
+out["steps"] = n
+out["compile_seconds"] = sim.compile_seconds
+print(json.dumps(out))
+"""
+
+PHASES = ("import", "build", "advance", "energy")
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--case", default="cases/analytic/wall-at-rest.yaml")
+    ap.add_argument("--duration", type=float, default=0.02, help="simulated time (s)")
+    ap.add_argument("--repeat", type=int, default=5)
+    args = ap.parse_args(argv)
+    runs = []
+    for _ in range(args.repeat):
+        res = subprocess.run([sys.executable, "-c", CHILD, args.case, str(args.duration)],
+                             capture_output=True, text=True, check=True)
+        runs.append(json.loads(res.stdout.strip().splitlines()[-1]))
+    print(f"{args.case}, {args.duration} s ({runs[0]['steps']} steps), median of "
+          f"{args.repeat} fresh processes")
+    print(f"{'phase':10s} {'CPU s':>8s} {'wall s':>8s}   (each run's CPU s)")
+    total_cpu = [sum(r[p]["cpu_s"] for p in PHASES) for r in runs]
+    total_wall = [sum(r[p]["wall_s"] for p in PHASES) for r in runs]
+    for p in PHASES:
+        cpu = [r[p]["cpu_s"] for r in runs]
+        wall = [r[p]["wall_s"] for r in runs]
+        print(f"{p:10s} {statistics.median(cpu):8.2f} {statistics.median(wall):8.2f}   "
+              + " ".join(f"{c:.2f}" for c in cpu))
+    print(f"{'total':10s} {statistics.median(total_cpu):8.2f} "
+          f"{statistics.median(total_wall):8.2f}   " + " ".join(f"{c:.2f}" for c in total_cpu))
+    print(f"Simulation.compile_seconds (wall): "
+          f"{statistics.median(r['compile_seconds'] for r in runs):.2f}")
+
+
+if __name__ == "__main__":
+    main()
