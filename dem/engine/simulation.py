@@ -27,7 +27,7 @@ from dem.engine.containers import (ENERGY_TERMS, NONFINITE, REBUILD, SERIAL_CHUN
 from dem.engine.launch import CachedLaunch
 from dem.engine.options import JointLaw, StepOptions
 from dem.engine.errors import CapacityError, InputError, InstabilityError, SimulationError
-from dem.engine.timestep import critical_time_step, face_area_caps, full_face_areas
+from dem.engine.timestep import Clock, critical_time_step, face_area_caps, full_face_areas
 from dem.scene import Scene
 
 # loads(t [K]) -> (gravity [K,3], base acceleration [K,3]), both in the table frame, m/s^2
@@ -72,8 +72,9 @@ class Simulation:
         self.skin = float(options.skin) if options.skin is not None else 0.1 * hmin
         self.step_count = 0
         self._deepest_time = 0.0
-        self._t_anchor, self._step_anchor = 0.0, 0  # t = t_anchor + (step - step_anchor) dt
-        self.dt = 0.0  # set below, once the contacts at the start are known
+        # dt (set below, once the contacts at the start are known), dt_crit, the anchors of t
+        # and the area caps: dem.engine.timestep.Clock
+        self.clock = Clock()
         self.n_rebuilds = 0
         self.mode = options.mode
         if self.mode == "auto":
@@ -113,7 +114,20 @@ class Simulation:
     # ------------------------------------------------------------------------------------
     @property
     def t(self) -> float:
-        return self._t_anchor + (self.step_count - self._step_anchor) * self.dt
+        return self.clock.time(self.step_count)
+
+    # the clock's fields under the names Simulation always had (restart points save them so)
+    def _clock_field(name: str, doc: str):  # a helper of the class body, deleted below
+        return property(lambda self: getattr(self.clock, name),
+                        lambda self, v: setattr(self.clock, name, v), doc=doc)
+
+    dt = _clock_field("dt", "time step in use (s)")
+    dt_crit = _clock_field("dt_crit", "critical time step with the present area caps (s)")
+    _t_anchor = _clock_field("t_anchor", "time at the last change of dt (s)")
+    _step_anchor = _clock_field("step_anchor", "step count at the last change of dt")
+    area_cap = _clock_field("area_cap", "per body, the capped contact area (m^2, inf: none)")
+    _face_area = _clock_field("face_area", "per body and face, the areas in the bound (m^2)")
+    del _clock_field
 
     def _critical_step(self) -> float:
         m = self.model
@@ -164,7 +178,7 @@ class Simulation:
             return
         new = float(self.options.safety * self.dt_crit)
         if new < old:
-            self._t_anchor, self._step_anchor = self.t, self.step_count
+            self.clock.anchor(self.t, self.step_count)
             self.dt = new
             self.dt_changes.append({"t": self._t_anchor, "step": self.step_count, "old_dt": old,
                                     "new_dt": new, "blocks": bodies.tolist(),
@@ -256,7 +270,7 @@ class Simulation:
     def _launch(self, k: int, loads: LoadFn) -> int:
         # step n's time counted from the last change of dt, as self.t: the same loads for a
         # step however the run is cut into launches (frames, the parallel kernel)
-        t = self._t_anchor + (self.step_count - self._step_anchor + np.arange(k)) * self.dt
+        t = self.clock.times(self.step_count, k)
         g, a = loads(t)
         ctl = self.control
         ctl.loads[:k, 0] = g
@@ -305,7 +319,7 @@ class Simulation:
         """Start the clock again at t = 0 from the present state (the loading clock after a
         settling phase); returns the time that had passed (s).  Steps and energy sums go on."""
         elapsed = self.t
-        self._t_anchor, self._step_anchor = 0.0, self.step_count
+        self.clock.anchor(0.0, self.step_count)
         return elapsed
 
     def set_local_damping(self, alpha: float) -> None:

@@ -115,3 +115,43 @@ def face_area_caps(size, mass, inertia, movable, kn, ks, safety,
     face_area = np.where(ok[:, None, None], np.minimum(full, cap_value[:, None, None]), full)
     cap[ok] = cap_value[ok]
     return face_area, cap
+
+
+class Clock:
+    """The host clock of a simulation: the time step and what it is made from.
+
+    dt        time step in use (s)
+    dt_crit   critical step of the scene with the present area caps (s), :func:`critical_time_step`
+    t_anchor, step_anchor
+              the time (s) and step count at the last change of dt (or restart of the clock):
+              t = t_anchor + (step - step_anchor) dt, so a run never sums dt step by step (no
+              rounding that grows with the steps) and a change of dt does not move t
+    area_cap  per body, the capped contact area behind dt_crit (m^2, inf: whole faces), and
+    face_area per body and face, the areas in the bound (m^2), :func:`face_area_caps`
+
+    Simulation keeps one and reads these names through its own attributes (``sim.dt``,
+    ``sim.dt_crit``, ``sim._t_anchor``, ``sim._step_anchor``, ``sim.area_cap``,
+    ``sim._face_area``), which are saved in a restart point under those names.
+    """
+
+    __slots__ = ("dt", "dt_crit", "t_anchor", "step_anchor", "area_cap", "face_area")
+
+    def __init__(self) -> None:
+        self.dt = 0.0
+        self.dt_crit = float("inf")
+        self.t_anchor = 0.0
+        self.step_anchor = 0
+        self.area_cap = None
+        self.face_area = None
+
+    def time(self, step: int) -> float:
+        """t (s) at the start of step ``step``."""
+        return self.t_anchor + (step - self.step_anchor) * self.dt
+
+    def times(self, step: int, k: int) -> np.ndarray:
+        """t (s) at the start of steps step, ..., step + k - 1 (the loads of one launch)."""
+        return self.t_anchor + (step - self.step_anchor + np.arange(k)) * self.dt
+
+    def anchor(self, t: float, step: int) -> None:
+        """Count time from t at step ``step`` on (before a change of dt, or to restart t)."""
+        self.t_anchor, self.step_anchor = t, step
