@@ -8,6 +8,7 @@ import sys
 import textwrap
 
 import numpy as np
+import pytest
 
 from dem.builders import build_wall
 from dem.case import Material, SolverSpec
@@ -96,6 +97,7 @@ def test_argpacks_follow_the_field_tables():
             assert arr.dtype == expect, (f.name, arr.dtype)
 
 
+@pytest.mark.slow
 def test_cold_compile_has_no_narrowing_and_no_f32():
     """Compile every engine kernel with an empty offline cache in a fresh process: Taichi must
     not warn about a lossy assignment (an f32 value inside the f64 engine, as the point buffers

@@ -37,6 +37,7 @@ def _assert_energy_bounded(sim):
     assert e["gain"] <= 1e-3 * abs(e["work_gravity"]) + 1e-12, e
 
 
+@pytest.mark.stability
 def test_resting_stretcher_wall_does_not_creep():
     """9 x 15 stretcher bond, half bricks at the ends, small bricks, mu 0.81, 10 s at rest."""
     blocks = stretcher_wall(9, 15)

@@ -70,6 +70,7 @@ def _case(tmp_path, **imp):
     return path
 
 
+@pytest.mark.slow
 def test_dem_ensemble_runs_resumes_and_reports_a_failed_realisation(tmp_path):
     case = _case(tmp_path)
     out = tmp_path / "ens"

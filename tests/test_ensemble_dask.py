@@ -50,6 +50,7 @@ def _landed(out: Path) -> int:
 
 
 @pytest.mark.skipif(not DASK.exists(), reason="the dask command line is not installed")
+@pytest.mark.slow
 def test_an_ensemble_survives_a_killed_worker_and_equals_the_serial_run(tmp_path):
     case = _case(tmp_path)
     port = _free_port()

@@ -309,6 +309,7 @@ def test_record_of_a_hyperbolic_pair():
     assert (lin.law, lin.d_max, lin.d_lim, lin.stable_stiffness()) == (0, 0.0, 0.0, 5e9)
 
 
+@pytest.mark.slow
 def test_hyperbolic_kernels_cold_compile_without_narrowing():
     """The serial kernel compiled for the hyperbolic law and its energy kernel, compiled with an
     empty offline cache in a fresh process: no lossy assignment and no f32 in the f64 engine (as

@@ -63,6 +63,7 @@ def test_compare_without_a_monotone_trio_falls_back_to_the_slowest_rate():
     assert not r["flag"]                           # 2.6 % < 3 %
 
 
+@pytest.mark.slow
 def test_smoke_run_resumes_and_reports(tmp_path):
     out, cal = tmp_path / "v", tmp_path / "cal"
     args = ["--out", str(out), "--calibration", str(cal), "--specimens", "ip-small-5x5",

@@ -362,6 +362,7 @@ def test_failed_scene_check_leaves_no_directory(tmp_path):
 # ------------------------------------------------------------------------------------------
 # a killed sweep, rerun: finished points kept, not recomputed
 # ------------------------------------------------------------------------------------------
+@pytest.mark.slow
 def test_killed_sweep_rerun_keeps_finished_points(tmp_path):
     case = case_file(tmp_path, "sweep", duration=1.0,
                      loading="{type: shake, direction: [1, 0, 0], frequency: 20.0, "
