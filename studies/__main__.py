@@ -35,7 +35,7 @@ STUDIES = {
     "large-brick": ("studies.large_brick.study",
                     "the large-brick in-plane walls: limit analysis and DEM diagnostics"),
     "two-body-report": ("studies.two_body.report",
-                        "the two-body rocking model's tables (docs: results/rocking)"),
+                        "the two-body rocking model's tables (results/two-body/README.md)"),
     "diagnosis": ("studies.diagnosis.cli",
                   "why the laboratory's models rocked and the DEM's did not (issue 33)"),
     "two-body-vs-dem": ("studies.two_body.vs_dem_sweep",
