@@ -721,8 +721,8 @@ def _launch_cost(repeats):
         return float(np.median(times))
 
     out = {}
-    out["serial, Taichi call"] = per_call(lambda: step.advance_serial(0, 0, 1e-5, *packs, False, False))
-    fast = CachedLaunch(step.advance_serial, (0, 0, 1e-5), *packs, False, False)
+    out["serial, Taichi call"] = per_call(lambda: step.advance_serial(0, 0, 1e-5, *packs, False, False, False))
+    fast = CachedLaunch(step.advance_serial, (0, 0, 1e-5), *packs, False, False, False)
     out["serial, cached launch"] = per_call(lambda: fast(0, 0, 1e-5), 3000)
     # the parallel kernel with no pairs still integrates the bodies: give it none by launching
     # the probe kernel (one parallel loop over 0 pairs) instead

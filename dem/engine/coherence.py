@@ -213,7 +213,11 @@ def set_overlap_reuse(contacts, tol: float) -> None:
     """Turn the warped kernels' overlap reuse on with tolerance ``tol`` (m; 0 = off, the
     default) for every pair of ``contacts`` (a dem.engine.containers.Contacts), and forget any
     kept polygon.  Perfect scenes ignore it (their kernels have their own closed-patch reuse,
-    solver.patch_reuse)."""
+    solver.patch_reuse).  The reuse is a compile-time variant of the stepping kernels
+    (``overlap`` in dem.engine.step.advance_serial): a Simulation reads the tolerance with
+    :func:`overlap_reuse_tolerance` before each launch and switches to the variant when it
+    turns > 0 (back when 0); with 0 the warped kernels are bit for bit those before the reuse
+    existed."""
     if not tol >= 0.0:
         raise ValueError(f"overlap reuse tolerance must be >= 0 m, got {tol}")
     contacts.patch_shape[:, 0, 0] = float(tol)

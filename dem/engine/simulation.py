@@ -20,6 +20,7 @@ from typing import Callable
 import numpy as np
 
 from dem import ti_runtime
+from dem.engine import coherence
 from dem.engine import step as stepk
 from dem.engine.broadphase import candidate_pairs
 from dem.engine.containers import (ENERGY_TERMS, NONFINITE, REBUILD, SERIAL_CHUNK, STOP,
@@ -278,6 +279,8 @@ class Simulation:
         ctl.status[0] = 0
         ctl.bad_body[0] = 0
         ctl.deepest_step[0] = -1
+        if self._warped and self._overlap_wanted() != self._overlap:
+            self._choose_launch()  # coherence.set_overlap_reuse switched the overlap reuse
         if self.mode == "serial":
             self._advance(k, self.contacts.n_pairs, self.dt)
             done = int(ctl.steps_done[0])
@@ -409,7 +412,24 @@ class Simulation:
         # pair; a perfect, linear scene runs the perfect model's code (bit for bit, at its speed)
         self._warped = bool(self.model.imperfect.any())
         self._hyperbolic = self.model.closure_limit() is not None
-        variants = (self._warped, self._hyperbolic)
+        self._choose_launch()
+        m, st, c = self.model.args, self.state.args, self.contacts.args
+        depth = ti_nd_real(1)
+        stepk.probe_contacts(0, depth, depth, m, st, c, self._warped)
+        stepk.elastic_energy(0, m, c, self._hyperbolic)
+
+    def _overlap_wanted(self) -> bool:
+        """Whether the overlap reuse variant should run: a warped scene whose overlap reuse
+        tolerance (coherence.set_overlap_reuse, read from the contacts) is > 0."""
+        return self._warped and coherence.overlap_reuse_tolerance(self.contacts) > 0.0
+
+    def _choose_launch(self) -> None:
+        """Record the stepping kernel's launch for the compile-time variants (warped,
+        hyperbolic, overlap; dem.engine.step.advance_serial).  ``overlap`` follows
+        coherence.set_overlap_reuse, which may be called after construction: _launch checks it
+        before each launch of a warped scene and records a new launch when it changed."""
+        self._overlap = self._overlap_wanted()
+        variants = (self._warped, self._hyperbolic, self._overlap)
         if self.mode == "serial":
             kernel, scalars = stepk.advance_serial, (0, 0, float(self.dt))
         else:
@@ -419,10 +439,6 @@ class Simulation:
         else:
             kernel(*scalars, *self.containers(), *variants)
             self._advance = lambda *sc: kernel(*sc, *self.containers(), *variants)
-        m, st, c = self.model.args, self.state.args, self.contacts.args
-        depth = ti_nd_real(1)
-        stepk.probe_contacts(0, depth, depth, m, st, c, self._warped)
-        stepk.elastic_energy(0, m, c, self._hyperbolic)
 
     def _raise_instability(self) -> None:
         b = int(self.control.bad_body[0])

@@ -77,41 +77,29 @@ REBUILD_FRACTION = 0.5  # rebuild the neighbour list once a body moved this frac
 @ti.func
 def narrow_phase(p, i, j, model: ti.template(), state: ti.template(), contacts: ti.template(),
                  control: ti.template(), warped: ti.template(), px: ti.template(),
-                 py: ti.template(), pz: ti.template(), dep: ti.template(), w: ti.template()):
+                 py: ti.template(), pz: ti.template(), dep: ti.template(), w: ti.template(),
+                 overlap: ti.template()):
     """Contact patch of pair p = (i, j) into the point buffers (see geometry.box_contact);
     keeps the sticky axis in contacts.code.  Returns (reused, n, npts, shrink, centroid).  With
     control.patch_tolerance > 0 a closed flat patch of the last steps is reused (reused = 1)
     while the poses allow it (dem.engine.coherence), and a full narrow phase keeps its patch for
-    that.  In the warped kernels (imperfect faces) that reuse is off; with a tolerance set by
-    coherence.set_overlap_reuse (off by default) the faces' overlap polygon is kept instead and
-    only the gap clip, quadrature and points are redone while the faces do not drift
-    (coherence.reuse_overlap); reused stays 0 then (the points are new: history by position)."""
+    that.  In the warped kernels (imperfect faces) that reuse is off.
+
+    ``overlap`` (compile time, only with ``warped``): the overlap reuse of
+    coherence.set_overlap_reuse (tolerance tol_o = contacts.patch_shape[p, 0][0] > 0 m): the
+    faces' overlap polygon is kept and only the gap clip, quadrature and points are redone while
+    the faces do not drift (coherence.reuse_overlap); reused stays 0 then (the points are new:
+    history by position).  Without it the code below is exactly that of the narrow phase before
+    the overlap reuse existed (commit aec8507), with no runtime test of tol_o: a runtime branch,
+    even never taken, changed how LLVM fuses the arithmetic and moved the default imperfect
+    path by round-off (1.4e-15 m after 3000 steps); as a separate compiled variant it stays
+    bit for bit."""
     reused = 0
     n = vec3(0.0, 0.0, 1.0)
     npts = 0
     shrink = 1.0
     centroid = vec3(0.0)
-    tol = control.patch_tolerance[0]
-    if ti.static(not warped):  # patch reuse: perfect faces only (dem.engine.coherence)
-        if tol > 0.0:
-            reused, n, npts, shrink, centroid = coherence.reuse_patch(
-                p, i, j, tol, model, state, contacts, px, py, pz, dep, w)
-        if reused == 0:
-            hA = model.half[i]
-            hB = model.half[j]
-            hmin = ti.min(hA.min(), hB.min())
-            code = 0
-            whole = 0
-            code, n, npts, shrink, centroid, whole = geometry.box_contact(
-                state.pos[i], state.rot[i], hA, state.pos[j], state.rot[j], hB,
-                contacts.code[p], 1e-3 * hmin, hmin * hmin, model, warped, i, j, px, py, pz,
-                dep, w)
-            if code >= 0:
-                contacts.code[p] = code
-            if tol > 0.0:
-                coherence.store_patch(p, i, j, code, whole, npts, shrink, centroid, model,
-                                      state, contacts, px, py, pz, w)
-    else:
+    if ti.static(warped and overlap):
         tol_o = contacts.patch_shape[p, 0][0]  # overlap reuse (coherence.set_overlap_reuse)
         kept = 0
         if tol_o > 0.0:
@@ -136,6 +124,28 @@ def narrow_phase(p, i, j, model: ti.template(), state: ti.template(), contacts: 
                 dep, w)
             if code >= 0:
                 contacts.code[p] = code
+    else:  # the narrow phase of aec8507, unchanged
+        tol = control.patch_tolerance[0]
+        if ti.static(not warped):  # patch reuse: perfect faces only (dem.engine.coherence)
+            if tol > 0.0:
+                reused, n, npts, shrink, centroid = coherence.reuse_patch(
+                    p, i, j, tol, model, state, contacts, px, py, pz, dep, w)
+        if reused == 0:
+            hA = model.half[i]
+            hB = model.half[j]
+            hmin = ti.min(hA.min(), hB.min())
+            code = 0
+            whole = 0
+            code, n, npts, shrink, centroid, whole = geometry.box_contact(
+                state.pos[i], state.rot[i], hA, state.pos[j], state.rot[j], hB,
+                contacts.code[p], 1e-3 * hmin, hmin * hmin, model, warped, i, j, px, py, pz,
+                dep, w)
+            if code >= 0:
+                contacts.code[p] = code
+            if ti.static(not warped):
+                if tol > 0.0:
+                    coherence.store_patch(p, i, j, code, whole, npts, shrink, centroid, model,
+                                          state, contacts, px, py, pz, w)
     return reused, n, npts, shrink, centroid
 
 
@@ -183,12 +193,14 @@ def matched_point(q, lq, n_old, match_tol2, lx: ti.template(), ly: ti.template()
 
 @ti.func
 def contact_stage(p, dt, model: ti.template(), state: ti.template(), contacts: ti.template(),
-                  control: ti.template(), warped: ti.template(), hyperbolic: ti.template()):
+                  control: ti.template(), warped: ti.template(), hyperbolic: ti.template(),
+                  overlap: ti.template() = False):
     """Narrow phase, pair properties, history and joint law of pair p.  ``warped``
     (compile time): the kernel handles imperfect faces (docs/imperfections.md);
     ``hyperbolic`` (compile time): the kernel reads each pair's normal law (linear or
     hyperbolic, dem.engine.laws); without it every pair is linear, the code that ran before
-    the hyperbolic law existed (the same results bit for bit)."""
+    the hyperbolic law existed (the same results bit for bit); ``overlap`` (compile time, False
+    by default): the warped kernels' overlap reuse (:func:`narrow_phase`)."""
     i = contacts.pairs[p][0]
     j = contacts.pairs[p][1]
     pA = state.pos[i]
@@ -200,7 +212,7 @@ def contact_stage(p, dt, model: ti.template(), state: ti.template(), contacts: t
     dep = point_buffer()
     w = point_buffer()
     reused, n, npts, shrink, centroid = narrow_phase(p, i, j, model, state, contacts, control,
-                                                     warped, px, py, pz, dep, w)
+                                                     warped, px, py, pz, dep, w, overlap)
     lx = point_buffer()
     ly = point_buffer()
     lz = point_buffer()
@@ -458,20 +470,22 @@ def deepest_stage(s, n_pairs, contacts: ti.template(), control: ti.template()):
 @ti.kernel
 def advance_serial(n_steps: ti.i32, n_pairs: ti.i32, dt: float, model: ModelArgs,
                    state: StateArgs, contacts: ContactArgs, control: ControlArgs,
-                   warped: ti.template(), hyperbolic: ti.template()):
+                   warped: ti.template(), hyperbolic: ti.template(), overlap: ti.template()):
     """Run up to n_steps steps on one thread; stop after a step that raised a status bit.
     control.steps_done returns the number of steps done; control.loads[s] holds step s's loads.
 
     Compile-time variants (``ti.template()``: each combination is its own compiled kernel,
     built on first use): ``warped`` for scenes with imperfect faces (warps, arrises),
-    ``hyperbolic`` for scenes with a hyperbolic joint (dem.engine.laws); (False, False) is the
-    perfect, linear model's code, without a branch of the others (see :func:`contact_stage`).
+    ``hyperbolic`` for scenes with a hyperbolic joint (dem.engine.laws), ``overlap`` for warped
+    scenes with the overlap reuse on (coherence.set_overlap_reuse; :func:`narrow_phase`);
+    (False, False, False) is the perfect, linear model's code, without a branch of the others
+    (see :func:`contact_stage`), and (True, h, False) the imperfect code before the overlap reuse.
     """
     n_bodies = state.pos.shape[0]
     s = 0
     while s < n_steps and control.status[0] == 0:
         for p in range(n_pairs):
-            contact_stage(p, dt, model, state, contacts, control, warped, hyperbolic)
+            contact_stage(p, dt, model, state, contacts, control, warped, hyperbolic, overlap)
         for b in range(n_bodies):
             integrate_stage(b, s, dt, model, state, contacts, control)
         energy_stage(n_pairs, state, contacts, control)
@@ -483,11 +497,11 @@ def advance_serial(n_steps: ti.i32, n_pairs: ti.i32, dt: float, model: ModelArgs
 @ti.kernel
 def advance_parallel(n_pairs: ti.i32, dt: float, model: ModelArgs, state: StateArgs,
                      contacts: ContactArgs, control: ControlArgs, warped: ti.template(),
-                     hyperbolic: ti.template()):
+                     hyperbolic: ti.template(), overlap: ti.template()):
     """One step (control.loads[0]) as two parallel loops, over pairs then over bodies;
-    ``warped``, ``hyperbolic`` as in :func:`advance_serial`."""
+    ``warped``, ``hyperbolic``, ``overlap`` as in :func:`advance_serial`."""
     for p in range(n_pairs):
-        contact_stage(p, dt, model, state, contacts, control, warped, hyperbolic)
+        contact_stage(p, dt, model, state, contacts, control, warped, hyperbolic, overlap)
     for b in range(state.pos.shape[0]):
         integrate_stage(b, 0, dt, model, state, contacts, control)
     ti.loop_config(serialize=True)
