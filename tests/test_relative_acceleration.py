@@ -102,8 +102,8 @@ def test_a_real_bolted_block_reads_zero_relative_and_one_absolute(tmp_path):
 def test_first_harmonic_estimate_from_an_absolute_entry_is_the_relative_amplitude():
     """analysis.json files older than issue 32 hold only the absolute a: its phasor against the
     table's acceleration is 1 + (R / A) e^(-i phi), so |phasor - 1| = R / A (the relative one,
-    postprocess.relative_thesis)."""
-    from postprocess.relative_thesis import first_harmonic_relative, relative_row
+    studies.diagnosis.relative_thesis)."""
+    from studies.diagnosis.relative_thesis import first_harmonic_relative, relative_row
 
     R, phi, R_f, phi_f = 1.8 * A, np.radians(60.0), 0.7 * A, np.radians(40.0)
     sig, win = _signals(R, phi, R_f, phi_f)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import typer
 
 app = typer.Typer(add_completion=False, no_args_is_help=True,
@@ -34,6 +36,17 @@ def e7() -> None:
     from studies.diagnosis import e7 as exp
 
     exp.report()
+
+
+@app.command()
+def relative(results: Path = typer.Argument(..., help="a folder holding analysis.json files "
+                                            "(e.g. results/shake)")) -> None:
+    """The DEM's accelerations relative to the table against the thesis' (issue 32 item 5): a
+    Markdown table of every analysis.json under RESULTS (recorded relative quantities, else the
+    first-harmonic estimate from the absolute ones)."""
+    from studies.diagnosis.relative_thesis import report
+
+    print(report(results))
 
 
 def main(argv=None) -> int:

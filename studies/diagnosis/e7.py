@@ -18,7 +18,7 @@ the first-harmonic estimate, a lower bound of the peak-to-peak ratio.)  So the f
 committed rows (results/prediction/<sweep>/points.json, field h1_ds) already hold the relative
 acceleration amplification of every one of its 400 runs: no rerun needed.  The runs analysed
 with today's shake analysis also record a_rel directly (postprocess/shake.py: relative_to_table);
-results/shake's sweeps with perfect joints were compared by ``python -m postprocess.relative_thesis
+results/shake's sweeps with perfect joints were compared by ``python -m studies diagnosis relative
 results/shake`` (docs/table_protocols.md).
 
 Output: results/diagnosis/e7/summary.json and the table in results/diagnosis/README.md.

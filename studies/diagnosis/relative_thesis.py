@@ -19,14 +19,13 @@ d, a and vs and around 2.5 for the derived va"), outside below 0.5 (line 1017); 
 facade amplification ratios of Tables 4.9 - 4.11 (lines 1177 - 1196: means 0.359 Model II y,
 0.618 Model II x, 0.587 Model III y).
 
-    python -m postprocess.relative_thesis results/shake        # prints a Markdown table
+    python -m studies diagnosis relative results/shake        # prints a Markdown table
 """
 
 from __future__ import annotations
 
 import json
 import math
-import sys
 from pathlib import Path
 
 #: thesis front / back amplification ratio means (Tables 4.9 - 4.11, line 1177)
@@ -89,9 +88,3 @@ def report(results: Path) -> str:
                  + ", ".join(f"Model {m} {a}: {v:g}" for (m, a), v in THESIS_FRONT_BACK.items())
                  + " (Tables 4.9 - 4.11).")
     return "\n".join(lines)
-
-
-if __name__ == "__main__":
-    if len(sys.argv) != 2:
-        sys.exit(__doc__)
-    print(report(Path(sys.argv[1])))
