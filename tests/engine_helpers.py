@@ -89,3 +89,41 @@ def stretcher_wall(n_bricks=9, n_courses=15):
 # applied twice moves a block by g dt^2 ~ 1e-9 m).
 ROUND_OFF_POS_M = 1e-15
 ROUND_OFF_QUAT = 1e-13
+
+
+def assert_cold_compile_is_f64(material_code: str, modes=("serial", "parallel")) -> None:
+    """Compile the engine's kernels for a 2 x 2 small-brick wall of ``Material(material_code)``
+    (Python source of the keyword arguments) in ``modes``, with an empty offline cache, in a
+    fresh process: Taichi must not warn about a lossy assignment (an f32 value inside the f64
+    engine, as the point buffers were when their type was made before ti.init), and the
+    compiled code must hold no f32."""
+    import os
+    import subprocess
+    import sys
+    import tempfile
+    import textwrap
+
+    code = textwrap.dedent(f"""
+        import numpy as np
+        from dem.builders import build_wall
+        from dem.case import Material, SolverSpec
+        from dem.engine import Simulation
+        from dem.run.build import joint_law, step_options
+        for mode in {tuple(modes)!r}:
+            sim = Simulation(build_wall("small", length=2, courses=2),
+                             joint_law(Material({material_code})),
+                             step_options(SolverSpec(mode=mode)))
+            g = np.array([0.0, 0.0, -9.81])
+            sim.advance(3, lambda t: (np.tile(g, (len(t), 1)), np.zeros((len(t), 3))))
+            sim.mechanical_energy()
+        print("COMPILED")
+    """)
+    with tempfile.TemporaryDirectory() as cache:
+        env = dict(os.environ, TI_OFFLINE_CACHE_FILE_PATH=cache, TI_LOG_LEVEL="warn")
+        out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                             text=True, timeout=900)
+        assert os.listdir(cache), "the offline cache was not written: not a cold compile"
+    text = out.stdout + out.stderr
+    assert out.returncode == 0 and "COMPILED" in out.stdout, text[-3000:]
+    assert "lose precision" not in text, text[-3000:]
+    assert "f32" not in text, text[-3000:]

@@ -2,10 +2,6 @@
 bit for bit; every real number compiles in the engine's precision (no narrowing on a cold
 compile); the containers' field tables are the kernels' arguments."""
 
-import os
-import subprocess
-import sys
-import textwrap
 
 import numpy as np
 import pytest
@@ -16,7 +12,7 @@ from dem.engine import Simulation
 from dem.engine.containers import (CONTACT_FIELDS, CONTROL_FIELDS, MODEL_FIELDS, STATE_FIELDS,
                                    ContactArgs, ControlArgs, ModelArgs, StateArgs)
 from dem.run.build import joint_law, step_options
-from engine_helpers import ROUND_OFF_POS_M, ROUND_OFF_QUAT
+from engine_helpers import ROUND_OFF_POS_M, ROUND_OFF_QUAT, assert_cold_compile_is_f64
 
 G = np.array([0.0, 0.0, -9.81])
 
@@ -102,31 +98,7 @@ def test_cold_compile_has_no_narrowing_and_no_f32():
     """Compile every engine kernel with an empty offline cache in a fresh process: Taichi must
     not warn about a lossy assignment (an f32 value inside the f64 engine, as the point buffers
     were when their type was made before ti.init), and the compiled code must hold no f32."""
-    code = textwrap.dedent("""
-        import numpy as np
-        from dem.builders import build_wall
-        from dem.case import Material, SolverSpec
-        from dem.engine import Simulation
-        from dem.run.build import joint_law, step_options
-        for mode in ("serial", "parallel"):
-            sim = Simulation(build_wall("small", length=2, courses=2),
-                             joint_law(Material(friction=0.6)),
-                             step_options(SolverSpec(mode=mode)))
-            g = np.array([0.0, 0.0, -9.81])
-            sim.advance(3, lambda t: (np.tile(g, (len(t), 1)), np.zeros((len(t), 3))))
-            sim.mechanical_energy()
-        print("COMPILED")
-    """)
-    import tempfile
-    with tempfile.TemporaryDirectory() as cache:
-        env = dict(os.environ, TI_OFFLINE_CACHE_FILE_PATH=cache, TI_LOG_LEVEL="warn")
-        out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
-                             text=True, timeout=600)
-        assert os.listdir(cache), "the offline cache was not written: not a cold compile"
-    text = out.stdout + out.stderr
-    assert out.returncode == 0 and "COMPILED" in out.stdout, text[-3000:]
-    assert "lose precision" not in text, text[-3000:]
-    assert "f32" not in text, text[-3000:]
+    assert_cold_compile_is_f64("friction=0.6")
 
 
 def test_trajectory_does_not_depend_on_how_the_steps_are_launched():

@@ -316,34 +316,7 @@ def test_hyperbolic_kernels_cold_compile_without_narrowing():
     tests/test_engine_launch.py checks the default kernels).  One stepping kernel: the parallel
     and imperfect-face variants run the same law functions (a cold compile costs ~1-2 min of
     CPU each on the 2-core machine)."""
-    import os
-    import subprocess
-    import sys
-    import tempfile
-    import textwrap
+    from engine_helpers import assert_cold_compile_is_f64
 
-    code = textwrap.dedent("""
-        import numpy as np
-        from dem.builders import build_wall
-        from dem.case import Material, SolverSpec
-        from dem.engine import Simulation
-        from dem.run.build import joint_law, step_options
-        mat = Material(friction=0.6, normal_law="hyperbolic", normal_stiffness=1e8,
-                       max_closure=1e-4)
-        for mode in ("serial",):
-            scene = build_wall("small", length=2, courses=2)
-            sim = Simulation(scene, joint_law(mat), step_options(SolverSpec(mode=mode)))
-            g = np.array([0.0, 0.0, -9.81])
-            sim.advance(3, lambda t: (np.tile(g, (len(t), 1)), np.zeros((len(t), 3))))
-            sim.mechanical_energy()
-        print("COMPILED")
-    """)
-    with tempfile.TemporaryDirectory() as cache:
-        env = dict(os.environ, TI_OFFLINE_CACHE_FILE_PATH=cache, TI_LOG_LEVEL="warn")
-        out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
-                             text=True, timeout=900)
-        assert os.listdir(cache), "the offline cache was not written: not a cold compile"
-    text = out.stdout + out.stderr
-    assert out.returncode == 0 and "COMPILED" in out.stdout, text[-3000:]
-    assert "lose precision" not in text, text[-3000:]
-    assert "f32" not in text, text[-3000:]
+    assert_cold_compile_is_f64('friction=0.6, normal_law="hyperbolic", normal_stiffness=1e8, '
+                               'max_closure=1e-4', modes=("serial",))

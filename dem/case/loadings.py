@@ -172,6 +172,19 @@ def _omit_start_defaults(model, data):
     return data
 
 
+def _shake_direction(v):
+    """A shake's direction must be a finite non-zero vector (ShakeLoading, SteppedShakeLoading)."""
+    if math.sqrt(sum(x * x for x in v)) == 0.0 or any(not math.isfinite(x) for x in v):
+        raise ValueError(f"direction must be a finite non-zero vector, got {v}")
+    return v
+
+
+def _one_amplitude(amplitude, peak_acceleration) -> None:
+    """Exactly one of a displacement amplitude (m) and a peak acceleration (m/s2)."""
+    if (amplitude is None) == (peak_acceleration is None):
+        raise ValueError("give exactly one of amplitude (m) or peak_acceleration (m/s2)")
+
+
 class ShakeLoading(_Strict):
     """Sinusoidal table displacement u(t) = A * direction * sin(2 pi f t) for ``cycles`` cycles.
 
@@ -194,14 +207,11 @@ class ShakeLoading(_Strict):
     @field_validator("direction")
     @classmethod
     def _nonzero(cls, v):
-        if math.sqrt(sum(x * x for x in v)) == 0.0 or any(not math.isfinite(x) for x in v):
-            raise ValueError(f"direction must be a finite non-zero vector, got {v}")
-        return v
+        return _shake_direction(v)
 
     @model_validator(mode="after")
     def _one_of(self) -> "ShakeLoading":
-        if (self.amplitude is None) == (self.peak_acceleration is None):
-            raise ValueError("give exactly one of amplitude (m) or peak_acceleration (m/s2)")
+        _one_amplitude(self.amplitude, self.peak_acceleration)
         _check_start(self.start, self.ramp_cycles, self.cycles, "cycles")
         return self
 
@@ -260,14 +270,11 @@ class SteppedShakeLoading(_Strict):
     @field_validator("direction")
     @classmethod
     def _nonzero(cls, v):
-        if math.sqrt(sum(x * x for x in v)) == 0.0 or any(not math.isfinite(x) for x in v):
-            raise ValueError(f"direction must be a finite non-zero vector, got {v}")
-        return v
+        return _shake_direction(v)
 
     @model_validator(mode="after")
     def _one_of(self) -> "SteppedShakeLoading":
-        if (self.amplitude is None) == (self.peak_acceleration is None):
-            raise ValueError("give exactly one of amplitude (m) or peak_acceleration (m/s2)")
+        _one_amplitude(self.amplitude, self.peak_acceleration)
         _check_start(self.start, self.ramp_cycles, self.steps[0].cycles, "steps[0].cycles")
         return self
 
