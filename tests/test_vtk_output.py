@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import xml.etree.ElementTree as ET
 
 import meshio
@@ -11,7 +12,11 @@ import pyvista as pv
 from scipy.spatial.transform import Rotation
 
 from dem.builders import build_wall
-from dem.output.vtk import VtkSeries, decode_names, series_from_frames
+from dem.output.vtk import (
+    GROUP_CELL_PREFIX, GROUP_CODE_PREFIX, MAX_GROUP_CELL_ARRAYS, VtkSeries, blocks_grid,
+    group_names_from_field_data, series_from_frames,
+)
+from dem.scene import Scene
 
 TIMES = [0.0, 0.013, 0.05, 0.1]  # deliberately uneven: the pvd must hold the real times
 
@@ -54,7 +59,7 @@ def test_series_reads_back(tmp_path, motion):
     entries = pvd_entries(vtk / "scene.pvd")
     assert [t for t, _ in entries] == TIMES  # exact: written with repr()
     assert pv.get_reader(str(vtk / "scene.pvd")).time_values == pytest.approx(TIMES)
-    assert decode_names(meshio.read(vtk / entries[0][1]).field_data["group_names"]) == ["wall"]
+    assert group_names_from_field_data(meshio.read(vtk / entries[0][1]).field_data) == ["wall"]
     for (t, pos, quat, vel, base), (tp, file) in zip(frames, entries):
         m = meshio.read(vtk / file)
         assert [c.type for c in m.cells] == ["hexahedron"] and len(m.cells[0].data) == n
@@ -188,3 +193,81 @@ def test_vtk_matches_frames_npz_of_a_run(tmp_path):
         m = meshio.read(vtk / file)
         assert m.points[m.cells[0].data].mean(axis=1) == pytest.approx(data["pos"][k], abs=1e-6)
         assert m.field_data["base_displacement"] == pytest.approx(data["base_disp"][k], abs=1e-9)
+
+
+def grouped_scene(names) -> Scene:
+    """One 2-brick, 1-course wall per name, side by side along x (group k = the k-th wall)."""
+    return Scene.concatenate(
+        [build_wall("small", 2, 1, origin=(0.6 * k, 0.0, 0.0), group=g) for k, g in enumerate(names)]
+    )
+
+
+def test_group_names_read_back_as_names(tmp_path):
+    """Issue 36: the group names come back as names, not uint8 codes, from both readers, and
+    select their blocks by name.  pyvista reads with VTK's own vtkXMLUnstructuredGridReader and
+    thresholds with vtkThreshold, what ParaView's reader and Threshold filter use; meshio cannot
+    read VTK string arrays, so the names are in the arrays' names.  Names with the characters
+    VTK writes unescaped into the XML (& < > " tab) must not spoil the file."""
+    names = ["wall_x", "corner", 'pier <&> "ä"\t2']
+    scene = grouped_scene(names)
+    assert scene.group_names == names and sorted(set(scene.group.tolist())) == [0, 1, 2]
+    with VtkSeries(tmp_path, scene) as series:
+        path = series.add_frame(0.0, scene.position, scene.quat, None, None)
+    m = meshio.read(path)
+    g = pv.read(path)
+    for field, cells in ((m.field_data, {k: v[0] for k, v in m.cell_data.items()}),
+                         (g.field_data, g.cell_data)):
+        # the names are spelled in the file: one field array per group, holding its code
+        table = {k[len(GROUP_CODE_PREFIX):]: int(np.asarray(v).ravel()[0])
+                 for k, v in field.items() if k.startswith(GROUP_CODE_PREFIX)}
+        assert sorted(table.values()) == [0, 1, 2]
+        assert GROUP_CODE_PREFIX + "wall_x" in field and GROUP_CODE_PREFIX + "corner" in field
+        assert group_names_from_field_data(field) == names
+        assert np.asarray(cells["group"]).tolist() == scene.group.tolist()  # the code stays
+        # one 0/1 cell array per group, named as its table entry (plain names as they are)
+        assert sorted(k for k in cells if k.startswith(GROUP_CELL_PREFIX)) == \
+            sorted(GROUP_CELL_PREFIX + k for k in table)
+        for spelled, code in table.items():
+            assert np.asarray(cells[GROUP_CELL_PREFIX + spelled]).tolist() == \
+                (scene.group == code).astype(int).tolist()
+            if code == 2:  # the name with & < > " tab
+                assert spelled != names[2] and set('&<>"\t').isdisjoint(spelled)
+            else:
+                assert spelled == names[code]
+    for spelled, code in table.items():  # ParaView's "Threshold group=NAME between 1 and 1"
+        picked = g.threshold(value=(1, 1), scalars=GROUP_CELL_PREFIX + spelled)
+        assert sorted(picked.cell_data["block_id"].tolist()) == \
+            np.flatnonzero(scene.group == code).tolist()
+    assert json.loads((tmp_path / "vtk" / "groups.json").read_text())["group_names"] == names
+
+
+def test_many_groups_keep_the_table_but_not_one_array_each():
+    """Above MAX_GROUP_CELL_ARRAYS groups no per-group cell arrays (a frame would double), but
+    the code and the name table are still written."""
+    names = [f"g{k}" for k in range(MAX_GROUP_CELL_ARRAYS + 1)]
+    scene = grouped_scene(names)
+    grid = blocks_grid(scene, scene.position, scene.quat)
+    assert not [k for k in grid.cell_data if k.startswith(GROUP_CELL_PREFIX)]
+    assert group_names_from_field_data(grid.field_data) == names
+    assert grid.cell_data["group"].tolist() == scene.group.tolist()
+    fewer = grouped_scene(names[:-1])
+    grid = blocks_grid(fewer, fewer.position, fewer.quat)
+    assert len([k for k in grid.cell_data if k.startswith(GROUP_CELL_PREFIX)]) == len(names) - 1
+
+
+def test_files_written_before_the_name_table_still_read():
+    """The uint8 ``group_names`` field array of older runs (UTF-8 names joined by newlines)."""
+    names = ["L1", "roof-beam", "ä"]
+    old = {"group_names": np.frombuffer("\n".join(names).encode("utf-8"), dtype=np.uint8)}
+    assert group_names_from_field_data(old) == names
+    with pytest.raises(ValueError, match="group_code"):
+        group_names_from_field_data({"time": np.zeros(1)})
+
+
+@pytest.mark.parametrize("names, field", [(["a", "a"], "group_names"), (["a", ""], "group_names")])
+def test_group_names_that_cannot_be_told_apart_are_refused(names, field):
+    scene = build_wall("small", 2, 1)
+    scene.group_names = names
+    scene.group[:] = 0
+    with pytest.raises(ValueError, match=f"scene.{field}"):
+        blocks_grid(scene, scene.position, scene.quat)

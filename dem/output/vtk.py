@@ -15,7 +15,10 @@ cell data stay relative to the table either way.
 Cell data per block (cell i = block i, in the order of the scene: explicit blocks first):
 
     block_id        int32    index of the block
-    group           int32    index into the field-data array ``group_names`` (wall / group label)
+    group           int32    code of the block's group: index into ``scene.group_names``
+    group=NAME      uint8    one array per group NAME (e.g. ``group=L1``): 1 for the blocks of
+                             the group, 0 for the others (only while the scene has at most
+                             MAX_GROUP_CELL_ARRAYS groups, to keep frames small)
     course          int32    course index (0 = bottom course, -1 where it does not apply)
     displacement    float32  [3] position minus the initial position, m (table frame)
     velocity        float32  [3] m/s (table frame)
@@ -28,17 +31,32 @@ and, for an imperfect scene only (dem.imperfections; a perfect scene's files are
                              dem.scene's numbering), m, <= 0 (recessed from the nominal face)
     arris           float32  radius of the rounded edges, m
 
-Field data per file: ``TimeValue`` and ``time`` (s), ``base_displacement`` [3] (m),
-``group_names`` (uint8: the UTF-8 names joined by newlines, see :func:`decode_names`; VTK string
-arrays would break meshio's reader); ``vtk/groups.json`` lists the same names; contacts carry point data ``normal`` [3], ``fn`` (N, normal force),
-``ft`` [3] (N, shear force) and ``ft_magnitude`` (N).
+Field data per file: ``TimeValue`` and ``time`` (s), ``base_displacement`` [3] (m), and the
+table of group names: one int32 array ``group_code:NAME`` per group holding its code (the value
+of ``group`` for its blocks).  ``vtk/groups.json`` lists the same names in code order.
+
+Group names, and why they are spelled in array names: ParaView's Threshold and colouring work on
+numbers, and meshio (5.3) cannot read VTK string arrays at all (an ``<Array type="String">``
+anywhere in a .vtu makes ``meshio.read`` fail), so the names are carried by the names of numeric
+arrays, which both read back (the characters ``% < > & "`` and control characters of a name
+appear there as ``%XX``, e.g. ``group=a%26b`` for the group ``a&b``).  In ParaView, colour or
+threshold by ``group=L1`` (1 to 1) for the blocks of L1, or by ``group`` with the code that the
+field array ``group_code:L1`` holds (Information panel, Data Arrays; or the spreadsheet's Field
+Data).  In Python,
+:func:`group_names_from_field_data` turns meshio's or pyvista's field data back into the list of
+names.  Files written before this (uint8 field data ``group_names``, the UTF-8 names joined by
+newlines) are read by the same function (:func:`decode_names`).
+
+Contacts carry point data ``normal`` [3], ``fn`` (N, normal force), ``ft`` [3] (N, shear force)
+and ``ft_magnitude`` (N).
 
 The ``.pvd`` files are rewritten after every frame through a temporary file and an atomic rename,
 and every ``.vtu`` is written to a temporary name first, so whatever happens to the run, the
 series on disk is valid and lists exactly the frames that are complete.
 
 Size: points and data are float32 and zlib-compressed; a 217-block box model in motion takes
-about 32 kB per frame (~150 bytes per block; measured, see README "Output"), written in ~10 ms.
+about 34 kB per frame (~160 bytes per block, 2.3 kB of it the 7 groups' arrays; measured, see
+README "Output"), written in ~10 ms.
 """
 
 from __future__ import annotations
@@ -46,6 +64,7 @@ from __future__ import annotations
 import json
 import xml.etree.ElementTree as ET
 from pathlib import Path
+from urllib.parse import unquote
 
 import numpy as np
 import pyvista as pv
@@ -54,6 +73,17 @@ from vtkmodules.util.numpy_support import numpy_to_vtk
 from dem import quaternion
 from dem.output.atomic import atomic_path, write_text
 from dem.scene import Scene
+
+GROUP_CODE_PREFIX = "group_code:"  # field data: GROUP_CODE_PREFIX + name -> int32 [code]
+GROUP_CELL_PREFIX = "group="  # cell data: GROUP_CELL_PREFIX + name -> uint8 [N], 1 in the group
+# above this many groups only the code and the table are written: a group costs about 330 bytes
+# per frame (measured: Model II's 7 groups take its 217-block frames from 31.5 to 33.8 kB, median
+# of 16 frames of a 0.3 s run), and a group per block (explicit blocks may each name one) would
+# double a frame
+MAX_GROUP_CELL_ARRAYS = 16
+# VTK writes array names into the XML unescaped: a name with < & " (or a tab / newline, which
+# XML turns into spaces) would make the file unreadable, so these are written as %XX
+_UNSAFE_IN_NAME = set('%<>&"') | {chr(c) for c in range(32)} | {"\x7f"}
 
 # VTK_HEXAHEDRON vertex order: bottom face counter-clockwise, then the top face
 HEX_CORNERS = np.array(
@@ -99,7 +129,11 @@ def blocks_grid(
     cells = np.hstack([np.full((n, 1), 8), np.arange(8 * n).reshape(n, 8)]).ravel()
     grid = pv.UnstructuredGrid(cells, np.full(n, pv.CellType.HEXAHEDRON, dtype=np.uint8), pts.astype(dtype))
     grid.cell_data["block_id"] = np.arange(n, dtype=np.int32)
+    names = _checked_group_names(scene)
     grid.cell_data["group"] = scene.group.astype(np.int32)
+    if len(names) <= MAX_GROUP_CELL_ARRAYS:
+        for code, name in enumerate(names):
+            grid.cell_data[GROUP_CELL_PREFIX + _array_name(name)] = (scene.group == code).astype(np.uint8)
     grid.cell_data["course"] = scene.course.astype(np.int32)
     grid.cell_data["displacement"] = (pos - scene.position).astype(dtype)
     v = np.zeros((n, 3)) if vel is None else np.asarray(vel, dtype=np.float64).reshape(n, 3)
@@ -114,18 +148,53 @@ def blocks_grid(
         grid.field_data["time"] = np.array([t], dtype=np.float64)
     if base_disp is not None:
         grid.field_data["base_displacement"] = np.asarray(base_disp, dtype=np.float64).reshape(3)
-    grid.field_data["group_names"] = encode_names(scene.group_names)
+    for code, name in enumerate(names):
+        grid.field_data[GROUP_CODE_PREFIX + _array_name(name)] = np.array([code], dtype=np.int32)
     return grid
 
 
-def encode_names(names: list[str]) -> np.ndarray:
-    """Group names as a uint8 field array (UTF-8, joined by newlines).  VTK string arrays would
-    be simpler, but meshio cannot read them; decode with :func:`decode_names`."""
-    return np.frombuffer("\n".join(names).encode("utf-8"), dtype=np.uint8).copy()
+def _array_name(name: str) -> str:
+    """``name`` with the characters VTK would write unescaped into the XML as %XX (inverse:
+    urllib.parse.unquote)."""
+    return "".join(f"%{ord(ch):02X}" if ch in _UNSAFE_IN_NAME else ch for ch in name)
+
+
+def _checked_group_names(scene: Scene) -> list[str]:
+    """``scene.group_names``, refused (ValueError naming the field) where they could not be told
+    apart in the array names: empty or repeated names, or fewer names than the codes used."""
+    names = [str(g) for g in scene.group_names]
+    if any(not g for g in names):
+        raise ValueError(f"scene.group_names: an empty group name in {names!r}")
+    if len(set(names)) != len(names):
+        raise ValueError(f"scene.group_names: repeated names in {names!r}")
+    if scene.n_blocks and not 0 <= int(np.min(scene.group)) <= int(np.max(scene.group)) < len(names):
+        raise ValueError(f"scene.group: codes {int(np.min(scene.group))} to {int(np.max(scene.group))} "
+                         f"outside the {len(names)} group_names")
+    return names
+
+
+def group_names_from_field_data(field_data) -> list[str]:
+    """The group names in code order (``names[code]``) from the field data of a blocks .vtu read
+    back: meshio's ``mesh.field_data`` or pyvista's ``grid.field_data`` (any mapping of array name
+    to array).  Reads the ``group_code:NAME`` arrays, or, in files written before them, the uint8
+    ``group_names`` array.  Raises ValueError if neither is there or the codes are not 0..n-1."""
+    table = {
+        unquote(key[len(GROUP_CODE_PREFIX):]): int(np.asarray(field_data[key]).ravel()[0])
+        for key in field_data.keys() if key.startswith(GROUP_CODE_PREFIX)
+    }
+    if not table:
+        if "group_names" in field_data.keys():
+            return decode_names(field_data["group_names"])
+        raise ValueError(f"no {GROUP_CODE_PREFIX}NAME (or group_names) array in the field data")
+    names = sorted(table, key=table.get)
+    if [table[n] for n in names] != list(range(len(names))):
+        raise ValueError(f"{GROUP_CODE_PREFIX}NAME codes are not 0..{len(names) - 1}: {table}")
+    return names
 
 
 def decode_names(arr) -> list[str]:
-    """Inverse of :func:`encode_names`."""
+    """Group names from the uint8 field array ``group_names`` of files written before the
+    ``group_code:NAME`` arrays (UTF-8, names joined by newlines)."""
     return bytes(np.asarray(arr, dtype=np.uint8)).decode("utf-8").split("\n")
 
 
