@@ -72,3 +72,12 @@ class SolverSpec(_Strict):
         "1e-7: results within the round-off sensitivity of the thesis' cases, 1.1-1.3x faster "
         "(benchmarks/speed_error.md)",
     )
+    overlap_reuse: float = Field(
+        default=0.0, ge=0.0, le=1e-3,
+        description="keep an imperfect joint's overlap polygon while its corners drift less than "
+        "this, m (0 = off, the default): the incident face's corners, in the reference face's "
+        "plane; only the gap, its clip and the quadrature are redone each step "
+        "(dem/engine/coherence.py set_overlap_reuse). No effect on a scene without imperfect "
+        "faces (summary.json joints.overlap_reuse says so). 1e-7: 1.2-1.3x less CPU, imperfect "
+        "Model II ds amplification within 0.3 % (benchmarks/RESULTS.md, 'Overlap reuse')",
+    )

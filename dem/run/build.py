@@ -2,7 +2,8 @@
 
 The only place where the case schema meets the engine: ``joint_law`` and ``step_options`` copy
 the ``material:`` and ``solver:`` sections into the engine's own option types
-(dem.engine.options), so the engine never holds a pydantic object.
+(dem.engine.options), so the engine never holds a pydantic object.  ``solver.overlap_reuse``
+is applied to the built Simulation (:func:`build`, through dem.engine.coherence.set_overlap_reuse).
 """
 
 from __future__ import annotations
@@ -143,12 +144,37 @@ def joint_summary(case: Case, scene: Scene, joints: JointLaw) -> dict:
     if joints.pairs:
         out["pairs"] = [{k: v for k, v in vars(p).items() if v is not None}
                         for p in joints.pairs]
+    reuse = overlap_reuse_summary(case, scene)
+    if reuse is not None:  # only where the case sets it, like normal_law above
+        out["overlap_reuse"] = reuse
     return out
 
 
+# solver fields that are not StepOptions: applied to the built Simulation (:func:`build`)
+_AFTER_BUILD = {"overlap_reuse"}
+
+
 def step_options(solver: SolverSpec) -> StepOptions:
-    """The engine's stepping options from a case's ``solver:`` (the same names)."""
-    return StepOptions(**solver.model_dump())
+    """The engine's stepping options from a case's ``solver:`` (the same names; the fields
+    applied after construction, ``overlap_reuse``, left out: :func:`build`)."""
+    return StepOptions(**solver.model_dump(exclude=_AFTER_BUILD))
+
+
+def overlap_reuse_summary(case: Case, scene: Scene) -> dict | None:
+    """summary.json's ``joints.overlap_reuse`` where the case sets ``solver.overlap_reuse``
+    (None where it does not): the tolerance (m) and whether it acts.  It acts on imperfect faces
+    only (dem.engine.coherence.set_overlap_reuse): on a perfect scene it is a no-op, said here
+    instead of refused, so that one solver section serves a case's perfect and imperfect runs."""
+    tol = case.solver.overlap_reuse
+    if tol <= 0.0:
+        return None
+    active = bool(scene.imperfect.any())
+    return {"tolerance_m": tol, "active": active,
+            "note": "imperfect faces keep their overlap polygon while its corners drift less than "
+                    "the tolerance (benchmarks/RESULTS.md, 'Overlap reuse for imperfect joints')"
+            if active else "warning: no effect, the scene has no imperfect faces (the overlap "
+                           "reuse acts on the warped kernels only; perfect faces have "
+                           "solver.patch_reuse)"}
 
 
 @dataclass
@@ -161,11 +187,18 @@ class Built:
 
 
 def build(case: Case, scene: Scene | None = None) -> Built:
-    """Scene (``scene`` if already built and checked, e.g. by dem.validate), loading, engine."""
+    """Scene (``scene`` if already built and checked, e.g. by dem.validate), loading, engine;
+    ``solver.overlap_reuse`` (m, > 0) switched on in the engine right after it is made
+    (dem.engine.coherence.set_overlap_reuse; a no-op on a scene without imperfect faces,
+    :func:`overlap_reuse_summary`)."""
     from dem.engine import Simulation
 
     scene = scene if scene is not None else scene_from_case(case)
     loading = loading_from_case(case)
     sim = Simulation(scene, case_joint_law(case, scene), step_options(case.solver),
                      gravity=loading.g0)
+    if case.solver.overlap_reuse > 0.0:  # 0: the engine's default, left untouched (bit for bit)
+        from dem.engine import coherence
+
+        coherence.set_overlap_reuse(sim.contacts, case.solver.overlap_reuse)
     return Built(scene, loading, sim)
