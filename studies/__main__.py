@@ -1,14 +1,14 @@
 """``python -m studies <study> ...``: the one entry point of the studies (issue 34 item 1).
 
-Each study is a subcommand; what follows its name is the study's own command line
-(``python -m studies prediction --help``).  A study's module is imported only when its
-subcommand runs, so ``python -m studies --help`` lists them without loading Taichi.
+Each study is a subcommand; what follows its name goes to the study's own Typer command, run by
+its module's ``main(argv)`` (studies.kit.cli: ``python -m studies prediction --help``).  A
+study's module is imported only when its subcommand runs, so ``python -m studies --help`` lists
+them without loading Taichi.
 """
 
 from __future__ import annotations
 
 import importlib
-import sys
 
 import typer
 
@@ -50,9 +50,7 @@ def _command(name: str, module: str, text: str):
     @app.command(name, help=text, add_help_option=False,
                  context_settings={"allow_extra_args": True, "ignore_unknown_options": True})
     def run(ctx: typer.Context) -> None:
-        main = importlib.import_module(module).main
-        sys.argv[0] = f"python -m studies {name}"   # the study's argparse names itself so
-        rc = main(list(ctx.args))
+        rc = importlib.import_module(module).main(list(ctx.args))
         raise typer.Exit(rc or 0)
     return run
 

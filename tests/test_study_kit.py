@@ -3,15 +3,20 @@
 
 from __future__ import annotations
 
+import importlib
 import json
+import re
 import subprocess
 import sys
 import time
 
+import pytest
+import typer.main
 from typer.testing import CliRunner
 
 from studies.__main__ import STUDIES, app
 from studies.kit import child, session
+from studies.kit.cli import spread_lists
 from studies.kit.provenance import ROOT
 from studies.kit.records import merge_json, read_json
 
@@ -73,3 +78,46 @@ def test_one_entry_point_lists_every_study_and_hands_over_the_arguments():
     for module, _ in STUDIES.values():      # every subcommand's module has main(argv)
         mod = __import__(module, fromlist=["main"])
         assert callable(mod.main)
+
+
+@pytest.mark.parametrize("name", sorted(STUDIES))
+def test_every_study_command_answers_help_through_the_entry_point(name):
+    """``python -m studies NAME --help``: exit 0, the study's own usage line and the first words
+    of its command's help (the study's docstring: Typer's, not a second parser's)."""
+    res = CliRunner().invoke(app, [name, "--help"])
+    assert res.exit_code == 0, res.output
+    text = " ".join(res.output.split())
+    assert f"Usage: python -m studies {name}" in text
+    mod = importlib.import_module(STUDIES[name][0])
+    first = " ".join(typer.main.get_command(mod.app).help.split()[:6])
+    assert first.replace("\\[", "[") in text
+
+
+def test_no_study_parses_its_options_with_argparse():
+    """One command-line dialect (issue 34): every study's options are a Typer command."""
+    offenders = [str(p.relative_to(ROOT)) for p in (ROOT / "studies").rglob("*.py")
+                 if re.search(r"^\s*(import argparse|from argparse)", p.read_text(), re.M)]
+    assert offenders == []
+
+
+def test_list_options_take_several_values_and_bad_options_exit_2(tmp_path, capsys):
+    """``--rates 2 1 0.25`` (argparse's nargs spelling) reaches Typer as a repeated option; an
+    unknown option or a refused value exits 2 with the reason on stderr, and nothing runs."""
+    assert spread_lists(["--rates", "2", "1", "--out", "x", "--specimens", "a"],
+                        ("--rates", "--specimens")) == \
+        ["--rates", "2", "--rates", "1", "--out", "x", "--specimens", "a"]
+    assert spread_lists(["--rates=2", "--rates"], ("--rates",)) == ["--rates=2", "--rates"]
+    from studies.qs_validation import study as qv
+
+    out = tmp_path / "v"
+    assert qv.main(["--out", str(out), "--rates", "2", "-1", "0.5"]) == 2
+    assert "--rates" in capsys.readouterr().err
+    assert qv.main(["--out", str(out), "--no-such-option"]) == 2
+    assert "--no-such-option" in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_help_shows_bracketed_text_of_a_docstring():
+    """A docstring's ``[m, m, m]`` is text, not Rich markup (studies.kit.cli.text)."""
+    res = CliRunner().invoke(app, ["prediction", "--help"])
+    assert res.exit_code == 0 and "[m, m, m]" in res.output

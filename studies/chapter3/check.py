@@ -32,17 +32,18 @@ the commit that ran and the engine's results revision; the prediction report rea
 
 from __future__ import annotations
 
-import argparse
 import sys
 import time
 from pathlib import Path
+from types import SimpleNamespace
 
+import typer
 import yaml
 
 from dem.engine import RESULTS_REVISION
 from studies.calibration import points as cal_points
 from studies.calibration import specimens as cal_specimens
-from studies.kit import provenance
+from studies.kit import cli, provenance
 from studies.kit import child as dem_child
 from studies.kit.provenance import rel
 from studies.kit.records import read_json
@@ -157,22 +158,38 @@ def compare(out: Path, calibration: Path, candidate: str, specs: dict, seeds: li
             "verdict": verdict(points, tol, len(cal_specimens.specimens()))}
 
 
+app = cli.study_app()
+
+
+@app.command(help=cli.text(__doc__))
+def chapter3_check(
+        ctx: typer.Context,
+        frozen: Path = typer.Option(DEFAULT_FROZEN),
+        calibration: Path = typer.Option(DEFAULT_CALIBRATION,
+                                         help="the committed calibration study (its "
+                                              "<candidate>/<specimen>/ensemble.json)"),
+        out: Path = typer.Option(DEFAULT_OUT),
+        runs: Path = typer.Option(DEFAULT_RUNS, help="raw runs (git-ignored)"),
+        seeds: int = typer.Option(1, metavar="N", help="re-run the calibration's seeds 0 .. N-1 "
+                                                       "of each specimen"),
+        specimens: list[str] = typer.Option(None, help="names (default: all)"),
+        candidates_file: Path = typer.Option(cal_specimens.CANDIDATES_FILE),
+        max_steps: int = typer.Option(None, help="cap each run (smoke: a capped point is not "
+                                                 "the calibration's case)"),
+        compare_only: bool = typer.Option(False, "--compare-only", help="run nothing")) -> int:
+    return _check(SimpleNamespace(frozen=frozen, calibration=calibration, out=out, runs=runs,
+                                  seeds=seeds, specimens=specimens,
+                                  candidates_file=candidates_file, max_steps=max_steps,
+                                  compare_only=compare_only), ctx.obj["argv"])
+
+
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
-    ap.add_argument("--frozen", type=Path, default=DEFAULT_FROZEN)
-    ap.add_argument("--calibration", type=Path, default=DEFAULT_CALIBRATION,
-                    help="the committed calibration study (its <candidate>/<specimen>/"
-                         "ensemble.json)")
-    ap.add_argument("--out", type=Path, default=DEFAULT_OUT)
-    ap.add_argument("--runs", type=Path, default=DEFAULT_RUNS, help="raw runs (git-ignored)")
-    ap.add_argument("--seeds", type=int, default=1, metavar="N",
-                    help="re-run the calibration's seeds 0 .. N-1 of each specimen")
-    ap.add_argument("--specimens", nargs="*", default=None, help="names (default: all)")
-    ap.add_argument("--candidates-file", type=Path, default=cal_specimens.CANDIDATES_FILE)
-    ap.add_argument("--max-steps", type=int, default=None,
-                    help="cap each run (smoke: a capped point is not the calibration's case)")
-    ap.add_argument("--compare-only", action="store_true", help="run nothing")
-    args = ap.parse_args(argv)
+    """``python -m studies chapter3-check ARGV``; returns the exit code (0 ok, 1 a run failed
+    or was stopped, 2 bad input)."""
+    return cli.run(app, argv, "chapter3-check", lists=("--specimens",))
+
+
+def _check(args, argv: list[str]) -> int:
     try:
         if args.seeds < 1:
             raise CheckInputError("--seeds must be >= 1")
@@ -200,7 +217,7 @@ def main(argv=None) -> int:
 
     args.out.mkdir(parents=True, exist_ok=True)
     data = compare(args.out, args.calibration, candidate, specs, seeds, params)
-    data["command"] = "python -m studies chapter3-check " + " ".join(argv or sys.argv[1:])
+    data["command"] = "python -m studies chapter3-check " + " ".join(argv)
     data["written"] = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
     write_json(args.out / CHECK_FILE, data, indent=1)
     v = data["verdict"]

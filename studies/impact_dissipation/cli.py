@@ -4,15 +4,18 @@ studies/impact_dissipation/__init__.py).
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import os
+import sys
 import time
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
+import typer
 
+from studies.kit import cli
 from studies.impact_dissipation.dem_runs import run_block, run_portion, run_stack
 from studies.impact_dissipation.physics import BRICK
 from studies import impact_dissipation
@@ -21,14 +24,29 @@ from studies.impact_dissipation.report import (compact_json, markdown_tables, pl
 from studies.impact_dissipation.two_body import two_body_forced, two_body_free, two_body_params
 
 
-def main(argv=None):
-    ap = argparse.ArgumentParser(description=impact_dissipation.__doc__.split("\n")[0])
-    ap.add_argument("--out", default="results/prediction/impact-dissipation")
-    ap.add_argument("--parts", default="abcd", help="which parts to run (a, b, c, d)")
-    ap.add_argument("--portion-duration", type=float, default=1.2)
-    ap.add_argument("--tables", action="store_true",
-                    help="print the README's tables from OUT/summary.json and stop")
-    args = ap.parse_args(argv)
+app = cli.study_app()
+
+
+@app.command(help=cli.text(impact_dissipation.__doc__.split("\n\n")[0]))
+def impact_dissipation_command(
+        out: str = typer.Option("results/prediction/impact-dissipation"),
+        parts: str = typer.Option("abcd", help="which parts to run (a, b, c, d)"),
+        portion_duration: float = typer.Option(1.2),
+        tables: bool = typer.Option(False, "--tables",
+                                    help="print the README's tables from OUT/summary.json and "
+                                         "stop")) -> None:
+    _impact_dissipation(SimpleNamespace(out=out, parts=parts, portion_duration=portion_duration,
+                                        tables=tables))
+
+
+def main(argv=None) -> int:
+    """``python -m studies impact-dissipation ARGV``; returns the exit code."""
+    return cli.run(app, argv, "impact-dissipation")
+
+
+def _impact_dissipation(args) -> dict | None:
+    """The parts of ``args.parts`` into ``args.out``/summary.json; returns the summary (None
+    after --tables)."""
     if args.tables:
         print(markdown_tables(json.loads((Path(args.out) / "summary.json").read_text())))
         return None
@@ -170,4 +188,4 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

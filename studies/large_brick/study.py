@@ -42,21 +42,23 @@ Units: m, kg, load factor lambda = a/g = tan(tilt angle) (dimensionless).
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import subprocess
 import sys
 import time
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
+import typer
 
 from dem.case import load_case
 from dem.run.build import scene_from_case
 from postprocess.block_limit import (Blocks2D, crack_profile, leeward_wedges, lp_limit,
                                      rotation_factor, upward_closure)
 from postprocess.limit_analysis import in_plane_limit
+from studies.kit import cli
 
 ROOT = Path(__file__).resolve().parents[2]
 CASES = ROOT / "cases" / "tilt" / "in-plane"
@@ -373,14 +375,25 @@ def report(out: Path) -> None:
     (out / "README.md").write_text("\n".join(lines))
 
 
-def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--out", type=Path, required=True)
-    ap.add_argument("--dem", default=None,
-                    help="'all' or a comma list of DEM diagnostics to run (dem_configs)")
-    ap.add_argument("--runs", type=Path, default=Path("/tmp/large-brick-diagnostic-runs"))
-    ap.add_argument("--report", action="store_true", help="only README.md from the JSON")
-    args = ap.parse_args(argv)
+app = cli.study_app()
+
+
+@app.command(help=cli.text(__doc__.split("\n\n")[0]))
+def large_brick(out: Path = typer.Option(...),
+                dem: str = typer.Option(None, help="'all' or a comma list of DEM diagnostics to "
+                                                   "run (dem_configs)"),
+                runs: Path = typer.Option(Path("/tmp/large-brick-diagnostic-runs")),
+                report_only: bool = typer.Option(False, "--report",
+                                                 help="only README.md from the JSON")) -> None:
+    _large_brick(SimpleNamespace(out=out, dem=dem, runs=runs, report=report_only))
+
+
+def main(argv=None) -> int:
+    """``python -m studies large-brick ARGV``; returns the exit code."""
+    return cli.run(app, argv, "large-brick")
+
+
+def _large_brick(args) -> None:
     args.out.mkdir(parents=True, exist_ok=True)
     if args.report:
         report(args.out)
@@ -428,4 +441,4 @@ def main(argv=None) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

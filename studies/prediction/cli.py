@@ -4,12 +4,14 @@ studies/prediction/__init__.py).
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
+from types import SimpleNamespace
+
+import typer
 
 from studies import prediction
-from studies.kit import session
+from studies.kit import cli, session
 from studies.kit.provenance import rel
 from studies.kit.records import read_json
 from studies.prediction.cycles import cut_record, cycles_check, verdict_text
@@ -48,37 +50,56 @@ def subset(text: str | None, kind, flag: str) -> list | None:
     return vals
 
 
+app = cli.study_app()
+
+
+@app.command(help=cli.text(prediction.__doc__))
+def prediction_command(
+        frozen: Path = typer.Option(DEFAULT_FROZEN),
+        out: Path = typer.Option(ROOT / "results" / "prediction"),
+        runs: Path = typer.Option(None, help="raw runs (default <out>/runs, git-ignored)"),
+        only: str = typer.Option(None, help=cli.text(f"comma-separated sweeps of {list(ORDER)}")),
+        realisations: int = typer.Option(DEFAULT_REALISATIONS),
+        cycles: float = typer.Option(DEFAULT_CYCLES),
+        workers: int = typer.Option(None),
+        max_steps: int = typer.Option(None, help="cap every run (smoke tests)"),
+        report_only: bool = typer.Option(False, "--report", help="only rebuild the report"),
+        cycles_check: float = typer.Option(
+            None, metavar="N",
+            help="no runs: re-analyse the finished runs of the sweeps (--only) over their first "
+                 "N cycles, compare with the full cycles, then report"),
+        cut_cycles: float = typer.Option(
+            None, metavar="N",
+            help=f"run the sweeps of --only (not {FULL_SWEEP}, not yet planned) at N cycles; "
+                 f"only once {FULL_SWEEP} finished in full and its cycles-check-N.json says the "
+                 f"answer is unchanged"),
+        seeds: str = typer.Option(None, metavar="S,S,...",
+                                  help="run only these of the plan's seeds (share a sweep "
+                                       "between processes or machines; the plan does not "
+                                       "change)"),
+        frequencies: str = typer.Option(None, metavar="F,F,...",
+                                        help="run only these of each sweep's frequencies (Hz; "
+                                             "as --seeds)"),
+        drain_file: Path = typer.Option(
+            None, help="once this file exists no new run starts, the runs in flight finish, "
+                       "then the report is written (default <runs>/DRAIN); SIGTERM instead "
+                       "stops at once: the runs in flight resume from their last restart point "
+                       "on the next call")) -> int:
+    args = SimpleNamespace(frozen=frozen, out=out, runs=runs, only=only,
+                           realisations=realisations, cycles=cycles, workers=workers,
+                           max_steps=max_steps, report=report_only, cycles_check=cycles_check,
+                           cut_cycles=cut_cycles, seeds=seeds, frequencies=frequencies,
+                           drain_file=drain_file)
+    return _prediction(args)
+
+
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m studies prediction",
-                                 description=prediction.__doc__, formatter_class=argparse.RawTextHelpFormatter)
-    ap.add_argument("--frozen", type=Path, default=DEFAULT_FROZEN)
-    ap.add_argument("--out", type=Path, default=ROOT / "results" / "prediction")
-    ap.add_argument("--runs", type=Path, default=None, help="raw runs (default <out>/runs, "
-                                                            "git-ignored)")
-    ap.add_argument("--only", default=None, help=f"comma-separated sweeps of {list(ORDER)}")
-    ap.add_argument("--realisations", type=int, default=DEFAULT_REALISATIONS)
-    ap.add_argument("--cycles", type=float, default=DEFAULT_CYCLES)
-    ap.add_argument("--workers", type=int, default=None)
-    ap.add_argument("--max-steps", type=int, default=None, help="cap every run (smoke tests)")
-    ap.add_argument("--report", action="store_true", help="only rebuild the report")
-    ap.add_argument("--cycles-check", type=float, default=None, metavar="N",
-                    help="no runs: re-analyse the finished runs of the sweeps (--only) over "
-                         "their first N cycles, compare with the full cycles, then report")
-    ap.add_argument("--cut-cycles", type=float, default=None, metavar="N",
-                    help=f"run the sweeps of --only (not {FULL_SWEEP}, not yet planned) at N "
-                         f"cycles; only once {FULL_SWEEP} finished in full and its "
-                         f"cycles-check-N.json says the answer is unchanged")
-    ap.add_argument("--seeds", default=None, metavar="S,S,...",
-                    help="run only these of the plan's seeds (share a sweep between processes "
-                         "or machines; the plan does not change)")
-    ap.add_argument("--frequencies", default=None, metavar="F,F,...",
-                    help="run only these of each sweep's frequencies (Hz; as --seeds)")
-    ap.add_argument("--drain-file", type=Path, default=None,
-                    help="once this file exists no new run starts, the runs in flight finish, "
-                         "then the report is written (default <runs>/DRAIN); SIGTERM instead "
-                         "stops at once: the runs in flight resume from their last restart "
-                         "point on the next call")
-    args = ap.parse_args(argv)
+    """``python -m studies prediction ARGV``; returns the exit code (0 ok, 1 a run failed or
+    was stopped, 2 bad input)."""
+    return cli.run(app, argv, "prediction")
+
+
+def _prediction(args) -> int:
     try:
         only_seeds = subset(args.seeds, int, "--seeds")
         only_freqs = subset(args.frequencies, float, "--frequencies")

@@ -30,13 +30,16 @@ with this process, none is left holding its directory) keeps its last restart po
 
 from __future__ import annotations
 
-import argparse
 import json
 import multiprocessing as mp
 import sys
 import time
 from pathlib import Path
+from types import SimpleNamespace
 
+import typer
+
+from studies.kit import cli
 from studies.kit.records import read_json
 from studies.prediction.cycles import POOL_TRUNCATED, truncated_row
 from studies.prediction.plan import sweep_case, sweep_cycles
@@ -173,17 +176,30 @@ def _task(args) -> dict:
             "amplification_ds": ((rec.get("post") or {}).get("amplification") or {}).get("ds")}
 
 
+app = cli.study_app()
+
+
+@app.command(help=cli.text(__doc__))
+def point_pool(
+        out: Path = typer.Option(ROOT / "results" / "prediction",
+                                 help="the study's folder (its plan.json)"),
+        runs: Path = typer.Option(None, help="raw runs (default <out>/runs)"),
+        sweep: str = typer.Option(...),
+        points: str = typer.Option(..., metavar="S:F,S:F,..."),
+        workers: int = typer.Option(None, help="processes (default: one per core)"),
+        list_: bool = typer.Option(False, "--list", help="print the finished points' JSON files "
+                                                          "(RECEIPT) and exit")) -> int:
+    return _pool(SimpleNamespace(out=out, runs=runs, sweep=sweep, points=points,
+                                 workers=workers, list=list_))
+
+
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
-    ap.add_argument("--out", type=Path, default=ROOT / "results" / "prediction",
-                    help="the study's folder (its plan.json)")
-    ap.add_argument("--runs", type=Path, default=None, help="raw runs (default <out>/runs)")
-    ap.add_argument("--sweep", required=True)
-    ap.add_argument("--points", required=True, metavar="S:F,S:F,...")
-    ap.add_argument("--workers", type=int, default=None, help="processes (default: one per core)")
-    ap.add_argument("--list", action="store_true",
-                    help="print the finished points' JSON files (RECEIPT) and exit")
-    args = ap.parse_args(argv)
+    """``python -m studies point-pool ARGV``; returns the exit code (0 every point ok, 1 one
+    failed or was cut short, 2 bad input)."""
+    return cli.run(app, argv, "point-pool")
+
+
+def _pool(args) -> int:
     from dem.commands.sweep import finished_run
 
     runs = args.runs or Path(args.out) / "runs"

@@ -1,11 +1,10 @@
 """What the studies that run the prediction's cases beside it share (the unevenness and
-resonance studies): their command line's common options, the session loop (drain file, one
-``dem sweep --realisations`` child per item, the CPU ledger ``<out>/cpu.json``) and the child
-run itself."""
+resonance studies): the check of their common options (--frozen, --seeds, --cycles), the
+session loop (drain file, one ``dem sweep --realisations`` child per item, the CPU ledger
+``<out>/cpu.json``) and the child run itself."""
 
 from __future__ import annotations
 
-import argparse
 import sys
 import time
 from pathlib import Path
@@ -14,19 +13,7 @@ from studies.kit import child as dem_child
 from studies.kit import session
 from studies.kit.records import read_json
 from studies.prediction.plan import frozen_or_none
-from studies.prediction.protocol import DEFAULT_FROZEN
 from studies.prediction.run import write_run_case
-
-
-def parser(doc: str, out: Path, seeds: int, cycles: float) -> argparse.ArgumentParser:
-    """--frozen, --out, --seeds, --cycles and --report with the study's defaults."""
-    ap = argparse.ArgumentParser(description=doc, formatter_class=argparse.RawTextHelpFormatter)
-    ap.add_argument("--frozen", type=Path, default=DEFAULT_FROZEN)
-    ap.add_argument("--out", type=Path, default=out)
-    ap.add_argument("--seeds", type=int, default=seeds)
-    ap.add_argument("--cycles", type=float, default=cycles)
-    ap.add_argument("--report", action="store_true", help="only rebuild the report")
-    return ap
 
 
 def frozen_and_checked(args) -> dict | None:

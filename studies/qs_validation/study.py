@@ -51,16 +51,17 @@ Units: lambda = tan(tilt angle), dimensionless; rates in deg/s.
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
+import typer
 
 from studies.calibration import points as cal_points
 from studies.calibration import report as cal_report
 from studies.calibration import specimens as cal_specimens
-from studies.kit import session
+from studies.kit import cli, session
 from studies.kit.provenance import repo_rel
 from studies.kit.records import read_json
 from studies.tilt.study import rate_extrapolation
@@ -220,34 +221,51 @@ def _command(args) -> str:
                            realisations=(args.realisations, 1), max_steps=args.max_steps)
 
 
+app = cli.study_app()
+LISTS = ("--specimens", "--rates")   # options that take several values: --rates 2 1 0.5
+
+
+@app.command(help=cli.text(__doc__))
+def qs_validation(
+        out: Path = typer.Option(DEFAULT_OUT),
+        calibration: Path = typer.Option(cal_specimens.ROOT / "results" / "calibration",
+                                         help="the calibration study's --out (its committed "
+                                              "quasi-static points)"),
+        runs: Path = typer.Option(None, help="raw runs (default <out>/runs)"),
+        candidate: str = typer.Option("perfect", help="a candidate of "
+                                      "studies/calibration/candidates.yaml (default perfect)"),
+        specimens: list[str] = typer.Option(None, help="names (default: every calibration "
+                                            "specimen, cheapest first)"),
+        rates: list[float] = typer.Option(list(RATES), help="deg/s; three doubling rates give "
+                                          "lambda0 (default 2 1 0.5)"),
+        realisations: int = typer.Option(1, help="seeds 0 .. N-1 of an imperfect candidate (a "
+                                         "perfect one runs one)"),
+        max_steps: int = typer.Option(None, help="cap the steps (smoke)"),
+        stop_at: str = typer.Option(None, help="UTC HH:MM after which no new run starts"),
+        report_only: bool = typer.Option(False, "--report", help="only rebuild the report")
+        ) -> int:
+    return _qs_validation(SimpleNamespace(
+        out=out, calibration=calibration, runs=runs, candidate=candidate, specimens=specimens,
+        rates=rates, realisations=realisations, max_steps=max_steps, stop_at=stop_at,
+        report=report_only))
+
+
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
-    ap.add_argument("--out", type=Path, default=DEFAULT_OUT)
-    ap.add_argument("--calibration", type=Path, default=cal_specimens.ROOT / "results" / "calibration",
-                    help="the calibration study's --out (its committed quasi-static points)")
-    ap.add_argument("--runs", type=Path, default=None, help="raw runs (default <out>/runs)")
-    ap.add_argument("--candidate", default="perfect",
-                    help="a candidate of studies/calibration/candidates.yaml (default perfect)")
-    ap.add_argument("--specimens", nargs="*", default=None,
-                    help="names (default: every calibration specimen, cheapest first)")
-    ap.add_argument("--rates", nargs="*", type=float, default=list(RATES),
-                    help="deg/s; three doubling rates give lambda0 (default 2 1 0.5)")
-    ap.add_argument("--realisations", type=int, default=1,
-                    help="seeds 0 .. N-1 of an imperfect candidate (a perfect one runs one)")
-    ap.add_argument("--max-steps", type=int, default=None, help="cap the steps (smoke)")
-    ap.add_argument("--stop-at", default=None, help="UTC HH:MM after which no new run starts")
-    ap.add_argument("--report", action="store_true", help="only rebuild the report")
-    args = ap.parse_args(argv)
+    """``python -m studies qs-validation ARGV``; returns the exit code (0 ok, 2 bad options)."""
+    return cli.run(app, argv, "qs-validation", lists=LISTS)
+
+
+def _qs_validation(args) -> int:
     cands, all_s = cal_specimens.load_candidates(), cal_specimens.specimens()
     if args.candidate not in cands:
-        ap.error(f"--candidate: unknown {args.candidate!r}; known: {list(cands)}")
+        cli.usage_error(f"--candidate: unknown {args.candidate!r}; known: {list(cands)}")
     bad = [x for x in args.specimens or [] if x not in all_s]
     if bad:
-        ap.error(f"--specimens: unknown {bad}; known: {list(all_s)}")
+        cli.usage_error(f"--specimens: unknown {bad}; known: {list(all_s)}")
     if not args.rates or any(not np.isfinite(r) or r <= 0 for r in args.rates):
-        ap.error("--rates: positive deg/s values")
+        cli.usage_error("--rates: positive deg/s values")
     if args.realisations < 1:
-        ap.error("--realisations must be >= 1")
+        cli.usage_error("--realisations must be >= 1")
     specs = {s: all_s[s] for s in all_s if args.specimens is None or s in args.specimens}
     params = cands[args.candidate]
     out, runs = session.begin(args.out, args.runs)

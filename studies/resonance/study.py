@@ -41,17 +41,20 @@ from __future__ import annotations
 import json
 import sys
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
+import typer
 
 from postprocess.ensemble import statistics
 from postprocess.sweep import effective_range
 from postprocess.verdicts import band_text, is_rocking
-from studies.kit import session
+from studies.kit import cli, session
 from studies.prediction.analysis import survived
 from studies.prediction.plan import sweep_case
 from studies.prediction.points import collect_rows, points_path
 from studies.prediction import side
+from studies.prediction.protocol import DEFAULT_FROZEN
 from studies.prediction.side import sweep_realisations
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -249,13 +252,33 @@ def _plot(path: Path, sweeps: dict) -> None:
     plt.close(fig)
 
 
+app = cli.study_app()
+
+
+@app.command(help=cli.text(__doc__))
+def resonance(frozen: Path = typer.Option(DEFAULT_FROZEN),
+              out: Path = typer.Option(ROOT / "results" / "prediction" / "resonance-search"),
+              seeds: int = typer.Option(SEEDS),
+              cycles: float = typer.Option(CYCLES),
+              report_only: bool = typer.Option(False, "--report",
+                                               help="only rebuild the report"),
+              prediction: Path = typer.Option(ROOT / "results" / "prediction",
+                                              help="the prediction's output folder (its "
+                                                   "<sweep>/points.json are fitted)"),
+              only: str = typer.Option(",".join(FREQUENCIES),
+                                       help="comma-separated sweeps to run (default: all)")
+              ) -> int:
+    return _resonance(SimpleNamespace(frozen=frozen, out=out, seeds=seeds, cycles=cycles,
+                                      report=report_only, prediction=prediction, only=only))
+
+
 def main(argv=None) -> int:
-    ap = side.parser(__doc__, ROOT / "results" / "prediction" / "resonance-search", SEEDS, CYCLES)
-    ap.add_argument("--prediction", type=Path, default=ROOT / "results" / "prediction",
-                    help="the prediction's output folder (its <sweep>/points.json are fitted)")
-    ap.add_argument("--only", default=",".join(FREQUENCIES),
-                    help="comma-separated sweeps to run (default: all)")
-    args = ap.parse_args(argv)
+    """``python -m studies resonance ARGV``; returns the exit code (0 ok, 1 a run failed or
+    was stopped, 2 bad input)."""
+    return cli.run(app, argv, "resonance")
+
+
+def _resonance(args) -> int:
     frozen = side.frozen_and_checked(args)
     if frozen is None:
         return 2

@@ -17,12 +17,16 @@ rocks.  Outputs: <out>/<sweep>/ (sweep.json, sweep.png, one directory per freque
 
 from __future__ import annotations
 
-import argparse
 import json
+import sys
 import time
 from pathlib import Path
+from types import SimpleNamespace
 
+import typer
 import yaml
+
+from studies.kit import cli
 
 ROOT = Path(__file__).resolve().parents[2]
 CASES = ROOT / "cases" / "shake"
@@ -148,13 +152,23 @@ def report(out: Path) -> None:
     (out / "README.md").write_text("\n".join(lines + [""] + details) + "\n")
 
 
-def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
-    ap.add_argument("--out", type=Path, default=ROOT / "results" / "shake")
-    ap.add_argument("--only", default=None)
-    ap.add_argument("--workers", type=int, default=None)
-    ap.add_argument("--report", action="store_true")
-    args = ap.parse_args(argv)
+app = cli.study_app()
+
+
+@app.command(help=cli.text(__doc__))
+def shake(out: Path = typer.Option(ROOT / "results" / "shake"),
+          only: str = typer.Option(None),
+          workers: int = typer.Option(None),
+          report_only: bool = typer.Option(False, "--report")) -> None:
+    _shake(SimpleNamespace(out=out, only=only, workers=workers, report=report_only))
+
+
+def main(argv=None) -> int:
+    """``python -m studies shake ARGV``; returns the exit code."""
+    return cli.run(app, argv, "shake")
+
+
+def _shake(args) -> None:
     args.out.mkdir(parents=True, exist_ok=True)
     if not args.report:
         run(args.out, args.only, args.workers)
@@ -162,4 +176,4 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

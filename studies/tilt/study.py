@@ -17,14 +17,17 @@ converged lambda the findings are read at (issue 11).
 
 from __future__ import annotations
 
-import argparse
 import json
+import sys
 import time
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
+import typer
 
 from dem.case import Case, load_case
+from studies.kit import cli
 
 ROOT = Path(__file__).resolve().parents[2]
 CASES = ROOT / "cases" / "tilt"
@@ -390,14 +393,25 @@ def report(out: Path) -> None:
     (out / "README.md").write_text("\n".join(lines) + "\n")
 
 
-def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
-    ap.add_argument("--out", type=Path, default=ROOT / "results" / "tilt")
-    ap.add_argument("--only", default=None, help="run only runs whose name contains this")
-    ap.add_argument("--workers", type=int, default=None)
-    ap.add_argument("--report", action="store_true", help="only rebuild the report")
-    ap.add_argument("--force", action="store_true", help="rerun runs already in results.json")
-    args = ap.parse_args(argv)
+app = cli.study_app()
+
+
+@app.command(help=cli.text(__doc__))
+def tilt(out: Path = typer.Option(ROOT / "results" / "tilt"),
+         only: str = typer.Option(None, help="run only runs whose name contains this"),
+         workers: int = typer.Option(None),
+         report_only: bool = typer.Option(False, "--report", help="only rebuild the report"),
+         force: bool = typer.Option(False, "--force",
+                                    help="rerun runs already in results.json")) -> None:
+    _tilt(SimpleNamespace(out=out, only=only, workers=workers, report=report_only, force=force))
+
+
+def main(argv=None) -> int:
+    """``python -m studies tilt ARGV``; returns the exit code."""
+    return cli.run(app, argv, "tilt")
+
+
+def _tilt(args) -> None:
     args.out.mkdir(parents=True, exist_ok=True)
     if not args.report:
         run_all(args.out, args.only, args.workers, args.force)
@@ -405,4 +419,4 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -15,17 +15,20 @@ dem.rocking.analysis; the thesis' numbers are quoted from ../shared/REFERENCE.md
 
 from __future__ import annotations
 
-import argparse
 import math
+import sys
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
+import typer
 
 from dem.rocking import analysis as an
 from dem.rocking.params import RockingParams
 from dem.rocking.runner import run_rocking_case
 from dem.rocking.schema import load_rocking_case
 from dem.rocking.sweep import sweep
+from studies.kit import cli
 
 ROOT = Path(__file__).resolve().parents[2]
 CASES = ROOT / "cases" / "rocking"
@@ -309,15 +312,29 @@ def top_contact_sweep_table(freqs=None) -> str:
     return "\n".join(out)
 
 
-def main(argv=None) -> None:
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--dem", action="store_true", help="also run the DEM comparison (Taichi)")
-    ap.add_argument("--top-contact", action="store_true",
-                    help="only the tables comparing the two top contacts (issue 14)")
-    ap.add_argument("--dem-sweep", action="store_true",
-                    help="only the comparison with the DEM's Model II y 4.0 m/s2 sweep "
-                         "(studies.two_body.vs_dem_sweep; reads results/shake/, runs no DEM)")
-    args = ap.parse_args(argv)
+app = cli.study_app()
+
+
+@app.command(help=cli.text(__doc__))
+def two_body_report(
+        dem: bool = typer.Option(False, "--dem", help="also run the DEM comparison (Taichi)"),
+        top_contact: bool = typer.Option(False, "--top-contact",
+                                         help="only the tables comparing the two top contacts "
+                                              "(issue 14)"),
+        dem_sweep: bool = typer.Option(False, "--dem-sweep",
+                                       help="only the comparison with the DEM's Model II y 4.0 "
+                                            "m/s2 sweep (studies.two_body.vs_dem_sweep; reads "
+                                            "results/shake/, runs no DEM)")) -> None:
+    _report(SimpleNamespace(dem=dem, top_contact=top_contact, dem_sweep=dem_sweep))
+
+
+def main(argv=None) -> int:
+    """``python -m studies two-body-report ARGV`` (Markdown on stdout); returns the exit
+    code."""
+    return cli.run(app, argv, "two-body-report")
+
+
+def _report(args) -> None:
     if args.dem_sweep:
         from studies.two_body.vs_dem_sweep import comparison
 
@@ -348,4 +365,4 @@ def main(argv=None) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

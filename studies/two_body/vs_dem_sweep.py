@@ -40,18 +40,20 @@ of how much the mass split matters, not a fit (nothing is adjusted to the DEM's 
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
+import typer
 
 from dem.rocking import analysis as an
 from dem.rocking.integrate import RockingError, Settings, integrate_rocking
 from dem.rocking.params import RockingParams
 from dem.table_motion import SineMotion
 from postprocess.signal_analysis import amplification, cycle_extrema, phase_lag, steady_window
+from studies.kit import cli
 
 ROOT = Path(__file__).resolve().parents[2]
 DEM_SWEEP = ROOT / "results" / "shake" / "model-ii-y-amplified"
@@ -238,13 +240,21 @@ def comparison(sweep_dir: Path = DEM_SWEEP) -> str:
     return "\n".join(out)
 
 
-def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--sweep-dir", type=Path, default=DEM_SWEEP,
-                    help="DEM sweep directory (sweep.json + per-frequency analysis.json)")
-    args = ap.parse_args(argv)
-    print(comparison(args.sweep_dir))
+app = cli.study_app()
+
+
+@app.command(help=cli.text(__doc__.split("\n\n")[0]))
+def two_body_vs_dem(sweep_dir: Path = typer.Option(DEM_SWEEP, help="DEM sweep directory "
+                                                   "(sweep.json + per-frequency analysis.json)")
+                    ) -> None:
+    print(comparison(sweep_dir))
+
+
+def main(argv=None) -> int:
+    """``python -m studies two-body-vs-dem ARGV`` (Markdown on stdout); returns the exit
+    code."""
+    return cli.run(app, argv, "two-body-vs-dem")
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

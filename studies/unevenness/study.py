@@ -32,14 +32,18 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
+from types import SimpleNamespace
+
+import typer
 
 from postprocess.ensemble import statistics
 from postprocess.verdicts import band_text, is_rocking
-from studies.kit import session
+from studies.kit import cli, session
 from studies.prediction.analysis import survived
 from studies.prediction.plan import sweep_case
 from studies.prediction.points import collect_rows
 from studies.prediction import side
+from studies.prediction.protocol import DEFAULT_FROZEN
 from studies.prediction.side import sweep_realisations
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -171,10 +175,28 @@ def _plot(path: Path, levels: dict, frozen: dict) -> None:
     plt.close(fig)
 
 
+app = cli.study_app()
+
+
+@app.command(help=cli.text(__doc__))
+def unevenness(frozen: Path = typer.Option(DEFAULT_FROZEN),
+               out: Path = typer.Option(ROOT / "results" / "prediction" /
+                                        "unevenness-sensitivity"),
+               seeds: int = typer.Option(SEEDS),
+               cycles: float = typer.Option(CYCLES),
+               report_only: bool = typer.Option(False, "--report",
+                                                help="only rebuild the report")) -> int:
+    return _unevenness(SimpleNamespace(frozen=frozen, out=out, seeds=seeds, cycles=cycles,
+                                       report=report_only))
+
+
 def main(argv=None) -> int:
-    ap = side.parser(__doc__, ROOT / "results" / "prediction" / "unevenness-sensitivity", SEEDS,
-                     CYCLES)
-    args = ap.parse_args(argv)
+    """``python -m studies unevenness ARGV``; returns the exit code (0 ok, 1 a run failed or
+    was stopped, 2 bad input)."""
+    return cli.run(app, argv, "unevenness")
+
+
+def _unevenness(args) -> int:
     frozen = side.frozen_and_checked(args)
     if frozen is None:
         return 2
