@@ -186,17 +186,20 @@ class Built:
     sim: "object"  # dem.engine.Simulation (imported lazily: Taichi)
 
 
-def build(case: Case, scene: Scene | None = None) -> Built:
+def build(case: Case, scene: Scene | None = None, sim=None) -> Built:
     """Scene (``scene`` if already built and checked, e.g. by dem.validate), loading, engine;
     ``solver.overlap_reuse`` (m, > 0) switched on in the engine right after it is made
     (dem.engine.coherence.set_overlap_reuse; a no-op on a scene without imperfect faces,
-    :func:`overlap_reuse_summary`)."""
-    from dem.engine import Simulation
-
+    :func:`overlap_reuse_summary`).  ``sim``: the engine of this case already made (one scene
+    of a batch, dem.run.batched: built from this ``scene``, its joint law and step options and
+    the loading's gravity), used instead of a new one."""
     scene = scene if scene is not None else scene_from_case(case)
     loading = loading_from_case(case)
-    sim = Simulation(scene, case_joint_law(case, scene), step_options(case.solver),
-                     gravity=loading.g0)
+    if sim is None:
+        from dem.engine import Simulation
+
+        sim = Simulation(scene, case_joint_law(case, scene), step_options(case.solver),
+                         gravity=loading.g0)
     if case.solver.overlap_reuse > 0.0:  # 0: the engine's default, left untouched (bit for bit)
         from dem.engine import coherence
 

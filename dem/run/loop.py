@@ -74,7 +74,7 @@ class RunResult:
 
 def run_case(case: Case, out_dir: str | Path | None = None, progress: bool = False,
              max_steps: int | None = None, scene: Scene | None = None,
-             analyses: Sequence[Analysis] = (), resume: bool = False) -> RunResult:
+             analyses: Sequence[Analysis] = (), resume: bool = False, sim=None) -> RunResult:
     """Run a validated case.  Writes the output directory (dem.run.write) if ``out_dir`` given.
 
     ``resume``: ``out_dir`` may hold an unfinished run of this case with a restart point
@@ -87,12 +87,14 @@ def run_case(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
     SIGHUP) when stopped, :class:`OutputError` when an output file cannot be written; in all but
     the first the frames recorded so far are written first (where the disk allows).
     ``scene``: the scene of the case, already built and checked (dem.validate), else built here.
+    ``sim``: the case's engine already made (one scene of a batch: dem.run.batched), else made
+    here (dem.run.build.build).
     """
     from dem.engine import SimulationError
 
     wall0 = time.perf_counter()
     out = Path(out_dir) if out_dir is not None else None
-    built = build(case, scene)                                        # build
+    built = build(case, scene, sim)                                   # build
     scene, loading, sim = built.scene, built.loading, built.sim
     raise_if_stopped()  # a stop signal Taichi swallowed while starting: nothing written yet
     stop = StopRule(case, scene, loading, max_steps)                  # stop
