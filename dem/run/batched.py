@@ -1,0 +1,465 @@
+"""Run K cases in one engine (issue 35): the points of a sweep or the realisations of an ensemble
+side by side in one dem.engine.Engine, each written into its own run directory exactly as a lone
+run (dem.run.loop.run_case) writes it.
+
+    records = run_cases_in_one_engine([(name, case), ...], [out_dir, ...], max_steps=None)
+
+How it runs.  The run loop is a blocking loop per run (build, settle, record, stop, write), so
+each point runs its own :func:`dem.run.loop.run_case` in a thread of its own, on its own
+Simulation (``engine.simulations[g]``, its own clock, loads and outputs).  Taichi is not
+thread-safe, so the threads pass a *baton*: exactly one thread runs Python at a time.  A point
+gives the baton back when it asks its Simulation to advance (``sim.advance`` calls
+``engine.hub.advance``, :class:`Hub`) or when it ends.  Once every live point waits, the
+scheduler (the calling thread) advances the whole engine by the smallest remaining request
+(``engine.advance(m, loads)``: each scene with its own loads), and hands the baton in turn (in
+index order: the run is deterministic) to each point whose request is complete, or whose scene
+failed: that point's ``sim.advance`` raises the failure (``sims[g].failure``), its run loop
+writes the failed run as a lone run does, and its batch-mates go on.  A point that ended
+(finished or failed) is deactivated (``engine.deactivate(g)``: its bodies stop, it costs ~0).
+
+Stopping.  dem.signals' handlers run in the main thread only.  The scheduler is the calling
+thread (the main thread of ``dem``'s process): a SIGINT / SIGTERM / SIGHUP raises there while it
+waits for a point, or after the engine's advance (held by dem.signals.deferred, so that the
+bookkeeping of requests is never cut in half); then every point's ``sim.advance`` raises
+dem.signals.Interrupted in its thread, in turn, so each run ends ``interrupted`` with its last
+frame and its restart point (the one of its last checkpoint, as a lone run), and the
+KeyboardInterrupt is raised again in the caller.  A point that stops by itself (a signal seen by
+dem.signals.raise_if_stopped in its thread, a KeyboardInterrupt) stops the whole batch the same
+way.
+
+Resuming works per point: a point whose directory holds a usable restart point goes on from it
+(run_case(resume=True) restores its Simulation), the others start fresh.
+
+Each point's summary.json gains ``batch``: ``n_scenes`` (K), ``index`` (g, from 0), ``dt_s``
+(the engine's time step, the smallest critical step of its scenes times the safety factor, s)
+and ``arch`` (Taichi's arch: cpu or cuda).
+"""
+
+from __future__ import annotations
+
+import json
+import threading
+import time
+import traceback
+from pathlib import Path
+from typing import Callable, Sequence
+
+from dem.case import Case
+
+ARCHS = ("cpu", "cuda")
+
+BATCH_NOTE = ("this run shared one engine and one process with n_scenes - 1 others: its "
+              "wall_seconds (from the batch's start), cpu_seconds (the process's) and "
+              "brick_steps_per_second (its own brick-steps over that wall time) are the "
+              "batch's, not a lone run's; engine_seconds: the engine's construction (compile "
+              "included), counted in wall_seconds")
+
+
+class BatchInputError(ValueError):
+    """Cases that cannot share one engine, or a bad --batch / --arch; the message names the
+    field or option."""
+
+
+class CudaUnavailable(BatchInputError):
+    """--arch cuda where Taichi finds no CUDA device (or the engine cannot run on one): exit
+    code 2, like a bad option (nothing ran)."""
+
+
+# ---------------------------------------------------------------------------------------------
+# checks and Taichi's arch
+# ---------------------------------------------------------------------------------------------
+def check_arch(arch: str) -> None:
+    """Raise BatchInputError for an arch that is not cpu / cuda, CudaUnavailable for cuda on a
+    machine where Taichi finds no CUDA driver (without starting Taichi: cheap, for a command to
+    refuse before any worker starts)."""
+    if arch not in ARCHS:
+        raise BatchInputError(f"--arch must be one of {', '.join(ARCHS)}, got '{arch}'")
+    if arch == "cuda" and not cuda_present():
+        raise CudaUnavailable("--arch cuda: CUDA was asked for and is not available (Taichi "
+                              "finds no CUDA driver on this machine); use --arch cpu")
+
+
+def cuda_present() -> bool:
+    """Whether Taichi is built with CUDA and finds the driver (taichi's is_arch_supported: it
+    loads libcuda; Taichi's own warning when it is missing is kept off the terminal)."""
+    import contextlib
+    import io
+
+    import taichi as ti
+    from taichi.lang.misc import is_arch_supported
+
+    with contextlib.redirect_stderr(io.StringIO()):
+        return bool(is_arch_supported(ti.cuda))
+
+
+def init_taichi(arch: str, threads: int | None, precision: str = "f64") -> None:
+    """Start Taichi on ``arch`` (dem.ti_runtime.init).  ti.init(arch=ti.cuda) falls back to the
+    CPU silently where CUDA is absent, so the arch in use is checked after the start:
+    CudaUnavailable if cuda was asked for and Taichi runs on the CPU."""
+    import inspect
+
+    from dem import ti_runtime
+
+    check_arch(arch)
+    if "arch" in inspect.signature(ti_runtime.init).parameters:
+        ti_runtime.init(threads=threads, precision=precision, arch=arch)
+    elif arch == "cuda":
+        raise CudaUnavailable("--arch cuda: this engine cannot start Taichi on CUDA "
+                              "(dem.ti_runtime.init takes no arch); use --arch cpu")
+    else:
+        ti_runtime.init(threads=threads, precision=precision)
+    if arch == "cuda" and running_arch() != "cuda":
+        raise CudaUnavailable("--arch cuda: CUDA was asked for and is not available (Taichi "
+                              f"started on {running_arch()}); use --arch cpu")
+
+
+def running_arch() -> str:
+    """The arch Taichi runs on: "cuda", or "cpu" for the host archs (x64, arm64)."""
+    import taichi as ti
+    from taichi.lang import impl
+
+    arch = impl.current_cfg().arch
+    return "cuda" if arch == ti.cuda else ("cpu" if arch in (ti.x64, ti.arm64) else str(arch))
+
+
+def solver_difference(cases: Sequence[Case]) -> str | None:
+    """None if every case has the first one's ``solver:`` section, else a sentence naming the
+    first field that differs (one engine steps every scene with the same solver options)."""
+    first = cases[0].solver.model_dump()
+    for case in cases[1:]:
+        other = case.solver.model_dump()
+        for key in first:
+            if first[key] != other.get(key):
+                return (f"solver.{key} differs between the cases of one batch ({cases[0].name}: "
+                        f"{first[key]!r}, {case.name}: {other.get(key)!r}): one engine steps "
+                        f"every scene with the same solver options; run them in separate batches")
+    return None
+
+
+# ---------------------------------------------------------------------------------------------
+# the hub: the baton and the scheduler
+# ---------------------------------------------------------------------------------------------
+class Hub:
+    """The scheduler of K point threads over one engine (module docstring).
+
+    ``engine.hub = hub``: a scene's ``sim.advance(n, loads)`` calls :meth:`advance` in its point
+    thread; :meth:`run` (the calling thread) starts the point threads and advances the engine.
+    The baton: a point runs only between ``turn[g].acquire()`` and ``back.release()``; the
+    scheduler runs only while every live point waits."""
+
+    def __init__(self, engine, n: int):
+        self.engine = engine
+        self.n = n
+        self.turn = [threading.Semaphore(0) for _ in range(n)]  # point g may run
+        self.back = threading.Semaphore(0)  # the running point gave the baton back
+        self.request: list[list | None] = [None] * n  # [steps left, loads] of a waiting point
+        self.wake_error: list[BaseException | None] = [None] * n
+        self.ended = [False] * n
+        self.stop: BaseException | None = None  # the KeyboardInterrupt that stops the batch
+        self.engine_advances = 0  # engine.advance calls (a batch's launches, for benchmarks)
+
+    # --- in a point thread, holding the baton ----------------------------------------------
+    def advance(self, g: int, n_steps: int, loads) -> None:
+        """Scene g's ``sim.advance(n_steps, loads)``: give the baton back, wait until the engine
+        has done the n_steps steps of scene g; raise its failure (``sims[g].failure``) if it
+        failed, dem.signals.Interrupted if the batch is stopping."""
+        self._raise_if_stopping()
+        if n_steps <= 0:
+            return
+        self.request[g] = [int(n_steps), loads]
+        self.back.release()
+        self.turn[g].acquire()
+        err, self.wake_error[g] = self.wake_error[g], None
+        if err is not None:
+            raise err
+
+    def _raise_if_stopping(self) -> None:
+        from dem.signals import Interrupted, signal_name
+
+        if self.stop is not None:
+            raise Interrupted(signal_name(self.stop))
+
+    # --- the scheduler (the calling thread) ------------------------------------------------
+    def run(self, bodies: Sequence[Callable[[], object]]) -> list:
+        """Run ``bodies[g]()`` (point g's run) in K threads over the engine; returns each one's
+        result, or the exception it raised.  Raises the KeyboardInterrupt that stopped the
+        batch once every point has ended.
+
+        In the main thread the stop signals are held (dem.signals.deferred: recorded, not
+        raised) for the whole run and looked at between the steps, so that a stop never cuts
+        the scheduler's bookkeeping in half; where no handler is installed (the default
+        SIGINT handler), dem.signals.stop_on_signals installs them for the run."""
+        import contextlib
+        import signal
+
+        from dem.signals import deferred, stop_on_signals
+
+        main = threading.current_thread() is threading.main_thread()
+        install = main and signal.getsignal(signal.SIGINT) is signal.default_int_handler
+        results: list = [None] * self.n
+        threads = [threading.Thread(target=self._body, args=(g, fn, results), daemon=True,
+                                    name=f"dem-batch-point-{g}")
+                   for g, fn in enumerate(bodies)]
+        with stop_on_signals() if install else contextlib.nullcontext():
+            try:
+                with deferred():
+                    for th in threads:
+                        th.start()
+                    self._schedule()
+            except KeyboardInterrupt as err:  # held during the run, raised at its end
+                self._stop(err)
+            for th in threads:
+                th.join()
+        if self.stop is not None:
+            raise self.stop
+        return results
+
+    def _schedule(self) -> None:
+        runnable = list(range(self.n))
+        while True:
+            for g in runnable:  # each in turn: it runs until it waits or ends
+                self.turn[g].release()
+                self._wait_back()
+            live = [g for g in range(self.n) if not self.ended[g]]
+            if not live:
+                return
+            self._look_at_signals()
+            runnable = self._step(live)
+
+    def _body(self, g: int, fn, results: list) -> None:
+        self.turn[g].acquire()
+        try:
+            results[g] = fn()
+        except BaseException as err:  # noqa: BLE001 - reported as the point's result
+            results[g] = err
+            if isinstance(err, KeyboardInterrupt) and self.stop is None:
+                self.stop = err  # a stop seen by one point stops the batch
+        finally:
+            self.ended[g] = True
+            self.request[g] = None
+            try:
+                self.engine.deactivate(g)
+            except Exception as err:  # noqa: BLE001 - the others must still run
+                if not isinstance(results[g], BaseException):
+                    results[g] = err
+            self.back.release()
+
+    def _wait_back(self) -> None:
+        """Wait until the running point gives the baton back, looking at the stop signals
+        meanwhile (a stop is then seen by the point at its next advance)."""
+        while True:
+            try:
+                if self.back.acquire(timeout=0.25):
+                    return
+            except KeyboardInterrupt as err:  # a handler that raises here (not dem.signals')
+                self._stop(err)
+            self._look_at_signals()
+
+    def _look_at_signals(self) -> None:
+        from dem.signals import raise_if_stopped
+
+        try:
+            raise_if_stopped()
+        except KeyboardInterrupt as err:
+            self._stop(err)
+
+    def _stop(self, err: KeyboardInterrupt) -> None:
+        if self.stop is None:
+            self.stop = err
+
+    def _step(self, live: list[int]) -> list[int]:
+        """Every live point waits: advance the engine by the smallest request; the points to
+        wake, in index order (each with its failure, or Interrupted when stopping)."""
+        from dem.signals import Interrupted, signal_name
+
+        if self.stop is None:
+            try:
+                m = min(self.request[g][0] for g in live)
+                loads = [self.request[g][1] if self.request[g] is not None else None
+                         for g in range(self.n)]
+                try:
+                    self.engine.advance(m, loads)
+                except Exception as err:  # noqa: BLE001 - the engine itself failed
+                    for g in live:
+                        self.wake_error[g] = err
+                    return list(live)
+                self.engine_advances += 1
+                sims = self.engine.simulations
+                wake = []
+                for g in live:
+                    failure = getattr(sims[g], "failure", None)
+                    if failure is not None:
+                        self.wake_error[g] = failure
+                        wake.append(g)
+                        continue
+                    self.request[g][0] -= m
+                    if self.request[g][0] <= 0:
+                        wake.append(g)
+                return wake
+            except KeyboardInterrupt as err:  # a handler that raises (not dem.signals')
+                self._stop(err)
+        for g in live:  # stopping: every waiting point ends its run (interrupted)
+            self.wake_error[g] = Interrupted(signal_name(self.stop))
+        return list(live)
+
+
+# ---------------------------------------------------------------------------------------------
+# the batch
+# ---------------------------------------------------------------------------------------------
+def run_cases_in_one_engine(cases: Sequence[tuple[str, Case]], out_dirs: Sequence[str | Path],
+                            max_steps: int | None = None, analyses: Sequence = (),
+                            resume: bool = True, arch: str = "cpu",
+                            post: Callable | None = None, threads: int | None = None
+                            ) -> list[dict]:
+    """Run the (name, case) pairs in one engine (module docstring), each into its own
+    ``out_dirs[g]``; returns one record per case, in order, as dem.batch's task body returns it:
+    ``{"name", "status": "ok", "out_dir", "summary"[, "post"]}`` or ``{"name", "status":
+    "failed", "out_dir", "error", "traceback", "wall_seconds"}``.
+
+    ``analyses``: handed to each run_case; ``post(case, RunResult, out_dir) -> dict`` after a
+    point's successful run (in its thread); ``resume``: a point directory that holds an
+    unfinished run of the same case with a restart point goes on from it (dem.rundir.claim and
+    run_case with resume=True), else it is cleared.  ``arch``: Taichi's arch, "cpu" or "cuda"
+    (CudaUnavailable where CUDA is absent); ``threads``: Taichi's CPU threads (None: DEM_THREADS
+    or all cores).  Raises BatchInputError before anything runs when the cases' ``solver:``
+    sections differ (naming the field), KeyboardInterrupt when stopped (every point written
+    first)."""
+    from dem.rundir import claim
+    from dem.run.build import case_joint_law, scene_from_case, step_options
+    from dem.loading import loading_from_case
+
+    cases = list(cases)
+    out_dirs = [str(d) for d in out_dirs]
+    if len(out_dirs) != len(cases):
+        raise BatchInputError(f"{len(cases)} cases but {len(out_dirs)} output directories")
+    if not cases:
+        return []
+    why = solver_difference([c for _, c in cases])
+    if why is not None:
+        raise BatchInputError(why)
+    t0 = time.perf_counter()
+    options = step_options(cases[0][1].solver)
+    init_taichi(arch, threads if threads is not None else options.threads, options.precision)
+
+    records: list[dict | None] = [None] * len(cases)
+
+    def failed(g: int, err: BaseException, tb: str | None = None) -> dict:
+        return {"name": cases[g][0], "status": "failed", "out_dir": out_dirs[g],
+                "error": f"{type(err).__name__}: {err}",
+                "traceback": tb if tb is not None else "".join(
+                    traceback.format_exception(type(err), err, err.__traceback__)),
+                "wall_seconds": time.perf_counter() - t0}
+
+    # each point's directory (a lock against a second batch writing into it), scene and loading;
+    # a point whose scene cannot be built fails alone
+    held, scenes, joints, gravity, members = [], [], [], [], []
+    try:
+        for g, (name, case) in enumerate(cases):
+            try:
+                held.append(claim(out_dirs[g], case.model_dump_json(indent=1), force=True,
+                                  what="point", resume=resume))
+                scene = scene_from_case(case)
+                scenes.append(scene)
+                joints.append(case_joint_law(case, scene))
+                gravity.append(loading_from_case(case).g0)
+                members.append(g)
+            except Exception as err:  # noqa: BLE001 - a failed point is reported, never fatal
+                records[g] = failed(g, err)
+        if members:
+            _run_members(cases, out_dirs, members, scenes, joints, gravity, options, records,
+                         failed, max_steps, analyses, resume, arch, post, t0)
+    finally:
+        for rd in held:
+            rd.release()
+    return records
+
+
+def _run_members(cases, out_dirs, members, scenes, joints, gravity, options, records, failed,
+                 max_steps, analyses, resume, arch, post, t0) -> None:
+    """The engine of the points ``members`` (indices into cases) and their runs."""
+    from dem.engine.simulation import Engine
+    from dem.run.loop import run_case
+
+    t1 = time.perf_counter()
+    try:
+        engine = Engine(scenes, joints, options, gravity=gravity)
+    except Exception as err:  # noqa: BLE001 - the engine could not be made: every point fails
+        for g in members:
+            records[g] = failed(g, err)
+        return
+    engine_seconds = time.perf_counter() - t1
+    sims = engine.simulations
+    k = len(members)
+    hub = Hub(engine, k) if k > 1 else None
+    if hub is not None:
+        engine.hub = hub
+
+    def stamp(i: int, summary: dict | None, before: float) -> None:
+        """summary.json's ``batch`` (module docstring), in the file and in ``summary``; the
+        run's wall_seconds also count ``before`` (s: the batch's start, its engine's
+        construction and the batch-mates' turns before this point's run began), as a lone
+        run's count its engine's construction."""
+        from dem.output import atomic
+        from dem.units import summary_units
+
+        g = members[i]
+        path = Path(out_dirs[g]) / "summary.json"
+        try:
+            data = json.loads(path.read_text())
+        except (OSError, ValueError):
+            return  # nothing written (a stop before the first step): nothing to stamp
+        batch = {"n_scenes": k, "index": i, "dt_s": float(engine.dt), "arch": running_arch(),
+                 "engine_seconds": engine_seconds,
+                 "note": BATCH_NOTE}
+        new = {"batch": batch}
+        if isinstance(data.get("wall_seconds"), (int, float)):
+            new["wall_seconds"] = data["wall_seconds"] + before
+            run_s = new["wall_seconds"] - float(data.get("compile_seconds") or 0.0)
+            if isinstance(data.get("steps"), int) and "brick_steps_per_second" in data:
+                new["brick_steps_per_second"] = (data["n_blocks"] * data["steps"] / run_s
+                                                 if run_s > 0 else None)
+        data.update(new)
+        data["units"] = summary_units(data)
+        if summary is not None:
+            summary.update(new)
+            summary["units"] = data["units"]
+        try:
+            atomic.write_json(path, data)
+        except OSError:
+            pass  # the run's own write errors are in summary.json already
+
+    def body(i: int):
+        g = members[i]
+        name, case = cases[g]
+        t1 = time.perf_counter()
+        before = t1 - t0
+        failure = getattr(sims[i], "failure", None)
+        if failure is not None:  # the scene failed while the engine was made
+            return failed(g, failure)
+        try:
+            res = run_case(case, out_dirs[g], progress=False, max_steps=max_steps,
+                           scene=scenes[i], analyses=analyses, resume=resume, sim=sims[i])
+            stamp(i, res.summary, before)
+            record = {"name": name, "status": "ok", "out_dir": out_dirs[g],
+                      "summary": res.summary}
+            if post is not None:
+                record["post"] = post(case, res, out_dirs[g])
+            return record
+        except Exception as err:  # noqa: BLE001 - a failed point is reported, never fatal
+            stamp(i, None, before)
+            rec = failed(g, err, traceback.format_exc())
+            rec["wall_seconds"] = time.perf_counter() - t1 + before
+            return rec
+        except BaseException:
+            stamp(i, None, before)
+            raise
+
+    if hub is None:
+        try:
+            results = [body(0)]
+        finally:
+            engine.deactivate(0)
+    else:
+        results = hub.run([lambda i=i: body(i) for i in range(k)])
+    for i, res in enumerate(results):
+        records[members[i]] = res if isinstance(res, dict) else failed(members[i], res)
