@@ -14,6 +14,13 @@ dem.run.write.CHECKPOINT_SECONDS): the next batch into the same directories resu
 (dem.run.resume), or starts them over where they cannot resume.
 
 Each case writes its own output directory (summary.json, frames.npz, ...) under ``out_root``.
+
+Batched (``batch`` K, issue 35): the cases are packed K to an engine (the last group smaller) and
+each group is one task, one process (dem.run.batched: K scenes in one Taichi engine, each point
+written into its own directory exactly as a lone run); dask spreads the groups over the workers.
+A failed point never ends its batch-mates; the records stay one per case.  ``arch``: Taichi's
+arch of the tasks, "cpu" or "cuda" (with cuda and no ``n_workers``, one local worker: the GPU is
+one device).
 """
 
 from __future__ import annotations
@@ -89,11 +96,37 @@ def _run_one(name: str, case_json: str, out_dir: str, threads: int, max_steps: i
             rd.release()
 
 
+def _run_group(names: list[str], case_jsons: list[str], out_dirs: list[str], threads: int,
+               max_steps: int | None, post: Callable | None, analyses: tuple = (),
+               arch: str = "cpu") -> list[dict]:
+    """Task body of a group (runs on a worker): the cases in one engine
+    (dem.run.batched.run_cases_in_one_engine), one record per case; a group that cannot start
+    (cases that cannot share an engine, no CUDA) gives every case a failed record."""
+    os.environ.setdefault("DEM_THREADS", str(threads))
+    t0 = time.perf_counter()
+    try:
+        from dem.run.batched import run_cases_in_one_engine
+
+        cases = [(n, Case.model_validate_json(j)) for n, j in zip(names, case_jsons)]
+        return run_cases_in_one_engine(cases, out_dirs, max_steps=max_steps, analyses=analyses,
+                                       resume=True, arch=arch, post=post, threads=threads)
+    except Exception as err:  # noqa: BLE001 - a failed group is reported, never fatal
+        tb = traceback.format_exc()
+        return [{"name": n, "status": "failed", "out_dir": d,
+                 "error": f"{type(err).__name__}: {err}", "traceback": tb,
+                 "wall_seconds": time.perf_counter() - t0} for n, d in zip(names, out_dirs)]
+
+
 def run_batch(cases: list[tuple[str, Case]], out_root: str | Path, scheduler: str | None = None,
               n_workers: int | None = None, max_steps: int | None = None,
               post: Callable | None = None, on_done: Callable[[dict], None] | None = None,
-              analyses: tuple = (), drain: Callable[[], bool] | None = None) -> list[dict]:
+              analyses: tuple = (), drain: Callable[[], bool] | None = None,
+              batch: int | None = None, arch: str = "cpu") -> list[dict]:
     """Run (name, case) pairs; returns one record per case, in the order given.
+
+    batch: pack the cases K to an engine, one task per group (module docstring); None: one case
+    per task, each in an engine of its own (with ``arch`` "cpu": today's path, dem.run).
+    arch: "cpu" or "cuda" (Taichi's arch of every task).
 
     analyses: handed to dem.run.run_case (functions merged into each run's summary.json, e.g.
     dem.commands.run.RUN_ANALYSES; module-level functions, so that they pickle to the workers).
@@ -108,9 +141,15 @@ def run_batch(cases: list[tuple[str, Case]], out_root: str | Path, scheduler: st
 
     out_root = Path(out_root)
     out_root.mkdir(parents=True, exist_ok=True)
+    if batch is not None and batch < 1:
+        raise ValueError(f"--batch must be >= 1, got {batch}")
+    grouped = batch is not None or arch != "cpu"
+    size = batch or 1
+    # the tasks: lists of indices into cases (one each without grouping)
+    groups = [list(range(k, min(k + size, len(cases)))) for k in range(0, len(cases), size)]
     cluster = None
     if scheduler is None:
-        n_workers = n_workers or os.cpu_count() or 1
+        n_workers = n_workers or (1 if arch == "cuda" else None) or os.cpu_count() or 1
         # the worker processes inherit DEM_THREADS=1 (one Taichi thread each); the calling
         # process gets its own setting back, so a later Taichi start here is unaffected
         saved = os.environ.get("DEM_THREADS")
@@ -131,13 +170,26 @@ def run_batch(cases: list[tuple[str, Case]], out_root: str | Path, scheduler: st
     try:
         def free_threads() -> int:
             if drain is None:
-                return len(cases)
+                return len(groups)
             return max(1, sum(client.nthreads().values())) - len(futures)
 
         futures = {}
-        waiting = list(range(len(cases)))
+        waiting = list(range(len(groups)))
         done = as_completed()
         drained = False
+
+        def submit(j: int):
+            idx = groups[j]
+            if not grouped:
+                name, case = cases[idx[0]]
+                return client.submit(_run_one, name, case.model_dump_json(),
+                                     str(out_root / name), 1, max_steps, post, tuple(analyses),
+                                     key=f"dem-{idx[0]}-{name}", pure=False)
+            names = [cases[i][0] for i in idx]
+            return client.submit(_run_group, names, [cases[i][1].model_dump_json() for i in idx],
+                                 [str(out_root / n) for n in names], 1, max_steps, post,
+                                 tuple(analyses), arch, key=f"dem-group-{j}-{names[0]}",
+                                 pure=False)
 
         def hand_over() -> None:
             nonlocal drained
@@ -145,29 +197,29 @@ def run_batch(cases: list[tuple[str, Case]], out_root: str | Path, scheduler: st
                 if drain is not None and drain():
                     drained = True
                     break
-                i = waiting.pop(0)
-                name, case = cases[i]
-                fut = client.submit(_run_one, name, case.model_dump_json(), str(out_root / name),
-                                    1, max_steps, post, tuple(analyses), key=f"dem-{i}-{name}",
-                                    pure=False)
-                futures[fut] = i
+                j = waiting.pop(0)
+                fut = submit(j)
+                futures[fut] = j
                 done.add(fut)
 
         hand_over()
         records: list[dict | None] = [None] * len(cases)
         for fut in done:
-            i = futures.pop(fut)
+            j = futures.pop(fut)
+            idx = groups[j]
             try:
-                rec = fut.result()
-            except Exception as err:  # noqa: BLE001 - worker died: still report the point
-                rec = {"name": cases[i][0], "status": "failed",
-                       "error": f"{type(err).__name__}: {err}"}
-            records[i] = rec
-            if on_done is not None:
-                on_done(rec)
+                recs = fut.result()
+                recs = recs if grouped else [recs]
+            except Exception as err:  # noqa: BLE001 - worker died: still report the points
+                recs = [{"name": cases[i][0], "status": "failed",
+                         "error": f"{type(err).__name__}: {err}"} for i in idx]
+            for i, rec in zip(idx, recs):
+                records[i] = rec
+                if on_done is not None:
+                    on_done(rec)
             hand_over()
         if waiting:
-            raise Drained([cases[i][0] for i in waiting])
+            raise Drained([cases[i][0] for j in waiting for i in groups[j]])
         return records
     finally:
         client.close()

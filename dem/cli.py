@@ -43,6 +43,10 @@ app = _DemApp(
 from dem.commands.exit_codes import ExitCode
 
 MAX_BLOCKS_HELP = "refuse scenes above this many blocks (default 20000, or DEM_MAX_BLOCKS)"
+BATCH_HELP = ("run the runs K to an engine: K scenes side by side in one process and one kernel "
+              "launch, each written as a lone run (default: one engine per run)")
+ARCH_HELP = ("where the engines run: cpu, or cuda (a GPU; an error where Taichi finds none; one "
+             "local worker unless --workers)")
 
 
 def _err(msg: str) -> None:
@@ -204,6 +208,8 @@ def sweep(
     drain_file: Path = typer.Option(None, "--drain-file",
                                     help="once this file exists, no new run starts and the runs "
                                          "in flight finish (default: OUT/DRAIN)"),
+    batch: int = typer.Option(None, "--batch", help=BATCH_HELP),
+    arch: str = typer.Option("cpu", "--arch", help=ARCH_HELP),
 ) -> None:
     """Frequency sweep of a shake case at its constant peak acceleration (or amplitude): one run
     per frequency on dask, each analysed (postprocess.shake), then the amplification curves,
@@ -217,7 +223,8 @@ def sweep(
     drain_file = drain_file if drain_file is not None else out / DRAIN_FILE
     clear_drain_file(drain_file, say)
     raise typer.Exit(run_sweep(case, out, frequencies, range_, cycles, margin, scheduler, workers,
-                               max_steps, realisations, seed, drain_file=drain_file))
+                               max_steps, realisations, seed, drain_file=drain_file, batch=batch,
+                               arch=arch))
 
 
 @app.command()
@@ -232,6 +239,8 @@ def ensemble(
     drain_file: Path = typer.Option(None, "--drain-file",
                                     help="once this file exists, no new realisation starts and "
                                          "those in flight finish (default: OUT/DRAIN)"),
+    batch: int = typer.Option(None, "--batch", help=BATCH_HELP),
+    arch: str = typer.Option("cpu", "--arch", help=ARCH_HELP),
 ) -> None:
     """Run N realisations of an imperfect case (seeds S, S+1, ...) on dask; OUT/ensemble.json
     holds each realisation's results and their statistics (median, 10-90 %, mean, std,
@@ -243,7 +252,7 @@ def ensemble(
     drain_file = drain_file if drain_file is not None else out / DRAIN_FILE
     clear_drain_file(drain_file, say)
     raise typer.Exit(run_ensemble(case, out, realisations, seed, scheduler, workers, max_steps,
-                                  drain_file=drain_file))
+                                  drain_file=drain_file, batch=batch, arch=arch))
 
 
 @app.command()

@@ -15,7 +15,9 @@ runs N realisations of a case with imperfections (docs/imperfections.md), seeds 
   same case (summary.json status "ok", case.json equal), so a long study runs in pieces;
 * a failed realisation is reported and loses none of the others; a realisation whose worker
   dies is computed again by dask on another worker (a task lost with its worker is
-  rescheduled), and failing that it is reported failed and a rerun computes it.
+  rescheduled), and failing that it is reported failed and a rerun computes it;
+* ``--batch K``: the realisations run K to an engine (dem.run.batched, as ``dem sweep
+  --batch``), ``--arch cuda`` on a CUDA GPU.
 
 Exit code: 0 all realisations ok, 1 one failed, 2 bad input (dem.commands.exit_codes).
 """
@@ -23,11 +25,10 @@ Exit code: 0 all realisations ok, 1 one failed, 2 bad input (dem.commands.exit_c
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 
 from dem.commands.exit_codes import ExitCode, exit_code_for
-from dem.commands.sweep import finished_run, say
+from dem.commands.sweep import batching, finished_run, say, workers_text
 from dem.run.sweep import EnsembleInputError, realisation_cases
 from postprocess.ensemble import aggregate, plot_lambda, realisation_scalars
 
@@ -91,9 +92,11 @@ def write_ensemble(out: Path, meta: dict, names: list[str], records: dict, plots
 
 def run_ensemble(case_path, out, realisations: int, seed: int | None = None,
                  scheduler: str | None = None, workers: int | None = None,
-                 max_steps: int | None = None, drain_file: Path | None = None) -> int:
+                 max_steps: int | None = None, drain_file: Path | None = None,
+                 batch: int | None = None, arch: str = "cpu") -> int:
     """Body of ``dem ensemble``; returns the exit code.  ``drain_file``: once it exists no new
-    realisation starts and those in flight finish (dem.batch, "Draining"); exit code 1."""
+    realisation starts and those in flight finish (dem.batch, "Draining"); exit code 1.
+    ``batch``: the realisations K to an engine; ``arch``: "cpu" or "cuda" (dem.batch)."""
     from dem.batch import Drained, drain_file_check, run_batch
     from dem.case import CaseError, ShakeLoading, load_case
     from dem.commands.run import RUN_ANALYSES
@@ -109,6 +112,7 @@ def run_ensemble(case_path, out, realisations: int, seed: int | None = None,
         if max_steps is not None and max_steps < 1:
             raise EnsembleInputError(f"--max-steps must be >= 1, got {max_steps}")
         scene_from_case(cases[0][1])  # a bad scene fails here, before any worker starts
+        batch_options = batching(batch, arch)
     except CaseError as err:
         say(f"error: {err}")
         return exit_code_for(err)
@@ -156,8 +160,7 @@ def run_ensemble(case_path, out, realisations: int, seed: int | None = None,
             say(f"{head}: ok" + (f": {scalar_text(sc)}" if scalar_text(sc) else ""))
         write_ensemble(out, meta, names, records, plots=False)
 
-    where = f"scheduler {scheduler}" if scheduler else \
-        f"local cluster, {workers or os.cpu_count()} workers"
+    where = workers_text(scheduler, workers, batch, arch)
     say(f"ensemble {case.name}: {len(cases)} realisations, seeds {meta['seeds'][0]}.."
         f"{meta['seeds'][-1]} ({len(todo)} to run), {where}")
     from dem.signals import signal_name, stop_on_signals
@@ -168,7 +171,8 @@ def run_ensemble(case_path, out, realisations: int, seed: int | None = None,
                 run_batch(todo, out, scheduler=scheduler, n_workers=workers, max_steps=max_steps,
                           post=analyze_point if shake else None, on_done=on_done,
                           analyses=() if shake else RUN_ANALYSES,
-                          drain=None if drain_file is None else drain_file_check(drain_file))
+                          drain=None if drain_file is None else drain_file_check(drain_file),
+                          **batch_options)
     except Drained as err:
         say(f"drained ({drain_file} exists): the realisations in flight finished; "
             f"{len(err.not_started)} not started ({', '.join(err.not_started)}); finished ones "

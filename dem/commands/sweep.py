@@ -16,7 +16,11 @@ Taichi capped at one thread per worker, or an existing cluster with ``--schedule
 * a rerun into the same DIR skips every point whose directory holds a finished run of the same
   point case (summary.json status "ok", case.json equal): it is read back (its analysis.json, or
   analysed again if that is missing), not recomputed; the others (killed, failed, changed) run
-  again into their cleared directories.  SIGTERM / SIGHUP stop a sweep like Ctrl-C.
+  again into their cleared directories.  SIGTERM / SIGHUP stop a sweep like Ctrl-C;
+* ``--batch K``: the points run K to an engine (dem.run.batched: K scenes in one Taichi engine,
+  one kernel launch for all, each point written as a lone run; dask spreads the engines over
+  the workers); ``--arch cuda`` runs the engines on a CUDA GPU (an error, before anything runs,
+  where Taichi finds none).
 
 The exit code: dem.commands.exit_codes.
 """
@@ -76,7 +80,8 @@ def run_sweep(case_path, out, frequencies: str | None = None, rng: str | None = 
               scheduler: str | None = None, workers: int | None = None,
               max_steps: int | None = None, realisations: int | None = None,
               seed: int | None = None, case=None, reraise_interrupt: bool = False,
-              drain_file: Path | None = None) -> int:
+              drain_file: Path | None = None, batch: int | None = None,
+              arch: str = "cpu") -> int:
     """Body of ``dem sweep``; returns the exit code (0 all ok, 1 a point failed, 2 bad input).
 
     ``realisations``: the sweep runs once per realisation of the case's imperfections (seeds
@@ -86,7 +91,8 @@ def run_sweep(case_path, out, frequencies: str | None = None, rng: str | None = 
     postprocess.ensemble).  ``case``: the loaded case (else read from case_path).
     ``drain_file``: once this file exists no new point starts; the points in flight finish
     (dem.batch, "Draining"), the exit code is 1 and, with realisations, the loop stops too.
-    None: no draining (the caller clears a leftover file: dem.batch.clear_drain_file)."""
+    None: no draining (the caller clears a leftover file: dem.batch.clear_drain_file).
+    ``batch``: the points K to an engine; ``arch``: "cpu" or "cuda" (dem.batch.run_batch)."""
     from dem.batch import Drained, drain_file_check, run_batch
     from dem.case import CaseError, load_case
     from dem.run.build import scene_from_case
@@ -95,7 +101,7 @@ def run_sweep(case_path, out, frequencies: str | None = None, rng: str | None = 
     if realisations is not None or seed is not None:
         return _run_sweep_realisations(case_path, out, frequencies, rng, cycles, margin,
                                        scheduler, workers, max_steps, realisations, seed,
-                                       drain_file)
+                                       drain_file, batch, arch)
     try:
         case = load_case(case_path) if case is None else case
         freqs = parse_frequencies(frequencies, rng)
@@ -105,10 +111,11 @@ def run_sweep(case_path, out, frequencies: str | None = None, rng: str | None = 
             raise SweepInputError(f"--workers must be >= 1, got {workers}")
         if max_steps is not None and max_steps < 1:
             raise SweepInputError(f"--max-steps must be >= 1, got {max_steps}")
+        batch_options = batching(batch, arch)
     except CaseError as err:
         say(f"error: {err}")
         return exit_code_for(err)
-    except ValueError as err:  # SweepInputError, SceneError
+    except ValueError as err:  # SweepInputError, SceneError, BatchInputError
         say(f"error: {case_path}: {err}")
         return exit_code_for(err)
     if out.exists() and not out.is_dir():
@@ -158,8 +165,7 @@ def run_sweep(case_path, out, frequencies: str | None = None, rng: str | None = 
             say(f"{head}: ok, {a_txt} ({p.get('wall_seconds', 0):.1f} s wall{went_on})")
         write_sweep(out, meta, list(points.values()), plots=False)
 
-    where = f"scheduler {scheduler}" if scheduler else \
-        f"local cluster, {workers or os.cpu_count()} workers"
+    where = workers_text(scheduler, workers, batch, arch)
     say(f"sweep {case.name}: {len(cases)} frequencies {freqs} Hz ({len(todo)} to run), {where}")
     from dem.signals import signal_name, stop_on_signals
 
@@ -168,7 +174,7 @@ def run_sweep(case_path, out, frequencies: str | None = None, rng: str | None = 
             records = run_batch(todo, out, scheduler=scheduler, n_workers=workers,
                                 max_steps=max_steps, post=analyze_point, on_done=on_done,
                                 drain=None if drain_file is None else
-                                drain_file_check(drain_file)) if todo else []
+                                drain_file_check(drain_file), **batch_options) if todo else []
     except Drained as err:
         say(f"drained ({drain_file} exists): the points in flight finished; "
             f"{len(err.not_started)} not started: "
@@ -197,8 +203,35 @@ def run_sweep(case_path, out, frequencies: str | None = None, rng: str | None = 
     return ExitCode.OK
 
 
+def batching(batch: int | None, arch: str) -> dict:
+    """run_batch's keywords for ``--batch`` and ``--arch`` (none where both are the defaults,
+    so that the default path is today's); raises BatchInputError (a ValueError: exit code 2)
+    for --batch < 1, an unknown arch, or cuda where Taichi finds no CUDA device (checked here,
+    before any worker starts: dem.run.batched.check_arch)."""
+    from dem.run.batched import BatchInputError, check_arch
+
+    if batch is not None and batch < 1:
+        raise BatchInputError(f"--batch must be >= 1, got {batch}")
+    check_arch(arch)
+    return {} if batch is None and arch == "cpu" else {"batch": batch, "arch": arch}
+
+
+def workers_text(scheduler: str | None, workers: int | None, batch: int | None,
+                 arch: str) -> str:
+    """Where the runs go, for the start line of dem sweep / dem ensemble."""
+    if scheduler:
+        where = f"scheduler {scheduler}"
+    else:
+        n = workers or (1 if arch == "cuda" else os.cpu_count())
+        where = f"local cluster, {n} worker{'s' if n != 1 else ''}"
+    if batch is not None:
+        where += f", {batch} to an engine"
+    return where + (f", on {arch}" if arch != "cpu" else "")
+
+
 def _run_sweep_realisations(case_path, out: Path, frequencies, rng, cycles, margin, scheduler,
-                            workers, max_steps, realisations, seed, drain_file=None) -> int:
+                            workers, max_steps, realisations, seed, drain_file=None,
+                            batch=None, arch="cpu") -> int:
     """``dem sweep --realisations N``: one sweep per realisation, then their statistics."""
     from dem.batch import Drained
     from dem.case import CaseError, load_case
@@ -223,7 +256,7 @@ def _run_sweep_realisations(case_path, out: Path, frequencies, rng, cycles, marg
                 say(f"realisation {name} ({len(codes) + 1} of {len(cases)})")
                 code = run_sweep(case_path, out / name, frequencies, rng, cycles, margin,
                                  scheduler, workers, max_steps, case=c, reraise_interrupt=True,
-                                 drain_file=drain_file)
+                                 drain_file=drain_file, batch=batch, arch=arch)
                 if code == ExitCode.BAD_INPUT:
                     return code
                 codes.append(code)
