@@ -9,7 +9,9 @@ def test_roles_partition_control_in_argpack_order():
     names = [f.name for role in CONTROL_ROLES.values() for f in role]
     assert names == [f.name for f in CONTROL_FIELDS]
     assert len(set(names)) == len(names)
-    assert [f.name for f in CONTROL_ROLES["energy"]] == list(ENERGY_TERMS)
+    energy = CONTROL_ROLES["energy"]  # one row of ENERGY_TERMS per scene
+    assert [f.name for f in energy] == ["energy_sums"]
+    assert energy[0].dims == ("G", len(ENERGY_TERMS))
 
 
 def test_role_returns_the_live_arrays():
@@ -19,3 +21,15 @@ def test_role_returns_the_live_arrays():
     assert float(params["skin"][0]) == 0.01 and float(params["local_damping"][0]) == 0.1
     ctl.role("diagnostics")["status"][0] = STOP
     assert int(ctl.status[0]) == STOP  # the same array, not a copy
+
+
+def test_a_scene_region_is_a_view_of_its_row():
+    ti_runtime.init()
+    ctl = Control(skin=0.01, max_speed=50.0, local_damping=0.1, n_scenes=3)
+    row = ctl.region(1)
+    row.energy_sums[0, 2] = 5.0
+    row.status[0] = STOP
+    assert ctl.energy_sums[1, 2] == 5.0 and ctl.energy_sums[[0, 2]].sum() == 0.0
+    assert list(ctl.status) == [0, STOP, 0]
+    assert row.loads.shape == (ctl.loads.shape[0], 1, 2, 3)
+    assert row.skin is ctl.skin  # shared by the scenes

@@ -25,7 +25,17 @@ Element types: real (the engine's floating type: f64, or f32 with solver.precisi
 vec3 [..., 3], vec4 [..., 4], mat3 [..., 3, 3], i32, ivec2 [..., 2], pair [..., 7] (the pair
 material record, dem.engine.pair).  Shapes: B bodies (the N
 blocks of the scene in case order, then the table, index N: a large fixed box whose top face is
-the plane z = 0), P pair capacity, K = MAXP points per pair, S = steps per serial launch.
+the plane z = 0), P pair capacity, K = MAXP points per pair, S = steps per serial launch, G the
+scenes of the engine (1 for a lone simulation).
+
+Several scenes in one engine (issue 35: an ensemble's realisations side by side): the bodies of
+scene g are the contiguous rows ``model.scene_bodies[g]`` = [b0, b1) (its blocks, then its table,
+the last), and its pairs the slots [g P, g P + n_g) of the Contacts arrays (P the capacity of one
+scene, n_g = contacts.scene_pairs[g]), which hold body indices *within the scene* (0 .. b1-b0-1)
+and adjacency entries within the scene's slots, exactly as a lone simulation of that scene holds
+them: the arrays of scene g are slices of the engine's (``Contacts.region``, ``State.region``),
+and a kernel adds the scene's offsets (dem.engine.step.pair_bodies).  With G = 1 the offsets are 0
+and the slices are the whole arrays.
 """
 
 from __future__ import annotations
@@ -84,6 +94,9 @@ MODEL_FIELDS = (
        "the nominal box (the edge-axis margin of box_contact)"),
     _f("imperfect", "i32", "B", "-", "Model.from_scene",
        "1 if the body has a face offset or an arris (the narrow phase's imperfect path)"),
+    _f("scene", "i32", "B", "-", "Model.concat", "the scene of the body (0 for a lone scene)"),
+    _f("scene_bodies", "ivec2", "G", "-", "Model.concat",
+       "first body and one past the last body of scene g (its table is the last)"),
 )
 
 STATE_FIELDS = (
@@ -103,10 +116,15 @@ STATE_FIELDS = (
 )
 
 CONTACT_FIELDS = (
-    _f("pairs", "ivec2", "P", "-", "broad phase", "body indices (i, j), i < j"),
-    _f("adj_ptr", "i32", ("B+1",), "-", "broad phase",
-       "CSR: pairs of body b are adj[adj_ptr[b]:adj_ptr[b+1]]"),
-    _f("adj", "i32", ("2P",), "-", "broad phase", "2 * pair + side (side 0: b is i, 1: b is j)"),
+    _f("pairs", "ivec2", "P", "-", "broad phase",
+       "body indices (i, j), i < j, within the pair's scene (b - scene_bodies[g][0])"),
+    _f("adj_ptr", "i32", ("B+G",), "-", "broad phase",
+       "CSR per scene, from row b0 + g: pairs of the scene's body k are adj[adj_ptr[b0+g+k] : "
+       "adj_ptr[b0+g+k+1]] of its region"),
+    _f("adj", "i32", ("2P",), "-", "broad phase",
+       "2 * pair + side (side 0: b is i, 1: b is j), pair counted within the scene's slots"),
+    _f("scene_pairs", "i32", "G", "-", "broad phase",
+       "pairs of scene g (slots g P ... g P + n; Contacts.n_pairs of its region)"),
     _f("ref_pos", "vec3", "B", "m", "broad phase", "poses at the last rebuild (skin criterion)"),
     _f("ref_quat", "vec4", "B", "-", "broad phase", "orientations at the last rebuild"),
     _f("code", "i32", "P", "-", "narrow phase", "sticky contact axis (geometry.py), -1 none"),
@@ -140,31 +158,36 @@ ENERGY_TERMS = ("work_gravity", "work_base", "dissipated_normal_damping",
 # Control, by role (the kernels take one argpack of the four tables in this order):
 # what the host writes before each launch ...
 CONTROL_LOADS = (
-    _f("loads", "vec3", ("S", 2), "m/s^2", "Simulation._launch",
-       "per step of a launch: (gravity, base acceleration), table frame"),
+    _f("loads", "vec3", ("S", "G", 2), "m/s^2", "Engine._launch",
+       "per step of a launch and scene: (gravity, base acceleration), table frame"),
 )
 # ... the run's step parameters, set once (local_damping also by Simulation.set_local_damping) ...
 CONTROL_PARAMETERS = (
     _f("skin", "real", (1,), "m", "Simulation", "neighbour-list skin"),
     _f("max_speed", "real", (1,), "m/s", "Simulation", "a faster body stops the run"),
-    _f("local_damping", "real", (1,), "-", "Simulation", "Cundall local damping coefficient"),
+    _f("local_damping", "real", "G", "-", "Simulation", "Cundall local damping coefficient"),
     _f("patch_tolerance", "real", (1,), "m", "Simulation",
        "patch reuse: largest in-plane drift of a kept contact patch (dem.engine.coherence); "
        "0 = off"),
 )
 # ... what the kernels report back about the launch (diagnostics) ...
 CONTROL_DIAGNOSTICS = (
-    _f("status", "i32", (1,), "-", "integrate_stage", "bits REBUILD | NONFINITE | RUNAWAY"),
-    _f("bad_body", "i32", (1,), "-", "integrate_stage", "a body that raised NONFINITE/RUNAWAY"),
-    _f("steps_done", "i32", (1,), "-", "advance_serial", "steps done by the last launch"),
-    _f("deepest", "real", (1,), "m", "deepest_stage",
-       "deepest penetration of any contact point at any step since t = 0"),
-    _f("deepest_step", "i32", (1,), "-", "deepest_stage",
+    _f("status", "i32", "G", "-", "integrate_stage",
+       "per scene, bits REBUILD | NONFINITE | RUNAWAY"),
+    _f("bad_body", "i32", "G", "-", "integrate_stage",
+       "per scene, a body (within the scene) that raised NONFINITE/RUNAWAY"),
+    _f("steps_done", "i32", (1,), "-", "advance_serial, advance_parallel",
+       "steps done by the last launch (the serial kernel) or chunk of launches (the parallel)"),
+    _f("active", "i32", "G", "-", "Engine",
+       "1: scene g steps; 0: frozen (its run finished or failed; its bodies and pairs are skipped)"),
+    _f("deepest", "real", "G", "m", "deepest_stage",
+       "per scene, deepest penetration of any contact point at any step since t = 0"),
+    _f("deepest_step", "i32", "G", "-", "deepest_stage",
        "step of the last launch (0 = its first) at which deepest grew; -1 if it did not"),
 )
-# ... and the energy sums since t = 0
-CONTROL_ENERGY = tuple(_f(name, "real", (1,), "J", "energy_stage", "energy term since t = 0")
-                       for name in ENERGY_TERMS)
+# ... and the energy sums since t = 0, one row per scene, one column per ENERGY_TERMS
+CONTROL_ENERGY = (_f("energy_sums", "real", ("G", len(ENERGY_TERMS)), "J", "energy_stage",
+                     "energy terms since t = 0, columns in the order of ENERGY_TERMS"),)
 CONTROL_ROLES = {"loads": CONTROL_LOADS, "parameters": CONTROL_PARAMETERS,
                  "diagnostics": CONTROL_DIAGNOSTICS, "energy": CONTROL_ENERGY}
 CONTROL_FIELDS = CONTROL_LOADS + CONTROL_PARAMETERS + CONTROL_DIAGNOSTICS + CONTROL_ENERGY
@@ -241,7 +264,8 @@ class Model(_Container):
         self.mat_pair_np = np.ascontiguousarray(mat_pair, dtype=np.float64)
         self.material_np = np.asarray(material, dtype=np.int32)
         self.radius_np = np.linalg.norm(self.half_np, axis=1)
-        _allocate(self, MODEL_FIELDS, {"B": self.n_bodies, "M": len(self.mat_pair_np)})
+        _allocate(self, MODEL_FIELDS, {"B": self.n_bodies, "M": len(self.mat_pair_np), "G": 1})
+        self.scene_bodies[0] = (0, self.n_bodies)
         self.half[...] = self.half_np
         self.mass[...] = self.mass_np
         self.inv_mass[...] = np.where(self.fixed_np, 0.0, 1.0 / self.mass_np)
@@ -304,6 +328,47 @@ class Model(_Container):
                 for b in range(len(self.material_names))
                 if (r := self.pair_material(a, b)).law == LAWS["hyperbolic"]]
         return min(lims) if lims else None
+
+
+    @classmethod
+    def concat(cls, models: list["Model"]) -> "Model":
+        """The model of an engine of several scenes: the bodies of ``models`` one scene after
+        the other (each its blocks then its table), their material tables side by side (scene
+        g's materials renumbered after those of the scenes before it: no pair between scenes),
+        ``scene`` and ``scene_bodies`` set.  One model is returned as it is."""
+        if len(models) == 1:
+            return models[0]
+        cat = lambda name: np.concatenate([getattr(m, name) for m in models])  # noqa: E731
+        n_mat = [len(m.mat_pair_np) for m in models]
+        mat_pair = np.zeros((sum(n_mat), sum(n_mat), N_PAIR_FIELDS))
+        material = []
+        off = 0
+        for m, k in zip(models, n_mat):
+            mat_pair[off:off + k, off:off + k] = m.mat_pair_np
+            material.append(m.material_np + off)
+            off += k
+        out = cls.__new__(cls)
+        out.n_blocks = sum(m.n_blocks for m in models)
+        out.n_bodies = sum(m.n_bodies for m in models)
+        out.table = None  # one table per scene: the last body of each scene_bodies range
+        out.half_np, out.mass_np, out.inertia_np = cat("half_np"), cat("mass_np"), \
+            cat("inertia_np")
+        out.fixed_np, out.radius_np = cat("fixed_np"), cat("radius_np")
+        out.mat_pair_np = mat_pair
+        out.material_np = np.concatenate(material).astype(np.int32)
+        _allocate(out, MODEL_FIELDS, {"B": out.n_bodies, "M": len(mat_pair), "G": len(models)})
+        for f in MODEL_FIELDS:
+            if f.name in ("material", "mat_pair", "scene", "scene_bodies"):
+                continue
+            getattr(out, f.name)[...] = cat(f.name)
+        out.material[...] = out.material_np
+        out.mat_pair[...] = mat_pair
+        starts = np.cumsum([0] + [m.n_bodies for m in models])
+        for g in range(len(models)):
+            out.scene[starts[g]:starts[g + 1]] = g
+            out.scene_bodies[g] = (starts[g], starts[g + 1])
+        out.material_names = None  # per scene: the scenes' own models
+        return out
 
 
 def pair_table(names: list[str], joints) -> np.ndarray:
@@ -373,6 +438,13 @@ class State(_Container):
         st.rot[...] = rot
         return st
 
+    def region(self, b0: int, b1: int) -> "State":
+        """The state of bodies [b0, b1) (one scene of an engine): views, written in place."""
+        out = State.__new__(State)
+        for f in STATE_FIELDS:
+            setattr(out, f.name, getattr(self, f.name)[b0:b1])
+        return out
+
     def snapshot(self) -> dict[str, np.ndarray]:
         """Copies of the pose and velocity arrays (numpy)."""
         return {name: getattr(self, name).copy()
@@ -386,16 +458,35 @@ class Control(_Container):
 
     FIELDS, ARGS = CONTROL_FIELDS, ControlArgs
 
+    # the fields every scene shares (the others have one row per scene)
+    SHARED = ("skin", "max_speed", "patch_tolerance", "steps_done")
+
     def __init__(self, skin: float, max_speed: float, local_damping: float,
-                 patch_tolerance: float = 0.0):
-        _allocate(self, CONTROL_FIELDS, {"S": SERIAL_CHUNK})
+                 patch_tolerance: float = 0.0, n_scenes: int = 1):
+        _allocate(self, CONTROL_FIELDS, {"S": SERIAL_CHUNK, "G": int(n_scenes)})
         self.patch_tolerance[0] = patch_tolerance
         self.skin[0] = skin
         self.max_speed[0] = max_speed
-        self.local_damping[0] = local_damping
+        self.local_damping[...] = local_damping
+        self.active[...] = 1
+
+    def region(self, g: int) -> "Control":
+        """Scene g's rows (views, shaped as a lone simulation's: one scene), the shared fields
+        as they are."""
+        out = Control.__new__(Control)
+        for f in CONTROL_FIELDS:
+            a = getattr(self, f.name)
+            if f.name in self.SHARED:
+                setattr(out, f.name, a)
+            elif f.name == "loads":
+                setattr(out, f.name, a[:, g:g + 1])
+            else:
+                setattr(out, f.name, a[g:g + 1])
+        return out
 
     def energy(self) -> dict[str, float]:
-        return {name: float(getattr(self, name)[0]) for name in ENERGY_TERMS}
+        """The energy sums of scene 0 (a lone simulation's, or a region's), J since t = 0."""
+        return {name: float(self.energy_sums[0, k]) for k, name in enumerate(ENERGY_TERMS)}
 
     def role(self, name: str) -> dict[str, np.ndarray]:
         """The arrays of one role of CONTROL_ROLES ("loads", "parameters", "diagnostics",
@@ -408,12 +499,49 @@ class Contacts(_Container):
 
     FIELDS, ARGS = CONTACT_FIELDS, ContactArgs
 
-    def __init__(self, n_bodies: int, capacity: int):
+    def __init__(self, n_bodies: int, capacity: int, n_scenes: int = 1):
+        """``capacity`` pairs for each of ``n_scenes`` scenes (their slots side by side)."""
         self.capacity = int(capacity)
-        self.n_pairs = 0
-        _allocate(self, CONTACT_FIELDS, {"P": self.capacity, "B": int(n_bodies), "K": MAXP,
-                                         "B+1": int(n_bodies) + 1, "2P": 2 * self.capacity})
+        G = int(n_scenes)
+        _allocate(self, CONTACT_FIELDS, {"P": G * self.capacity, "B": int(n_bodies), "K": MAXP,
+                                         "B+G": int(n_bodies) + G, "2P": 2 * G * self.capacity,
+                                         "G": G})
         self.code[...] = -1
+
+    @property
+    def n_pairs(self) -> int:
+        """Pairs in the list (of this scene: a lone simulation's, or a region's)."""
+        if len(self.scene_pairs) != 1:
+            raise AttributeError("the contacts of several scenes: read scene_pairs[g], or the "
+                                 "scene's region")
+        return int(self.scene_pairs[0])
+
+    @n_pairs.setter
+    def n_pairs(self, n: int) -> None:
+        if len(self.scene_pairs) != 1:
+            raise AttributeError("the contacts of several scenes: set the scene's region")
+        self.scene_pairs[0] = n
+
+    def region(self, g: int, b0: int, b1: int) -> "Contacts":
+        """Scene g's contacts (its slots, its bodies [b0, b1)): views, written in place, shaped
+        and indexed as a lone simulation of that scene holds them."""
+        out = Contacts.__new__(Contacts)
+        out.capacity = self.capacity
+        P = self.capacity
+        for f in CONTACT_FIELDS:
+            a = getattr(self, f.name)
+            if f.dims[0] == "P":
+                a = a[g * P:(g + 1) * P]
+            elif f.name == "adj":
+                a = a[2 * g * P:2 * (g + 1) * P]
+            elif f.name == "adj_ptr":
+                a = a[b0 + g:b1 + g + 1]
+            elif f.dims[0] == "B":
+                a = a[b0:b1]
+            elif f.name == "scene_pairs":
+                a = a[g:g + 1]
+            setattr(out, f.name, a)
+        return out
 
     # -- history transfer across neighbour-list rebuilds ------------------------------------
     HISTORY = ("code", "npts", "loc", "shear")

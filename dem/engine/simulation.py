@@ -1,10 +1,24 @@
-"""Simulation: owns Model / State / Contacts and drives the stepping kernels.
+"""Engine: owns Model / State / Contacts / Control of one or several scenes and drives the
+stepping kernels; Simulation: one scene of an engine, the object the run loop drives.
 
 Typical use::
 
     sim = Simulation(scene, joints, options)             # JointLaw, StepOptions (options.py)
     sim.advance(n_steps, loads)                          # loads(t) -> (gravity [K,3], a_base [K,3])
     sim.state.pos[:sim.n_blocks]
+
+Several scenes in one engine (issue 35: the realisations of an ensemble, the points of a sweep
+side by side, one kernel launch for all)::
+
+    engine = Engine([scene_a, scene_b], [joints_a, joints_b], options)
+    sim_a, sim_b = engine.simulations                    # each behaves as a lone Simulation
+    engine.advance(n_steps, [loads_a, loads_b])          # every active scene, n_steps each
+
+The scenes share the time step (the smallest of their critical steps) and the kernel; each keeps
+its own clock, loads, energy sums, deepest penetration, status and neighbour list (the containers
+of scene g are slices of the engine's: dem.engine.containers), so that a scene of an engine
+gives the trajectory of the same scene alone, to round-off (tests/test_engine_batch.py).  A scene
+whose step fails is frozen (its failure kept in ``sim.failure``); the others go on.
 
 Time is kept as an integer step count (t = step * dt) so that long runs do not accumulate
 rounding in t.
@@ -23,8 +37,8 @@ from dem import ti_runtime
 from dem.engine import coherence
 from dem.engine import step as stepk
 from dem.engine.broadphase import candidate_pairs
-from dem.engine.containers import (ENERGY_TERMS, NONFINITE, REBUILD, SERIAL_CHUNK, STOP,
-                                   Contacts, Control, Model, State)
+from dem.engine.containers import (NONFINITE, REBUILD, SERIAL_CHUNK, STOP, Contacts, Control,
+                                   Model, State)
 from dem.engine.launch import CachedLaunch
 from dem.engine.options import JointLaw, StepOptions
 from dem.engine.errors import CapacityError, InputError, InstabilityError, SimulationError
@@ -50,90 +64,147 @@ def parallel_min_bodies(threads: int) -> int | float:
     return PARALLEL_MIN_BODIES[2] if threads < 4 else PARALLEL_MIN_BODIES[4]
 
 
-class Simulation:
-    def __init__(self, scene: Scene, joints: JointLaw, options: StepOptions,
-                 gravity=(0.0, 0.0, -9.81), fast_launch: bool = True):
+class Engine:
+    """The containers of ``len(scenes)`` scenes side by side and the kernels that step them.
+
+    scenes   : the scenes (dem.scene.Scene), in order; scene g's bodies are rows
+               model.scene_bodies[g] of every body array
+    joints   : one JointLaw per scene (or one for all)
+    options  : the StepOptions of every scene (one time step, one kernel, one skin)
+    gravity  : per scene, the gravity at rest (m/s^2, table frame), or one 3-vector for all
+    """
+
+    def __init__(self, scenes: list[Scene], joints, options: StepOptions, gravity=None,
+                 fast_launch: bool = True, lone: "Simulation | None" = None):
         ti_runtime.init(threads=options.threads, precision=options.precision)
-        self.fast_launch = fast_launch
-        self.scene = scene
+        scenes = list(scenes)
+        G = len(scenes)
+        if G == 0:
+            raise InputError("an engine needs at least one scene")
+        joints = list(joints) if isinstance(joints, (list, tuple)) else [joints] * G
+        gravity = np.broadcast_to(np.asarray((0.0, 0.0, -9.81) if gravity is None else gravity,
+                                             dtype=float), (G, 3))
+        self.n_scenes = G
+        self.batched = G > 1
         self.options = options
-        self.n_blocks = scene.n_blocks
-        self.gravity0 = np.asarray(gravity, dtype=float)
-        self.model = Model.from_scene(scene, joints)
-        self.state = State.from_scene(scene, self.model)
-        # capacity: max_pairs_per_block counts each pair for both blocks, plus one table pair each
-        capacity = int(np.ceil(0.5 * options.max_pairs_per_block * self.model.n_bodies)) + \
-            self.model.n_bodies + 8
-        self.contacts = Contacts(self.model.n_bodies, capacity)
-        movable = ~self.model.fixed_np
-        movable[self.model.table] = False
-        self._movable = movable
-        self.joints = joints
-        hmin = float(self.model.half_np[: self.n_blocks].min())
+        self.fast_launch = fast_launch
+        self.hub = None  # with several scenes: what Simulation.advance calls (dem.run.batched)
+        models = [Model.from_scene(sc, j) for sc, j in zip(scenes, joints)]
+        self.model = Model.concat(models)
+        states = [State.from_scene(sc, m) for sc, m in zip(scenes, models)]
+        if G == 1:
+            self.state = states[0]
+        else:
+            self.state = State(self.model.n_bodies)
+            for g, st in enumerate(states):
+                b0, b1 = self.model.scene_bodies[g]
+                for k, a in st.arrays().items():
+                    getattr(self.state, k)[b0:b1] = a
+        # capacity of one scene: max_pairs_per_block counts each pair for both blocks, plus one
+        # table pair each (the largest scene's, for every scene)
+        capacity = max(int(np.ceil(0.5 * options.max_pairs_per_block * m.n_bodies))
+                       + m.n_bodies + 8 for m in models)
+        self.contacts = Contacts(self.model.n_bodies, capacity, G)
+        self._movable = ~self.model.fixed_np
+        hmin = min(float(m.half_np[: m.n_blocks].min()) for m in models)
         self.skin = float(options.skin) if options.skin is not None else 0.1 * hmin
-        self.step_count = 0
-        self._deepest_time = 0.0
-        # dt (set below, once the contacts at the start are known), dt_crit, the anchors of t
-        # and the area caps: dem.engine.timestep.Clock
-        self.clock = Clock()
-        self.n_rebuilds = 0
         self.mode = options.mode
         if self.mode == "auto":
             threads = ti_runtime.settings()["threads"] or os.cpu_count() or 1
             self.mode = ("parallel" if self.model.n_bodies >= parallel_min_bodies(threads)
                          else "serial")
         self.control = Control(self.skin, options.max_speed, options.local_damping,
-                               options.patch_reuse)
+                               options.patch_reuse, G)
+        # dt, dt_crit and the area caps of every body (each scene's clock keeps its anchors)
+        self.clock = Clock()
+        self.dt_changes: list[dict] = []
+        sims = []
+        for g in range(G):
+            sim = lone if (lone is not None and G == 1) else Simulation.__new__(Simulation)
+            sim._bind(self, g, scenes[g], models[g], joints[g], gravity[g])
+            sims.append(sim)
+        self.simulations = sims
         t0 = time.perf_counter()
         self._warm_up()
         self.compile_seconds = time.perf_counter() - t0
-        self.rebuild()
-        patch = self.check_initial_overlaps(options.overlap_tolerance)
+        patch = np.zeros(self.model.n_bodies)
+        for g, sim in enumerate(sims):
+            try:
+                sim.rebuild()
+                b0, b1 = self.model.scene_bodies[g]
+                patch[b0:b1] = sim.check_initial_overlaps(options.overlap_tolerance)
+            except (InputError, CapacityError) as err:
+                self._fail(g, err)
         # face areas in the critical-step bound, capped for light blocks with large faces; a
         # contact patch larger than its cap lifts the cap and recomputes dt (_check_caps)
         # the stiffest pair of materials in use (one pair: the material's kn, ks, zeta; the
         # hyperbolic law: its tangent at the largest closure the step is made for)
-        self._kn_step, self._ks_step, self._zeta_step = self.model.stiffest()
-        self._closure_limit = self.model.closure_limit()
-        self._face_area, self.area_cap = face_area_caps(
-            2 * self.model.half_np, self.model.mass_np, self.model.inertia_np, movable,
+        stiff = [m.stiffest() for m in models]
+        self._kn_step, self._ks_step, self._zeta_step = (max(x[k] for x in stiff)
+                                                         for k in range(3))
+        limits = [m.closure_limit() for m in models]
+        self._closure_limit = min((x for x in limits if x is not None), default=None)
+        self.clock.face_area, self.clock.area_cap = face_area_caps(
+            2 * self.model.half_np, self.model.mass_np, self.model.inertia_np, self._movable,
             self._kn_step, self._ks_step, options.safety, patch)
-        self.dt_changes: list[dict] = []
-        self.dt_crit = self._critical_step()
+        self.clock.dt_crit = self._critical_step()
         if options.dt is not None:
-            if options.dt > self.dt_crit:
+            if options.dt > self.clock.dt_crit:
                 raise InputError(
                     f"solver.dt = {options.dt:.3g} s is above the critical time step "
-                    f"{self.dt_crit:.3g} s of this scene (stiffest block, kn = "
+                    f"{self.clock.dt_crit:.3g} s of this scene (stiffest block, kn = "
                     f"{self._kn_step:.3g} Pa/m); use solver.dt <= "
-                    f"{options.safety * self.dt_crit:.3g} s or leave it out")
-            self.dt = float(options.dt)
+                    f"{options.safety * self.clock.dt_crit:.3g} s or leave it out")
+            self.clock.dt = float(options.dt)
         else:
-            self.dt = float(options.safety * self.dt_crit) if np.isfinite(self.dt_crit) else 1e-4
-        self.energy_initial = self.mechanical_energy()
+            self.clock.dt = (float(options.safety * self.clock.dt_crit)
+                             if np.isfinite(self.clock.dt_crit) else 1e-4)
+        for sim in sims:
+            if G > 1:
+                sim.clock.dt = self.clock.dt
+            sim.energy_initial = sim.mechanical_energy()
 
     # ------------------------------------------------------------------------------------
     @property
-    def t(self) -> float:
-        return self.clock.time(self.step_count)
+    def dt(self) -> float:
+        return self.clock.dt
 
-    # the clock's fields under the names Simulation always had (restart points save them so)
-    def _clock_field(name: str, doc: str):  # a helper of the class body, deleted below
-        return property(lambda self: getattr(self.clock, name),
-                        lambda self, v: setattr(self.clock, name, v), doc=doc)
+    def active(self, g: int) -> bool:
+        return bool(self.control.active[g])
 
-    dt = _clock_field("dt", "time step in use (s)")
-    dt_crit = _clock_field("dt_crit", "critical time step with the present area caps (s)")
-    _t_anchor = _clock_field("t_anchor", "time at the last change of dt (s)")
-    _step_anchor = _clock_field("step_anchor", "step count at the last change of dt")
-    area_cap = _clock_field("area_cap", "per body, the capped contact area (m^2, inf: none)")
-    _face_area = _clock_field("face_area", "per body and face, the areas in the bound (m^2)")
-    del _clock_field
+    def deactivate(self, g: int) -> None:
+        """Freeze scene g (its run finished or failed): its bodies and pairs are skipped."""
+        self.control.active[g] = 0
+
+    def _fail(self, g: int, err: Exception) -> None:
+        """Scene g failed: a lone scene raises, a scene among others is frozen and keeps it."""
+        if not self.batched:
+            raise err
+        self.simulations[g].failure = err
+        self.deactivate(g)
 
     def _critical_step(self) -> float:
         m = self.model
         return critical_time_step(2 * m.half_np, m.mass_np, m.inertia_np, self._movable,
-                                  self._kn_step, self._ks_step, self._zeta_step, self._face_area)
+                                  self._kn_step, self._ks_step, self._zeta_step,
+                                  self.clock.face_area)
+
+    def _set_dt(self, new: float, why: dict | None = None) -> None:
+        """Change the time step of every scene: each clock is re-anchored at its present step
+        (its t does not move)."""
+        old = self.clock.dt
+        for sim in self.simulations:
+            sim.clock.anchor(sim.t, sim.step_count)
+            sim.clock.dt = new
+        self.clock.dt = new
+        if why is not None:
+            self.dt_changes.append({**why, "old_dt": old, "new_dt": new})
+
+    def adopt_dt(self, dt: float) -> None:
+        """A scene restored from a restart point taken with ``dt``: the engine takes the smaller
+        of the two steps (several scenes share one)."""
+        if dt < self.clock.dt:
+            self._set_dt(float(dt))
 
     def _check_caps(self) -> None:
         """Raise the area cap of any body whose contact patch outgrew it, and shorten dt.
@@ -142,70 +213,300 @@ class Simulation:
         full-face one (dem.engine.timestep.face_area_caps), so the step in use was still stable;
         the new cap is twice the patch that exceeded the old one (the whole faces, no cap, once
         that reaches the block's largest face)."""
-        capped = np.isfinite(self.area_cap)
-        c = self.contacts
-        n = c.n_pairs
-        if not capped.any() or n == 0:
+        area_cap = self.clock.area_cap
+        capped = np.isfinite(area_cap)
+        if not capped.any():
             return
-        pairs = c.pairs[:n]
-        watch = np.flatnonzero(capped[pairs[:, 0]] | capped[pairs[:, 1]])
-        if len(watch) == 0:
-            return
-        mask = np.arange(c.area.shape[1])[None, :] < c.npts[watch, None]
-        area = (c.area[watch] * mask).sum(axis=1)
-        limit = np.minimum(self.area_cap[pairs[watch, 0]], self.area_cap[pairs[watch, 1]])
-        over = watch[area > limit]
-        if len(over) == 0:
-            return
-        bodies = np.unique(pairs[over].ravel())
-        bodies = bodies[capped[bodies]]
         patch = np.zeros(self.model.n_bodies)
-        for side in (0, 1):
-            np.maximum.at(patch, pairs[over, side], area[np.isin(watch, over)])
+        over_any = False
+        for g, sim in enumerate(self.simulations):
+            c = sim.contacts
+            n = c.n_pairs
+            if n == 0 or not self.control.active[g]:
+                continue
+            b0 = int(self.model.scene_bodies[g][0])
+            pairs = c.pairs[:n] + b0
+            watch = np.flatnonzero(capped[pairs[:, 0]] | capped[pairs[:, 1]])
+            if len(watch) == 0:
+                continue
+            mask = np.arange(c.area.shape[1])[None, :] < c.npts[watch, None]
+            area = (c.area[watch] * mask).sum(axis=1)
+            limit = np.minimum(area_cap[pairs[watch, 0]], area_cap[pairs[watch, 1]])
+            over = area > limit
+            if not over.any():
+                continue
+            over_any = True
+            for side in (0, 1):
+                np.maximum.at(patch, pairs[watch[over], side], area[over])
+        if not over_any:
+            return
+        bodies = np.flatnonzero((patch > 0) & capped)
         full = full_face_areas(2 * self.model.half_np[bodies])
         new_cap = 2.0 * patch[bodies]
         new_cap = np.where(new_cap >= full.max(axis=(1, 2)), np.inf, new_cap)
-        self.area_cap[bodies] = new_cap
-        self._face_area[bodies] = np.minimum(full, new_cap[:, None, None])
-        old = self.dt
-        self.dt_crit = self._critical_step()
+        area_cap[bodies] = new_cap
+        self.clock.face_area[bodies] = np.minimum(full, new_cap[:, None, None])
+        old = self.clock.dt
+        self.clock.dt_crit = self._critical_step()
+        first = self.simulations[0]
         if self.options.dt is not None:
-            if self.options.dt > self.dt_crit:
+            if self.options.dt > self.clock.dt_crit:
                 raise SimulationError(
-                    f"at t = {self.t:.4f} s block(s) {bodies.tolist()} made a contact patch "
-                    f"larger than assumed: the critical step is now {self.dt_crit:.3g} s, below "
-                    f"solver.dt = {self.options.dt:.3g} s; leave solver.dt out (automatic) or "
-                    f"lower it")
+                    f"at t = {first.t:.4f} s block(s) {bodies.tolist()} made a contact patch "
+                    f"larger than assumed: the critical step is now {self.clock.dt_crit:.3g} s, "
+                    f"below solver.dt = {self.options.dt:.3g} s; leave solver.dt out (automatic) "
+                    f"or lower it")
             return
-        new = float(self.options.safety * self.dt_crit)
+        new = float(self.options.safety * self.clock.dt_crit)
         if new < old:
-            self.clock.anchor(self.t, self.step_count)
-            self.dt = new
-            self.dt_changes.append({"t": self._t_anchor, "step": self.step_count, "old_dt": old,
-                                    "new_dt": new, "blocks": bodies.tolist(),
-                                    "new_area_cap_m2": [float(x) for x in new_cap]})
+            self._set_dt(new, {"t": first.t, "step": first.step_count,
+                               "blocks": bodies.tolist(),
+                               "new_area_cap_m2": [float(x) for x in new_cap]})
 
-    def _check_closure(self) -> None:
-        """The hyperbolic law: stop when a joint closed beyond the closure the step is made for
-        (d_lim = closure_limit x d_max; dem.engine.laws: past it the law is linearised, stable
-        but no longer the hyperbolic law)."""
-        deepest = float(self.control.deepest[0])
-        if deepest > self._closure_limit:
-            raise SimulationError(
-                f"a joint closed by {deepest:.4g} m by t = {self.t:.5f} s, beyond "
-                f"{self._closure_limit:.4g} m (material.closure_limit x max_closure), the "
-                f"largest closure the time step is made for: the hyperbolic law's tangent "
-                f"stiffness grows without bound as the closure nears max_closure; raise "
-                f"material.closure_limit (a shorter step) or check max_closure and the loads")
+    # ------------------------------------------------------------------------------------
+    def advance(self, n_steps: int, loads: list, on_chunk: Callable[[int], None] | None = None
+                ) -> None:
+        """Advance every active scene by n_steps steps, scene g with ``loads[g]`` (a LoadFn;
+        ignored for a frozen scene).  A lone scene's failure raises (InstabilityError,
+        CapacityError, SimulationError; the state is then that of the failing step); a scene
+        among others is frozen with its failure in ``simulations[g].failure``."""
+        done_total = 0
+        while done_total < n_steps and self.control.active.any():
+            k = min(n_steps - done_total, SERIAL_CHUNK)
+            done = self._launch(k, loads)
+            done_total += done
+            status = self.control.status.copy()
+            for g in np.flatnonzero(status & STOP):
+                self._fail(g, self.simulations[g]._instability())
+            for g in np.flatnonzero(status & REBUILD):
+                if self.control.active[g]:
+                    try:
+                        self.simulations[g].rebuild()
+                    except CapacityError as err:
+                        self._fail(g, err)
+            if self._closure_limit is not None:
+                for g in np.flatnonzero(self.control.active):
+                    err = self.simulations[g]._closure_error(self._closure_limit)
+                    if err is not None:
+                        self._fail(g, err)
+            self._check_caps()
+            if on_chunk is not None:
+                on_chunk(done)
+
+    def _n_slots(self) -> int:
+        """The pair slots the kernels loop over: a lone scene's pairs, else up to the last
+        slot in use."""
+        sp = self.contacts.scene_pairs
+        if not self.batched:
+            return int(sp[0])
+        P = self.contacts.capacity
+        used = [g * P + int(n) for g, n in enumerate(sp) if n > 0]
+        return max(used, default=0)
+
+    def _launch(self, k: int, loads: list) -> int:
+        # step n's time counted from the last change of dt, as sim.t: the same loads for a
+        # step however the run is cut into launches (frames, the parallel kernel)
+        ctl = self.control
+        for g, sim in enumerate(self.simulations):
+            if not ctl.active[g]:
+                continue
+            grav, a = loads[g](sim.clock.times(sim.step_count, k))
+            ctl.loads[:k, g, 0] = grav
+            ctl.loads[:k, g, 1] = a
+        ctl.status[...] = 0
+        ctl.bad_body[...] = 0
+        ctl.deepest_step[...] = -1
+        ctl.steps_done[0] = 0
+        if self._warped and self._overlap_wanted() != self._overlap:
+            self._choose_launch()  # coherence.set_overlap_reuse switched the overlap reuse
+        n_slots = self._n_slots()
+        if self.mode == "serial":
+            self._advance(k, n_slots, self.dt)
+        else:
+            for s in range(k):  # no read-back between steps: a stopped chunk's launches idle
+                self._advance(s, n_slots, self.dt)
+        done = int(ctl.steps_done[0])
+        for g, sim in enumerate(self.simulations):
+            if not ctl.active[g]:
+                continue
+            if ctl.deepest_step[g] >= 0:  # the time of that step's start, as sim.t counts it
+                steps = sim.step_count + int(ctl.deepest_step[g]) - sim.clock.step_anchor
+                sim._deepest_time = sim.clock.t_anchor + steps * self.dt
+            sim.step_count += done
+        return done
+
+    # ------------------------------------------------------------------------------------
+    def containers(self) -> tuple:
+        """The argpacks of (Model, State, Contacts, Control), as the kernels take them."""
+        return (self.model.args, self.state.args, self.contacts.args, self.control.args)
+
+    def _warm_up(self) -> None:
+        """Compile every kernel (or load it from Taichi's offline cache) with zero work, and
+        record the stepping kernel's launch (dem.engine.launch: later launches skip Taichi's
+        per-call argument handling unless ``fast_launch`` is False)."""
+        # the kernels' compile-time variants (dem.engine.step): the imperfect faces' code only
+        # for scenes that have some, each pair's normal law only for scenes with a hyperbolic
+        # pair; a perfect, linear scene runs the perfect model's code (bit for bit, at its speed)
+        self._warped = bool(self.model.imperfect.any())
+        self._hyperbolic = any(sim.model.closure_limit() is not None
+                               for sim in self.simulations)
+        self._choose_launch()
+        m, st, c = self.model.args, self.state.args, self.contacts.args
+        depth = ti_nd_real(1)
+        stepk.probe_contacts(0, 0, depth, depth, m, st, c, self._warped, self.batched)
+        stepk.elastic_energy(0, 0, m, c, self._hyperbolic, self.batched)
+
+    def _overlap_wanted(self) -> bool:
+        """Whether the overlap reuse variant should run: a warped scene whose overlap reuse
+        tolerance (coherence.set_overlap_reuse, read from the contacts) is > 0."""
+        return self._warped and any(coherence.overlap_reuse_tolerance(sim.contacts) > 0.0
+                                    for sim in self.simulations)
+
+    def _choose_launch(self) -> None:
+        """Record the stepping kernel's launch for the compile-time variants (warped,
+        hyperbolic, overlap, batched; dem.engine.step.advance_serial).  ``overlap`` follows
+        coherence.set_overlap_reuse, which may be called after construction: _launch checks it
+        before each launch of a warped scene and records a new launch when it changed."""
+        self._overlap = self._overlap_wanted()
+        variants = (self._warped, self._hyperbolic, self._overlap, self.batched)
+        if self.mode == "serial":
+            kernel, scalars = stepk.advance_serial, (0, 0, float(self.dt))
+        else:  # "step -2": the recording launch does nothing (steps_done is 0, not -2 or -1)
+            kernel, scalars = stepk.advance_parallel, (-2, 0, float(self.dt))
+        if self.fast_launch:
+            self._advance = CachedLaunch(kernel, scalars, *self.containers(), *variants)
+        else:
+            kernel(*scalars, *self.containers(), *variants)
+            self._advance = lambda *sc: kernel(*sc, *self.containers(), *variants)
+
+
+class Simulation:
+    """One scene of an :class:`Engine`: the run loop's handle on it.
+
+    ``Simulation(scene, joints, options, gravity)`` builds an engine of that one scene (the
+    common case); an engine of several scenes makes one per scene (``engine.simulations``).
+    Either way its state, contacts and control are that scene's (dem.engine.containers:
+    slices of the engine's arrays), its clock (t, step_count) its own."""
+
+    def __init__(self, scene: Scene, joints: JointLaw, options: StepOptions,
+                 gravity=(0.0, 0.0, -9.81), fast_launch: bool = True):
+        Engine([scene], [joints], options, [gravity], fast_launch, lone=self)
+
+    def _bind(self, engine: Engine, g: int, scene: Scene, model: Model, joints, gravity
+              ) -> None:
+        self.engine = engine
+        self.scene_index = g
+        self.scene = scene
+        self.options = engine.options
+        self.joints = joints
+        self.n_blocks = scene.n_blocks
+        self.gravity0 = np.array(gravity, dtype=float)
+        self.failure: Exception | None = None
+        em = engine.model
+        self._b0, self._b1 = (int(x) for x in em.scene_bodies[g])
+        self.model = model
+        self._movable = ~model.fixed_np
+        self._movable[model.table] = False
+        if engine.batched:
+            self.state = engine.state.region(self._b0, self._b1)
+            self.contacts = engine.contacts.region(g, self._b0, self._b1)
+            self.control = engine.control.region(g)
+            self.clock = Clock()
+            self._slot0 = g * engine.contacts.capacity
+        else:
+            self.state, self.contacts, self.control = \
+                engine.state, engine.contacts, engine.control
+            self.clock = engine.clock
+            self._slot0 = 0
+        self.step_count = 0
+        self._deepest_time = 0.0
+        self.n_rebuilds = 0
+        self.energy_initial = 0.0
+
+    # ------------------------------------------------------------------------------------
+    @property
+    def t(self) -> float:
+        return self.clock.time(self.step_count)
+
+    skin = property(lambda self: self.engine.skin, doc="neighbour-list skin (m)")
+    mode = property(lambda self: self.engine.mode, doc="the stepping kernel: serial / parallel")
+    compile_seconds = property(lambda self: self.engine.compile_seconds)
+    dt_changes = property(lambda self: self.engine.dt_changes,
+                          lambda self, v: setattr(self.engine, "dt_changes", v),
+                          doc="the changes of the (engine's) time step")
+
+    @property
+    def dt(self) -> float:
+        """time step in use (s): the engine's"""
+        return self.engine.clock.dt
+
+    @dt.setter
+    def dt(self, value: float) -> None:
+        if self.engine.batched:
+            self.engine.adopt_dt(float(value))
+        else:
+            self.engine.clock.dt = value
+
+    @property
+    def dt_crit(self) -> float:
+        """critical time step with the present area caps (s), the engine's"""
+        return self.engine.clock.dt_crit
+
+    @dt_crit.setter
+    def dt_crit(self, value: float) -> None:
+        if not self.engine.batched:  # several scenes: the engine's, recomputed from the caps
+            self.engine.clock.dt_crit = value
+
+    # the clock's anchors under the names Simulation always had (restart points save them so)
+    def _clock_field(name: str, doc: str):  # a helper of the class body, deleted below
+        return property(lambda self: getattr(self.clock, name),
+                        lambda self, v: setattr(self.clock, name, v), doc=doc)
+
+    _t_anchor = _clock_field("t_anchor", "time at the last change of dt (s)")
+    _step_anchor = _clock_field("step_anchor", "step count at the last change of dt")
+    del _clock_field
+
+    def _caps_field(name: str, doc: str):  # a helper of the class body, deleted below
+        def get(self):
+            a = getattr(self.engine.clock, name)
+            return a[self._b0:self._b1] if self.engine.batched else a
+
+        def put(self, v):
+            if self.engine.batched:
+                getattr(self.engine.clock, name)[self._b0:self._b1] = v
+            else:
+                setattr(self.engine.clock, name, v)
+        return property(get, put, doc=doc)
+
+    area_cap = _caps_field("area_cap", "per body, the capped contact area (m^2, inf: none)")
+    _face_area = _caps_field("face_area", "per body and face, the areas in the bound (m^2)")
+    del _caps_field
+
+    # ------------------------------------------------------------------------------------
+    def advance(self, n_steps: int, loads: LoadFn, on_chunk: Callable[[int], None] | None = None
+                ) -> None:
+        """Advance n_steps steps.  Raises InstabilityError / CapacityError on failure (the state
+        is then that of the failing step).  A scene of an engine of several scenes advances
+        through the engine's hub (dem.run.batched), with the others."""
+        if not self.engine.batched:
+            self.engine.advance(n_steps, [loads], on_chunk)
+            return
+        if self.engine.hub is None:
+            raise RuntimeError("a scene of an engine of several scenes advances with the others: "
+                               "Engine.advance, or the engine's hub (dem.run.batched)")
+        self.engine.hub.advance(self.scene_index, n_steps, loads)
+        if self.failure is not None:
+            raise self.failure
+        if on_chunk is not None:
+            on_chunk(n_steps)
 
     def rebuild(self) -> None:
-        """Broad phase: new neighbour list, history carried over for pairs that stay."""
+        """Broad phase of this scene: new neighbour list, history carried over for pairs that
+        stay."""
         st = self.state
-        pos = st.pos
-        quat = st.quat
-        rot = st.rot
         m = self.model
-        pairs = candidate_pairs(pos, rot, m.half_np, m.radius_np, m.fixed_np, m.table, self.skin)
+        pairs = candidate_pairs(st.pos, st.rot, m.half_np, m.radius_np, m.fixed_np, m.table,
+                                self.skin)
         c = self.contacts
         if len(pairs) > c.capacity:
             counts = np.bincount(pairs.ravel(), minlength=m.n_bodies)[: self.n_blocks]
@@ -215,11 +516,12 @@ class Simulation:
                 f"{len(pairs)} candidate pairs > capacity {c.capacity} (block {worst} has "
                 f"{counts[worst]} neighbours); raise solver.max_pairs_per_block "
                 f"(now {self.options.max_pairs_per_block}) or lower solver.skin ({self.skin:.3g} m)")
-        old_pairs = c.pairs[: c.n_pairs].copy() if c.n_pairs else None
-        history = c.read_history() if c.n_pairs else None
+        n_old = c.n_pairs
+        old_pairs = c.pairs[:n_old].copy() if n_old else None
+        history = c.read_history() if n_old else None
         c.write_pairs(pairs, m.n_bodies, history, old_pairs)
-        c.ref_pos[...] = pos
-        c.ref_quat[...] = quat
+        c.ref_pos[...] = st.pos
+        c.ref_quat[...] = st.quat
         self.n_rebuilds += 1
 
     def check_initial_overlaps(self, tolerance: float) -> np.ndarray:
@@ -227,13 +529,15 @@ class Simulation:
         body's largest contact patch area (m^2) at the start."""
         c = self.contacts
         patch = np.zeros(self.model.n_bodies)
-        if c.n_pairs == 0:
+        n = c.n_pairs
+        if n == 0:
             return patch
         depth = ti_nd_real(c.capacity)
         area = ti_nd_real(c.capacity)
-        stepk.probe_contacts(c.n_pairs, depth, area, self.model.args, self.state.args, c.args,
-                             self._warped)
-        d = depth[: c.n_pairs]
+        e = self.engine
+        stepk.probe_contacts(self._slot0, self._slot0 + n, depth, area, e.model.args,
+                             e.state.args, e.contacts.args, e._warped, e.batched)
+        d = depth[:n]
         worst = int(np.argmax(d))
         if d[worst] > tolerance:
             i, j = c.pairs[worst]
@@ -242,56 +546,24 @@ class Simulation:
                 f"{name(i)} and {name(j)} overlap by {d[worst] * 1e3:.3f} mm at the start "
                 f"(tolerance solver.overlap_tolerance = {tolerance * 1e3:.3f} mm); "
                 f"{int((d > tolerance).sum())} pair(s) overlap in all")
-        pairs = c.pairs[: c.n_pairs]
+        pairs = c.pairs[:n]
         for side in (0, 1):
-            np.maximum.at(patch, pairs[:, side], area[: c.n_pairs])
+            np.maximum.at(patch, pairs[:, side], area[:n])
         return patch
 
-    # ------------------------------------------------------------------------------------
-    def advance(self, n_steps: int, loads: LoadFn, on_chunk: Callable[[int], None] | None = None
-                ) -> None:
-        """Advance n_steps steps.  Raises InstabilityError / CapacityError on failure (the state
-        is then that of the failing step)."""
-        done_total = 0
-        while done_total < n_steps:
-            k = min(n_steps - done_total, SERIAL_CHUNK if self.mode == "serial" else 1)
-            done = self._launch(k, loads)
-            done_total += done
-            status = int(self.control.status[0])
-            if status & STOP:
-                self._raise_instability()
-            if status & REBUILD:
-                self.rebuild()
-            if self._closure_limit is not None:
-                self._check_closure()
-            self._check_caps()
-            if on_chunk is not None:
-                on_chunk(done)
-
-    def _launch(self, k: int, loads: LoadFn) -> int:
-        # step n's time counted from the last change of dt, as self.t: the same loads for a
-        # step however the run is cut into launches (frames, the parallel kernel)
-        t = self.clock.times(self.step_count, k)
-        g, a = loads(t)
-        ctl = self.control
-        ctl.loads[:k, 0] = g
-        ctl.loads[:k, 1] = a
-        ctl.status[0] = 0
-        ctl.bad_body[0] = 0
-        ctl.deepest_step[0] = -1
-        if self._warped and self._overlap_wanted() != self._overlap:
-            self._choose_launch()  # coherence.set_overlap_reuse switched the overlap reuse
-        if self.mode == "serial":
-            self._advance(k, self.contacts.n_pairs, self.dt)
-            done = int(ctl.steps_done[0])
-        else:
-            self._advance(self.contacts.n_pairs, self.dt)
-            done = 1
-        if ctl.deepest_step[0] >= 0:  # the time of that step's start, as self.t counts it
-            steps = self.step_count + int(ctl.deepest_step[0]) - self._step_anchor
-            self._deepest_time = self._t_anchor + steps * self.dt
-        self.step_count += done
-        return done
+    def _closure_error(self, closure_limit: float) -> SimulationError | None:
+        """The hyperbolic law: the error to stop with when a joint closed beyond the closure
+        the step is made for (d_lim = closure_limit x d_max; dem.engine.laws: past it the law is
+        linearised, stable but no longer the hyperbolic law), else None."""
+        deepest = float(self.control.deepest[0])
+        if deepest > closure_limit:
+            return SimulationError(
+                f"a joint closed by {deepest:.4g} m by t = {self.t:.5f} s, beyond "
+                f"{closure_limit:.4g} m (material.closure_limit x max_closure), the "
+                f"largest closure the time step is made for: the hyperbolic law's tangent "
+                f"stiffness grows without bound as the closure nears max_closure; raise "
+                f"material.closure_limit (a shorter step) or check max_closure and the loads")
+        return None
 
     def unbalanced_force_ratio(self, gravity, base_accel=(0.0, 0.0, 0.0)) -> float:
         """Mean unbalanced-force ratio (the static-convergence measure of 3DEC / UDEC / PFC):
@@ -326,7 +598,7 @@ class Simulation:
         return elapsed
 
     def set_local_damping(self, alpha: float) -> None:
-        """Cundall local damping coefficient from the next step on (0: none)."""
+        """Cundall local damping coefficient (of this scene) from the next step on (0: none)."""
         self.control.local_damping[0] = alpha
 
     def save_point(self) -> dict:
@@ -335,17 +607,14 @@ class Simulation:
         hold do not move); time and step count go on."""
         return {"state": {k: a.copy() for k, a in self.state.arrays().items()},
                 "contacts": {k: a.copy() for k, a in self.contacts.arrays().items()},
-                "n_pairs": self.contacts.n_pairs,
-                "energy": {k: getattr(self.control, k).copy() for k in ENERGY_TERMS}}
+                "energy": self.control.energy_sums.copy()}
 
     def restore_point(self, point: dict) -> None:
         for k, a in point["state"].items():
             getattr(self.state, k)[...] = a
         for k, a in point["contacts"].items():
             getattr(self.contacts, k)[...] = a
-        self.contacts.n_pairs = point["n_pairs"]
-        for k, a in point["energy"].items():
-            getattr(self.control, k)[...] = a
+        self.control.energy_sums[...] = point["energy"]
 
     # what evolves on the host beside the containers' arrays: the clock, the time step and the
     # area caps behind it, counters, the energy at t = 0 (saved by snapshot)
@@ -354,10 +623,11 @@ class Simulation:
 
     def snapshot(self) -> dict[str, np.ndarray]:
         """Everything that evolves, as named arrays (an npz file's content): every array of
-        State, Contacts and Control, the pair count, :attr:`EVOLVING`, ``dt_changes`` and the
-        kernel in use.  :meth:`restore` on a Simulation built from the same scene and options
-        goes on bit for bit as this one would (tests/test_resume.py).  The Model is static,
-        rebuilt from the scene, never saved."""
+        State, Contacts and Control (this scene's), the pair count, :attr:`EVOLVING`,
+        ``dt_changes`` and the kernel in use.  :meth:`restore` on a Simulation built from the
+        same scene and options goes on bit for bit as this one would (tests/test_resume.py),
+        alone or as a scene of an engine of several.  The Model is static, rebuilt from the
+        scene, never saved."""
         out = {f"{name}.{k}": a.copy() for name, box in self._boxes()
                for k, a in box.arrays().items()}
         out["contacts.n_pairs"] = np.array(self.contacts.n_pairs)
@@ -369,7 +639,9 @@ class Simulation:
     def restore(self, snap) -> None:
         """Put a :meth:`snapshot` back (the arrays in place: the cached launches hold them).
         Raises ValueError, naming the entry, where it does not fit this simulation (another
-        kernel, precision, scene size or pair capacity); nothing is changed then."""
+        kernel, precision, scene size or pair capacity); nothing is changed then.  A scene of
+        an engine of several keeps the engine's shared control fields (skin, ...) and takes
+        the smaller of its snapshot's time step and the engine's."""
         if str(snap["sim.mode"]) != self.mode:
             raise ValueError(f"the snapshot was taken with the {snap['sim.mode']} kernel, this "
                              f"simulation runs the {self.mode} one")
@@ -382,14 +654,18 @@ class Simulation:
                 if b.shape != a.shape or b.dtype != a.dtype:
                     raise ValueError(f"{key}: {b.dtype} {b.shape} in the snapshot, {a.dtype} "
                                      f"{a.shape} in this simulation")
+        shared = Control.SHARED if self.engine.batched else ()
         for name, box in self._boxes():
             for k, a in box.arrays().items():
+                if name == "control" and k in shared:
+                    continue
                 a[...] = snap[f"{name}.{k}"]
         self.contacts.n_pairs = int(snap["contacts.n_pairs"])
         for k in self.EVOLVING:
             v = np.asarray(snap[f"sim.{k}"])
             setattr(self, k, v.copy() if v.ndim else v.item())
-        self.dt_changes = json.loads(str(snap["sim.dt_changes"]))
+        if not self.engine.batched:
+            self.dt_changes = json.loads(str(snap["sim.dt_changes"]))
 
     def _boxes(self) -> tuple:
         return (("state", self.state), ("contacts", self.contacts), ("control", self.control))
@@ -400,54 +676,18 @@ class Simulation:
         return float(self.control.deepest[0]), self._deepest_time
 
     def containers(self) -> tuple:
-        """The argpacks of (Model, State, Contacts, Control), as the kernels take them."""
-        return (self.model.args, self.state.args, self.contacts.args, self.control.args)
+        """The argpacks of the engine's (Model, State, Contacts, Control), as the kernels take
+        them (every scene of the engine)."""
+        return self.engine.containers()
 
-    def _warm_up(self) -> None:
-        """Compile every kernel (or load it from Taichi's offline cache) with zero work, and
-        record the stepping kernel's launch (dem.engine.launch: later launches skip Taichi's
-        per-call argument handling unless ``fast_launch`` is False)."""
-        # the kernels' compile-time variants (dem.engine.step): the imperfect faces' code only
-        # for scenes that have some, each pair's normal law only for scenes with a hyperbolic
-        # pair; a perfect, linear scene runs the perfect model's code (bit for bit, at its speed)
-        self._warped = bool(self.model.imperfect.any())
-        self._hyperbolic = self.model.closure_limit() is not None
-        self._choose_launch()
-        m, st, c = self.model.args, self.state.args, self.contacts.args
-        depth = ti_nd_real(1)
-        stepk.probe_contacts(0, depth, depth, m, st, c, self._warped)
-        stepk.elastic_energy(0, m, c, self._hyperbolic)
-
-    def _overlap_wanted(self) -> bool:
-        """Whether the overlap reuse variant should run: a warped scene whose overlap reuse
-        tolerance (coherence.set_overlap_reuse, read from the contacts) is > 0."""
-        return self._warped and coherence.overlap_reuse_tolerance(self.contacts) > 0.0
-
-    def _choose_launch(self) -> None:
-        """Record the stepping kernel's launch for the compile-time variants (warped,
-        hyperbolic, overlap; dem.engine.step.advance_serial).  ``overlap`` follows
-        coherence.set_overlap_reuse, which may be called after construction: _launch checks it
-        before each launch of a warped scene and records a new launch when it changed."""
-        self._overlap = self._overlap_wanted()
-        variants = (self._warped, self._hyperbolic, self._overlap)
-        if self.mode == "serial":
-            kernel, scalars = stepk.advance_serial, (0, 0, float(self.dt))
-        else:
-            kernel, scalars = stepk.advance_parallel, (0, float(self.dt))
-        if self.fast_launch:
-            self._advance = CachedLaunch(kernel, scalars, *self.containers(), *variants)
-        else:
-            kernel(*scalars, *self.containers(), *variants)
-            self._advance = lambda *sc: kernel(*sc, *self.containers(), *variants)
-
-    def _raise_instability(self) -> None:
+    def _instability(self) -> InstabilityError:
         b = int(self.control.bad_body[0])
         st = self.state
         v = st.vel[b]
         x = st.pos[b]
         what = "became NaN/inf" if self.control.status[0] & NONFINITE else (
             f"moves faster than solver.max_speed = {self.options.max_speed} m/s")
-        raise InstabilityError(
+        return InstabilityError(
             f"block {b} {what} at step {self.step_count} (t = {self.t:.5f} s): position "
             f"{np.array2string(x, precision=4)} m, velocity {np.array2string(v, precision=3)} m/s;"
             f" dt = {self.dt:.3g} s (critical {self.dt_crit:.3g} s)", self.step_count, b)
@@ -463,10 +703,12 @@ class Simulation:
                      + 0.5 * (w[movable] * L[movable]).sum())
 
     def elastic_energy(self) -> float:
-        c, m = self.contacts, self.model
-        if c.n_pairs == 0:
+        n = self.contacts.n_pairs
+        if n == 0:
             return 0.0
-        return float(stepk.elastic_energy(c.n_pairs, m.args, c.args, self._hyperbolic))
+        e = self.engine
+        return float(stepk.elastic_energy(self._slot0, self._slot0 + n, e.model.args,
+                                          e.contacts.args, e._hyperbolic, e.batched))
 
     def mechanical_energy(self) -> float:
         return self.kinetic_energy() + self.elastic_energy()

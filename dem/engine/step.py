@@ -53,8 +53,8 @@ Integrator (symplectic Euler with an exact-angular-momentum rotation splitting):
 import taichi as ti
 
 from dem.engine import coherence, geometry, laws
-from dem.engine.containers import (NONFINITE, REBUILD, RUNAWAY, ContactArgs, ControlArgs,
-                                   ModelArgs, StateArgs)
+from dem.engine.containers import (ENERGY_TERMS, NONFINITE, REBUILD, RUNAWAY, ContactArgs,
+                                   ControlArgs, ModelArgs, StateArgs)
 from dem.engine.geometry import point_buffer
 from dem.engine.mathutil import TINY_ANGLE, quat_angle_between, quat_mul, quat_to_mat, vec3, vec4
 from dem.engine.pair import HYPERBOLIC, pair_material, pair_properties
@@ -72,6 +72,11 @@ FINITE_LIMIT = 1e300   # |x|^2 and speeds at or above this (or NaN) flag NONFINI
 #                        f64 is ~1.8e308, so any real state is far below, any overflow above
 REBUILD_FRACTION = 0.5  # rebuild the neighbour list once a body moved this fraction of the
 #                         skin (two bodies moving towards each other close the whole skin)
+
+# the columns of control.energy (containers.ENERGY_TERMS)
+E_GRAVITY, E_BASE, E_NORMAL, E_SHEAR, E_FRICTION, E_LOCAL = (ENERGY_TERMS.index(name) for name in (
+    "work_gravity", "work_base", "dissipated_normal_damping", "dissipated_shear_damping",
+    "dissipated_friction", "dissipated_local_damping"))
 
 
 @ti.func
@@ -192,17 +197,50 @@ def matched_point(q, lq, n_old, match_tol2, lx: ti.template(), ly: ti.template()
 
 
 @ti.func
+def slots_per_scene(contacts: ti.template()):
+    """P, the pair slots of one scene (dem.engine.containers: scene g owns g P ... g P + P)."""
+    return contacts.pairs.shape[0] // contacts.scene_pairs.shape[0]
+
+
+@ti.func
+def pair_bodies(p, model: ti.template(), contacts: ti.template(), batched: ti.template()):
+    """The engine's body indices (i, j) of pair slot p: the pair's indices within its scene plus
+    the scene's first body (``batched``, compile time; a lone scene's are the indices)."""
+    i = contacts.pairs[p][0]
+    j = contacts.pairs[p][1]
+    if ti.static(batched):
+        b0 = model.scene_bodies[p // slots_per_scene(contacts)][0]
+        i += b0
+        j += b0
+    return i, j
+
+
+@ti.func
+def slot_live(p, contacts: ti.template(), control: ti.template(), batched: ti.template()):
+    """1 if slot p holds a pair of an active scene (``batched``; a lone scene's slots below
+    n_pairs are the loop's range)."""
+    live = 1
+    if ti.static(batched):
+        P = slots_per_scene(contacts)
+        g = p // P
+        live = 0
+        if p - g * P < contacts.scene_pairs[g] and control.active[g] != 0:
+            live = 1
+    return live
+
+
+@ti.func
 def contact_stage(p, dt, model: ti.template(), state: ti.template(), contacts: ti.template(),
                   control: ti.template(), warped: ti.template(), hyperbolic: ti.template(),
-                  overlap: ti.template() = False):
+                  overlap: ti.template() = False, batched: ti.template() = False):
     """Narrow phase, pair properties, history and joint law of pair p.  ``warped``
     (compile time): the kernel handles imperfect faces (docs/imperfections.md);
     ``hyperbolic`` (compile time): the kernel reads each pair's normal law (linear or
     hyperbolic, dem.engine.laws); without it every pair is linear, the code that ran before
     the hyperbolic law existed (the same results bit for bit); ``overlap`` (compile time, False
-    by default): the warped kernels' overlap reuse (:func:`narrow_phase`)."""
-    i = contacts.pairs[p][0]
-    j = contacts.pairs[p][1]
+    by default): the warped kernels' overlap reuse (:func:`narrow_phase`); ``batched`` (compile
+    time): an engine of several scenes (:func:`pair_bodies`)."""
+    i, j = pair_bodies(p, model, contacts, batched)
     pA = state.pos[i]
     pB = state.pos[j]
     RA = state.rot[i]
@@ -364,13 +402,19 @@ def free_rotation(q, R, L, inv_I, dt):
 
 
 @ti.func
-def gather_wrench(b, contacts: ti.template()):
-    """Sum of the contact forces and torques on body b, in the fixed CSR order."""
+def gather_wrench(b, g, model: ti.template(), contacts: ti.template(), batched: ti.template()):
+    """Sum of the contact forces and torques on body b (of scene g), in the fixed CSR order of
+    its scene's region (dem.engine.containers)."""
     F = vec3(0.0)
     T = vec3(0.0)
-    for e in range(contacts.adj_ptr[b], contacts.adj_ptr[b + 1]):
-        entry = contacts.adj[e]
-        p = entry >> 1
+    slot0 = 0
+    row = b
+    if ti.static(batched):
+        slot0 = g * slots_per_scene(contacts)
+        row = b + g
+    for e in range(contacts.adj_ptr[row], contacts.adj_ptr[row + 1]):
+        entry = contacts.adj[2 * slot0 + e]
+        p = slot0 + (entry >> 1)
         if entry & 1 == 0:
             F += contacts.wrench[p, 0]
             T += contacts.wrench[p, 1]
@@ -382,19 +426,25 @@ def gather_wrench(b, contacts: ti.template()):
 
 @ti.func
 def integrate_stage(b, s, dt, model: ti.template(), state: ti.template(),
-                    contacts: ti.template(), control: ti.template()):
+                    contacts: ti.template(), control: ti.template(), batched: ti.template()):
     """Loads of step s of the launch + gathered contact wrenches, then one symplectic Euler
-    step of body b; raises the status bits of a bad state or a stale neighbour list."""
+    step of body b; raises the status bits (of its scene) of a bad state or a stale neighbour
+    list.  ``batched``: the body's scene's loads and flags, nothing for a frozen scene."""
     inv_m = model.inv_mass[b]
+    k = 0  # the body's scene
+    if ti.static(batched):
+        k = model.scene[b]
+        if control.active[k] == 0:
+            inv_m = 0.0
     if inv_m > 0.0:
         m = model.mass[b]
-        g = control.loads[s, 0]
-        a_base = control.loads[s, 1]
-        F, T = gather_wrench(b, contacts)
+        g = control.loads[s, k, 0]
+        a_base = control.loads[s, k, 1]
+        F, T = gather_wrench(b, k, model, contacts, batched)
         F += m * (g - a_base)
         v0 = state.vel[b]
         w0 = state.omega[b]
-        alpha = control.local_damping[0]
+        alpha = control.local_damping[k]
         e_local = 0.0
         if alpha > 0.0:
             # Cundall's local damping: a force -alpha |F_k| sign(v_k) per component
@@ -427,95 +477,144 @@ def integrate_stage(b, s, dt, model: ti.template(), state: ti.template(),
         elif speed > control.max_speed[0]:
             bad = RUNAWAY
         if bad != 0:
-            ti.atomic_or(control.status[0], bad)
-            ti.atomic_max(control.bad_body[0], b)
+            ti.atomic_or(control.status[k], bad)
+            ti.atomic_max(control.bad_body[k], b - model.scene_bodies[k][0])
         moved = (x1 - contacts.ref_pos[b]).norm() + model.radius[b] * quat_angle_between(
             q1, contacts.ref_quat[b])
         if moved > REBUILD_FRACTION * control.skin[0]:
-            ti.atomic_or(control.status[0], REBUILD)
+            ti.atomic_or(control.status[k], REBUILD)
 
 
 @ti.func
-def energy_stage(n_pairs, state: ti.template(), contacts: ti.template(),
-                 control: ti.template()):
-    """Adds the step's energy terms of every pair (contacts.dissipation) and body (state.work)
-    to the sums in Control, in a fixed order (pairs, then bodies) on one thread: the same sums,
-    bit for bit, from both kernels, and no atomic adds in the parallel loops."""
-    for p in range(n_pairs):
+def scene_ranges(k, n_pairs, model: ti.template(), state: ti.template(),
+                 contacts: ti.template(), batched: ti.template()):
+    """(first slot, end slot, first body, end body) of scene k; a lone scene: all of them."""
+    p0, p1, b0, b1 = 0, n_pairs, 0, state.pos.shape[0]
+    if ti.static(batched):
+        P = slots_per_scene(contacts)
+        p0 = k * P
+        p1 = p0 + contacts.scene_pairs[k]
+        b0 = model.scene_bodies[k][0]
+        b1 = model.scene_bodies[k][1]
+    return p0, p1, b0, b1
+
+
+@ti.func
+def energy_stage(k, n_pairs, model: ti.template(), state: ti.template(),
+                 contacts: ti.template(), control: ti.template(), batched: ti.template()):
+    """Adds the step's energy terms of scene k's pairs (contacts.dissipation) and bodies
+    (state.work) to its sums in Control (row k, columns ENERGY_TERMS), in a fixed order (pairs,
+    then bodies) on one thread per scene: the same sums, bit for bit, from both kernels and from
+    a scene alone or among others, and no atomic adds in the parallel loops."""
+    p0, p1, b0, b1 = scene_ranges(k, n_pairs, model, state, contacts, batched)
+    for p in range(p0, p1):
         d = contacts.dissipation[p]
-        control.dissipated_normal_damping[0] += d[0]
-        control.dissipated_shear_damping[0] += d[1]
-        control.dissipated_friction[0] += d[2]
-    for b in range(state.pos.shape[0]):
+        control.energy_sums[k, E_NORMAL] += d[0]
+        control.energy_sums[k, E_SHEAR] += d[1]
+        control.energy_sums[k, E_FRICTION] += d[2]
+    for b in range(b0, b1):
         w = state.work[b]
-        control.work_gravity[0] += w[0]
-        control.work_base[0] += w[1]
-        control.dissipated_local_damping[0] += w[2]
+        control.energy_sums[k, E_GRAVITY] += w[0]
+        control.energy_sums[k, E_BASE] += w[1]
+        control.energy_sums[k, E_LOCAL] += w[2]
 
 
 @ti.func
-def deepest_stage(s, n_pairs, contacts: ti.template(), control: ti.template()):
-    """Keeps the deepest penetration (m) of any contact point of this step (the depths of the
-    poses at the start of step s, as the contact stage found them) in control.deepest, and s in
-    control.deepest_step when it grew.  A resting scene's depth is ~weight / (kn area); an impact
-    shows its peak here even when it falls between two output frames."""
-    for p in range(n_pairs):
+def deepest_stage(k, s, n_pairs, model: ti.template(), state: ti.template(),
+                  contacts: ti.template(), control: ti.template(), batched: ti.template()):
+    """Keeps the deepest penetration (m) of any contact point of scene k at this step (the
+    depths of the poses at the start of step s, as the contact stage found them) in
+    control.deepest[k], and s in control.deepest_step[k] when it grew.  A resting scene's depth
+    is ~weight / (kn area); an impact shows its peak here even when it falls between two output
+    frames."""
+    p0, p1, _b0, _b1 = scene_ranges(k, n_pairs, model, state, contacts, batched)
+    for p in range(p0, p1):
         for q in range(contacts.npts[p]):
             d = contacts.depth[p, q]
-            if d > control.deepest[0]:
-                control.deepest[0] = d
-                control.deepest_step[0] = s
+            if d > control.deepest[k]:
+                control.deepest[k] = d
+                control.deepest_step[k] = s
+
+
+@ti.func
+def no_stop(control: ti.template()):
+    """1 while no scene raised a status bit."""
+    ok = 1
+    for k in range(control.status.shape[0]):
+        if control.status[k] != 0:
+            ok = 0
+    return ok
 
 
 @ti.kernel
-def advance_serial(n_steps: ti.i32, n_pairs: ti.i32, dt: float, model: ModelArgs,
+def advance_serial(n_steps: ti.i32, n_slots: ti.i32, dt: float, model: ModelArgs,
                    state: StateArgs, contacts: ContactArgs, control: ControlArgs,
-                   warped: ti.template(), hyperbolic: ti.template(), overlap: ti.template()):
-    """Run up to n_steps steps on one thread; stop after a step that raised a status bit.
-    control.steps_done returns the number of steps done; control.loads[s] holds step s's loads.
+                   warped: ti.template(), hyperbolic: ti.template(), overlap: ti.template(),
+                   batched: ti.template()):
+    """Run up to n_steps steps on one thread; stop after a step that raised a status bit (of
+    any scene).  control.steps_done returns the number of steps done; control.loads[s, k] holds
+    step s's loads of scene k.  n_slots: the pairs of a lone scene, else the pair slots up to
+    the last one in use.
 
     Compile-time variants (``ti.template()``: each combination is its own compiled kernel,
     built on first use): ``warped`` for scenes with imperfect faces (warps, arrises),
     ``hyperbolic`` for scenes with a hyperbolic joint (dem.engine.laws), ``overlap`` for warped
-    scenes with the overlap reuse on (coherence.set_overlap_reuse; :func:`narrow_phase`);
-    (False, False, False) is the perfect, linear model's code, without a branch of the others
-    (see :func:`contact_stage`), and (True, h, False) the imperfect code before the overlap reuse.
+    scenes with the overlap reuse on (coherence.set_overlap_reuse; :func:`narrow_phase`),
+    ``batched`` for an engine of several scenes (dem.engine.containers: the scene offsets, the
+    frozen scenes); (False, False, False, False) is the perfect, linear model's code of a lone
+    scene, without a branch of the others (see :func:`contact_stage`).
     """
     n_bodies = state.pos.shape[0]
+    n_scenes = control.status.shape[0]
     s = 0
-    while s < n_steps and control.status[0] == 0:
-        for p in range(n_pairs):
-            contact_stage(p, dt, model, state, contacts, control, warped, hyperbolic, overlap)
+    while s < n_steps and no_stop(control) == 1:
+        for p in range(n_slots):
+            if slot_live(p, contacts, control, batched) == 1:
+                contact_stage(p, dt, model, state, contacts, control, warped, hyperbolic,
+                              overlap, batched)
         for b in range(n_bodies):
-            integrate_stage(b, s, dt, model, state, contacts, control)
-        energy_stage(n_pairs, state, contacts, control)
-        deepest_stage(s, n_pairs, contacts, control)
+            integrate_stage(b, s, dt, model, state, contacts, control, batched)
+        for k in range(n_scenes):
+            if control.active[k] != 0:
+                energy_stage(k, n_slots, model, state, contacts, control, batched)
+                deepest_stage(k, s, n_slots, model, state, contacts, control, batched)
         s += 1
     control.steps_done[0] = s
 
 
 @ti.kernel
-def advance_parallel(n_pairs: ti.i32, dt: float, model: ModelArgs, state: StateArgs,
-                     contacts: ContactArgs, control: ControlArgs, warped: ti.template(),
-                     hyperbolic: ti.template(), overlap: ti.template()):
-    """One step (control.loads[0]) as two parallel loops, over pairs then over bodies;
-    ``warped``, ``hyperbolic``, ``overlap`` as in :func:`advance_serial`."""
-    for p in range(n_pairs):
-        contact_stage(p, dt, model, state, contacts, control, warped, hyperbolic, overlap)
+def advance_parallel(s: ti.i32, n_slots: ti.i32, dt: float, model: ModelArgs,
+                     state: StateArgs, contacts: ContactArgs, control: ControlArgs,
+                     warped: ti.template(), hyperbolic: ti.template(), overlap: ti.template(),
+                     batched: ti.template()):
+    """Step s of a chunk of launches (control.loads[s]) as parallel loops: over pair slots,
+    over bodies, then over scenes (each scene's energy and deepest stages on one thread, in
+    the serial kernel's order).  The host launches s = 0, 1, ... without reading anything back
+    (no round trip per step, the GPU's way): a launch whose chunk already stopped (an earlier
+    step raised a status bit) does nothing, so the chunk stops where the serial kernel would,
+    and control.steps_done counts the steps done (the host zeroes it before s = 0).
+    ``warped``, ``hyperbolic``, ``overlap``, ``batched`` as in :func:`advance_serial`."""
+    if control.steps_done[0] == s and no_stop(control) == 1:
+        control.steps_done[0] = s + 1  # this step runs
+    for p in range(n_slots):
+        if control.steps_done[0] == s + 1 and slot_live(p, contacts, control, batched) == 1:
+            contact_stage(p, dt, model, state, contacts, control, warped, hyperbolic, overlap,
+                          batched)
     for b in range(state.pos.shape[0]):
-        integrate_stage(b, 0, dt, model, state, contacts, control)
-    ti.loop_config(serialize=True)
-    for _ in range(1):
-        energy_stage(n_pairs, state, contacts, control)
-        deepest_stage(0, n_pairs, contacts, control)
+        if control.steps_done[0] == s + 1:
+            integrate_stage(b, s, dt, model, state, contacts, control, batched)
+    for k in range(control.status.shape[0]):
+        if control.steps_done[0] == s + 1 and control.active[k] != 0:
+            energy_stage(k, n_slots, model, state, contacts, control, batched)
+            deepest_stage(k, s, n_slots, model, state, contacts, control, batched)
 
 
 @ti.func
-def probe_pair(p, out_depth: ti.template(), out_area: ti.template(), model: ti.template(),
-               state: ti.template(), contacts: ti.template(), warped: ti.template()):
+def probe_pair(p, out_depth: ti.template(), out_area: ti.template(), p0, model: ti.template(),
+               state: ti.template(), contacts: ti.template(), warped: ti.template(),
+               batched: ti.template()):
     """Largest penetration (m) and patch area (m^2) of pair p into out_depth[p], out_area[p]."""
-    i = contacts.pairs[p][0]
-    j = contacts.pairs[p][1]
+    i, j = pair_bodies(p, model, contacts, batched)
     hA = model.half[i]
     hB = model.half[j]
     hmin = ti.min(hA.min(), hB.min())
@@ -532,31 +631,33 @@ def probe_pair(p, out_depth: ti.template(), out_area: ti.template(), model: ti.t
     for q in range(n_points):
         dmax = ti.max(dmax, dep[q])
         patch_area += w[q]
-    out_depth[p] = dmax
-    out_area[p] = patch_area
+    out_depth[p - p0] = dmax
+    out_area[p - p0] = patch_area
 
 
 @ti.kernel
-def probe_contacts(n_pairs: ti.i32, out_depth: ti.types.ndarray(ndim=1),
+def probe_contacts(p0: ti.i32, p1: ti.i32, out_depth: ti.types.ndarray(ndim=1),
                    out_area: ti.types.ndarray(ndim=1), model: ModelArgs, state: StateArgs,
-                   contacts: ContactArgs, warped: ti.template()):
-    """Largest penetration (m) and patch area (m^2) of every pair, without touching the
-    history (overlap checks, area caps of the critical step).  ``warped`` (compile time): the
-    narrow phase of imperfect faces, as in :func:`advance_serial`."""
-    for p in range(n_pairs):
-        probe_pair(p, out_depth, out_area, model, state, contacts, warped)
+                   contacts: ContactArgs, warped: ti.template(), batched: ti.template()):
+    """Largest penetration (m) and patch area (m^2) of the pairs of slots [p0, p1) (one
+    scene's), into out_depth, out_area [p - p0], without touching the history (overlap checks,
+    area caps of the critical step).  ``warped`` (compile time): the narrow phase of imperfect
+    faces, as in :func:`advance_serial`."""
+    for p in range(p0, p1):
+        probe_pair(p, out_depth, out_area, p0, model, state, contacts, warped, batched)
 
 
 @ti.kernel
-def elastic_energy(n_pairs: ti.i32, model: ModelArgs, contacts: ContactArgs,
-                   hyperbolic: ti.template()) -> float:
-    """Energy stored in the joint springs (J).  Linear normal law (``hyperbolic`` False, compile
-    time): sum of kn A d^2 / 2 + ks A |u|^2 / 2.  With ``hyperbolic`` each pair's law: A e(d) +
-    ks A |u|^2 / 2 for a hyperbolic pair, e the integral of the pressure
-    (laws.hyperbolic_energy), linear pairs as above."""
+def elastic_energy(p0: ti.i32, p1: ti.i32, model: ModelArgs, contacts: ContactArgs,
+                   hyperbolic: ti.template(), batched: ti.template()) -> float:
+    """Energy stored in the joint springs of the pairs of slots [p0, p1) (one scene's, J).
+    Linear normal law (``hyperbolic`` False, compile time): sum of kn A d^2 / 2 + ks A |u|^2 / 2.
+    With ``hyperbolic`` each pair's law: A e(d) + ks A |u|^2 / 2 for a hyperbolic pair, e the
+    integral of the pressure (laws.hyperbolic_energy), linear pairs as above."""
     e = 0.0
-    for p in range(n_pairs):
-        pm = pair_material(model, contacts.pairs[p][0], contacts.pairs[p][1])
+    for p in range(p0, p1):
+        i, j = pair_bodies(p, model, contacts, batched)
+        pm = pair_material(model, i, j)
         for q in range(contacts.npts[p]):
             a = contacts.area[p, q]
             if ti.static(hyperbolic):

@@ -1,0 +1,159 @@
+"""Several scenes in one engine (issue 35 item 4): a scene stepped among others gives the
+trajectory of the same scene stepped alone.
+
+The batched kernels differ from a lone scene's only in integer work (the scenes' body and pair
+offsets, the frozen-scene tests): the floating-point operations of a scene, and their order
+(each scene's energy sums on one thread, pairs then bodies, as alone), are the same.  The bound
+is therefore round-off: tests/engine_helpers.py's ROUND_OFF_POS_M / ROUND_OFF_QUAT (set for two
+compilations of the same arithmetic, ~5 orders below a missed or doubled load of one step).
+Covered: tilts at different rates, shakes at different frequencies and amplitudes (with
+neighbour-list rebuilds), imperfect faces (the warped kernel) with different realisations, scenes
+of different sizes in one engine, a scene that fails while the others go on, and a scene's
+restart point taken in an engine of several and resumed alone.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from dem.builders import build_wall
+from dem.case import Material, SolverSpec
+from dem.engine import InstabilityError
+from dem.engine.simulation import Engine, Simulation
+from dem.imperfections import ImperfectionParams, apply_faces
+from dem.run.build import joint_law, step_options
+from tests.engine_helpers import ROUND_OFF_POS_M, ROUND_OFF_QUAT, G, tilt_gravity
+
+
+def shake(freq_hz, amp, axis=0):
+    """Table acceleration amp sin(2 pi f t) along ``axis`` (m/s^2), gravity down."""
+    def loads(t):
+        a = np.zeros((len(t), 3))
+        a[:, axis] = amp * np.sin(2 * np.pi * freq_hz * t)
+        return np.tile([0.0, 0.0, -G], (len(t), 1)), a
+    return loads
+
+
+def wall(length=3, courses=4):
+    return build_wall("small", length=length, courses=courses)
+
+
+JOINTS = joint_law(Material(friction=0.6))
+
+
+def options(**solver):
+    return step_options(SolverSpec(**solver))
+
+
+def assert_same(batched: Simulation, alone: Simulation) -> None:
+    for name, bound in (("pos", ROUND_OFF_POS_M), ("vel", 1e-12), ("quat", ROUND_OFF_QUAT),
+                        ("angmom", 1e-12)):
+        a, b = getattr(batched.state, name), getattr(alone.state, name)
+        assert a.shape == b.shape
+        assert np.abs(a - b).max() <= bound, (name, np.abs(a - b).max())
+    assert batched.step_count == alone.step_count and batched.t == alone.t
+    assert batched.n_rebuilds == alone.n_rebuilds
+    assert batched.contacts.n_pairs == alone.contacts.n_pairs
+    eb, ea = batched.energy_report(), alone.energy_report()
+    scale = max(abs(v) for v in ea.values())
+    for k in ea:
+        assert abs(eb[k] - ea[k]) <= 1e-12 * scale, (k, eb[k], ea[k])
+    assert batched.deepest_penetration()[0] == pytest.approx(
+        alone.deepest_penetration()[0], rel=1e-12, abs=1e-18)
+
+
+def run_alone(scene, loads, steps, opts, joints=JOINTS):
+    sim = Simulation(scene, joints, opts)
+    sim.advance(steps, loads)
+    return sim
+
+
+@pytest.mark.parametrize("mode", ["serial", "parallel"])
+def test_shakes_at_different_frequencies_equal_separate_runs(mode):
+    """Three copies of a small wall shaken at 4, 6 and 8 Hz (7-9 m/s^2, above mu g = 5.9 m/s^2:
+    the walls slide on the table, the neighbour lists are rebuilt) in one engine, against each
+    alone."""
+    loads = [shake(4.0, 7.0), shake(6.0, 8.0), shake(8.0, 9.0, axis=1)]
+    opts = options(mode=mode)
+    engine = Engine([wall() for _ in loads], JOINTS, opts)
+    steps = 6000
+    engine.advance(steps, loads)
+    for sim, ld in zip(engine.simulations, loads):
+        alone = run_alone(wall(), ld, steps, opts)
+        assert_same(sim, alone)
+    moved = [np.abs(s.state.pos[:-1] - s.scene.position).max() for s in engine.simulations]
+    assert min(moved) > 1e-4 and max(s.n_rebuilds for s in engine.simulations) > 1
+
+
+def test_tilts_and_scenes_of_different_sizes_equal_separate_runs():
+    """A 3 x 4 wall, a 5 x 3 wall and a lone brick on tables tilting at different rates (the
+    walls slide off towards the end) in one engine, against each alone with the engine's time
+    step (the smallest critical step of the scenes: the lone brick's own is longer)."""
+    scenes = [lambda: wall(3, 4), lambda: wall(5, 3), lambda: wall(1, 1)]
+    loads = [tilt_gravity(20.0, 25.0), tilt_gravity(30.0, 20.0, axis=(0.0, 1.0, 0.0)),
+             tilt_gravity(10.0, 28.0)]
+    opts = options()
+    engine = Engine([make() for make in scenes], JOINTS, opts)
+    engine.advance(4000, loads)
+    same_dt = options(dt=engine.dt)
+    for sim, make, ld in zip(engine.simulations, scenes, loads):
+        assert_same(sim, run_alone(make(), ld, 4000, same_dt))
+
+
+def test_imperfect_realisations_equal_separate_runs():
+    """Two realisations of warped faces (the warped kernel) shaken in one engine, with the time
+    step given (the realisations' own critical steps differ slightly; one engine has one step)."""
+    def realisation(seed):  # corner offsets of 20 um (3 sigma: within the overlap tolerance)
+        return apply_faces(wall(), ImperfectionParams(bed_unevenness=2e-5, seed=seed))
+
+    opts = options(dt=2e-5)
+    loads = [shake(3.0, 2.5), shake(3.0, 2.5)]
+    engine = Engine([realisation(1), realisation(2)], JOINTS, opts)
+    assert engine._warped and engine.batched
+    engine.advance(2000, loads)
+    for seed, sim, ld in zip((1, 2), engine.simulations, loads):
+        assert_same(sim, run_alone(realisation(seed), ld, 2000, opts))
+
+
+def test_a_failed_scene_is_frozen_and_the_others_go_on():
+    """The middle scene's table accelerates at a steady 30 m/s^2 (5 x mu g: the wall slides,
+    faster than solver.max_speed = 0.5 m/s after ~0.02 s): it stops with its InstabilityError
+    kept (alone it raises the same error at the same step); the two others finish and equal
+    their lone runs."""
+    opts = options(max_speed=0.5)
+
+    def runaway(t):
+        return np.tile([0.0, 0.0, -G], (len(t), 1)), np.tile([30.0, 0.0, 0.0], (len(t), 1))
+
+    loads = [shake(3.0, 1.0), runaway, shake(4.0, 1.5)]
+    engine = Engine([wall() for _ in loads], JOINTS, opts)
+    engine.advance(3000, loads)
+    bad = engine.simulations[1]
+    assert isinstance(bad.failure, InstabilityError) and not engine.active(1)
+    with pytest.raises(InstabilityError) as alone_err:
+        run_alone(wall(), loads[1], 3000, opts)
+    assert str(alone_err.value) == str(bad.failure)
+    for g in (0, 2):
+        assert engine.simulations[g].failure is None
+        assert_same(engine.simulations[g], run_alone(wall(), loads[g], 3000, opts))
+
+
+def test_a_restart_point_of_a_scene_in_an_engine_resumes_alone():
+    """Scene 1's snapshot taken after 1500 steps in an engine of three restores into a lone
+    Simulation, which then goes on as the lone run of 3000 steps."""
+    opts = options()
+    loads = [shake(2.0, 2.0), shake(3.0, 3.0), shake(4.0, 2.0)]
+    engine = Engine([wall() for _ in loads], JOINTS, opts)
+    engine.advance(1500, loads)
+    snap = engine.simulations[1].snapshot()
+    resumed = Simulation(wall(), JOINTS, opts)
+    resumed.restore(snap)
+    resumed.advance(1500, loads[1])
+    assert_same(resumed, run_alone(wall(), loads[1], 3000, opts))
+
+
+def test_a_scene_of_an_engine_advances_only_with_the_others():
+    engine = Engine([wall(), wall()], JOINTS, options())
+    with pytest.raises(RuntimeError, match="advances with the others"):
+        engine.simulations[0].advance(10, shake(2.0, 1.0))
