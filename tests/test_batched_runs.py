@@ -1,0 +1,230 @@
+"""K cases in one engine (dem.run.batched, ``dem sweep / dem ensemble --batch K``, issue 35): each
+point of a batch is the run it would have been alone, written into its own directory; a point
+that fails does not end its batch-mates; a signal stops every point with its restart point, and
+a rerun resumes each point from its own (or starts it over).
+
+Bounds.  A scene of an engine of several scenes runs the same arithmetic on its own slice of the
+engine's arrays as a lone scene, so its trajectory is the lone one to round-off: the bound is
+tests/engine_helpers.py's ROUND_OFF_POS_M / ROUND_OFF_QUAT (two compilations of the same
+arithmetic may differ at the last bit; measured: identical on the 2-core test VM).  The
+summary's numbers are functions of that trajectory (energies: sums over ~1e4 steps of products
+of it; the sweep's amplification: a ratio of frame amplitudes of ~1 mm): a position error of
+1e-15 m moves them by ~1e-12 relative, so rel = 1e-9 leaves three orders of headroom and is
+three orders below a logic error (one step's load missed or another point's load applied: the
+points differ in frequency; g dt^2 / A ~ 4e-9 m / 1e-3 m ~ 4e-6 relative).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+import dem.batch
+import dem.run.write
+from dem.case import Case
+from dem.cli import app
+from dem.commands.exit_codes import ExitCode
+from dem.run import run_case
+from dem.run.batched import BatchInputError, cuda_present, run_cases_in_one_engine
+from dem.run.resume import RESTART_FILE
+from dem.run.sweep import realisation_cases, sweep_cases
+from dem.run.write import RunWriter
+from tests.engine_helpers import ROUND_OFF_POS_M, ROUND_OFF_QUAT
+from tests.test_resume import STACK
+from tests.test_shake_analysis import BLOCK, SLIDER, _case_file, sequential_batch
+
+REL = 1e-9  # summary numbers (module docstring)
+ABS_J = 1e-12  # energies near zero (the residual): 1e-9 of the ~1e-3 J of work done
+
+# the run-time facts of a summary, not results of the simulation
+NOT_RESULTS = {"wall_seconds", "cpu_seconds", "compile_seconds", "brick_steps_per_second",
+               "machine", "batch", "units", "name", "resumed", "resume"}
+
+
+def _arrays(path) -> dict:
+    with np.load(path) as z:
+        return {k: z[k] for k in z.files}
+
+
+def _numbers(data, prefix=""):
+    """{dotted path: number} of every number in a JSON-like dict (bools and text left out)."""
+    out = {}
+    if isinstance(data, dict):
+        for k, v in data.items():
+            out.update(_numbers(v, f"{prefix}.{k}" if prefix else str(k)))
+    elif isinstance(data, (list, tuple)):
+        for i, v in enumerate(data):
+            out.update(_numbers(v, f"{prefix}[{i}]"))
+    elif isinstance(data, (int, float)) and not isinstance(data, bool):
+        out[prefix] = data
+    return out
+
+
+def assert_same_run(a, b) -> None:
+    """Run directories ``a`` and ``b`` hold the same run to round-off (module docstring)."""
+    fa, fb = _arrays(a / "frames.npz"), _arrays(b / "frames.npz")
+    assert fa.keys() == fb.keys()
+    np.testing.assert_array_equal(fa["t"], fb["t"])
+    for k in ("pos", "base_disp"):
+        np.testing.assert_allclose(fa[k], fb[k], rtol=0, atol=ROUND_OFF_POS_M, err_msg=k)
+    np.testing.assert_allclose(fa["quat"], fb["quat"], rtol=0, atol=ROUND_OFF_QUAT)
+    sa, sb = (json.loads((d / "summary.json").read_text()) for d in (a, b))
+    assert sa["status"] == sb["status"] and sa["steps"] == sb["steps"]
+    assert sa["dt"] == sb["dt"]
+    na = _numbers({k: v for k, v in sa.items() if k not in NOT_RESULTS})
+    nb = _numbers({k: v for k, v in sb.items() if k not in NOT_RESULTS})
+    assert na.keys() == nb.keys()
+    for k in na:
+        assert na[k] == pytest.approx(nb[k], rel=REL, abs=ABS_J), k
+
+
+def in_process_run_batch(calls=None):
+    """dem.batch.run_batch in this process: the groups of ``batch`` cases through
+    dem.run.batched (as a worker's dem.batch._run_group does, with this process's Taichi)."""
+
+    def run(cases, out_root, scheduler=None, n_workers=None, max_steps=None, post=None,
+            on_done=None, analyses=(), drain=None, batch=None, arch="cpu"):
+        if calls is not None:
+            calls.append(batch)
+        recs = []
+        size = batch or 1
+        for k in range(0, len(cases), size):
+            group = cases[k:k + size]
+            for rec in run_cases_in_one_engine(group, [out_root / n for n, _ in group],
+                                               max_steps=max_steps, analyses=analyses,
+                                               arch=arch, post=post):
+                on_done(rec)
+                recs.append(rec)
+        return recs
+    return run
+
+
+def test_a_batched_sweep_equals_the_same_sweep_run_point_by_point(tmp_path, monkeypatch):
+    """The shaken block (moving with the table) at 6 and 8 Hz: one engine for the two points,
+    each with its own frequency and amplitude, against the two runs alone.  Each
+    point's frames, summary and sweep record agree to round-off; summary.json says batch."""
+    case = _case_file(tmp_path, BLOCK)
+    args = ["sweep", str(case), "--frequencies", "6,8", "--cycles", "2", "--margin", "0.05"]
+    monkeypatch.setattr(dem.batch, "run_batch", sequential_batch())
+    r = CliRunner().invoke(app, [*args, "--out", str(tmp_path / "alone")])
+    assert r.exit_code == 0, r.output
+    calls = []
+    monkeypatch.setattr(dem.batch, "run_batch", in_process_run_batch(calls))
+    r = CliRunner().invoke(app, [*args, "--out", str(tmp_path / "batched"), "--batch", "2"])
+    assert r.exit_code == 0, r.output
+    assert calls == [2] and "2 to an engine" in r.output
+    alone, batched = (json.loads((tmp_path / d / "sweep.json").read_text())["points"]
+                      for d in ("alone", "batched"))
+    assert [p["frequency_hz"] for p in batched] == [6.0, 8.0]
+    for pa, pb in zip(alone, batched):
+        assert_same_run(tmp_path / "alone" / pa["dir"], tmp_path / "batched" / pb["dir"])
+        assert pb["amplification"]["da"] == pytest.approx(pa["amplification"]["da"], rel=REL)
+    # the points differ (their own loads): the table amplitude a_p / (2 pi f)^2
+    assert batched[0]["amplitude_m"] == pytest.approx(batched[1]["amplitude_m"] * (8 / 6) ** 2)
+    for k, p in enumerate(batched):
+        summ = json.loads((tmp_path / "batched" / p["dir"] / "summary.json").read_text())
+        assert summ["batch"]["n_scenes"] == 2 and summ["batch"]["index"] == k
+        assert summ["batch"]["dt_s"] == summ["dt"] and summ["batch"]["arch"] == "cpu"
+        assert "?" not in summ["units"].values()
+
+
+def test_a_point_that_fails_does_not_end_its_batch_mates(tmp_path):
+    """``dem sweep --batch 2`` on dask (one worker, one engine for both points): the
+    frictionless block at 20 Hz outruns solver.max_speed after ~10 ms (tests/
+    test_shake_analysis.py, SLIDER) and fails alone; the 3 Hz point runs its 2 cycles to the
+    end in the same engine and gives the lone run's analysis (sliding: ds amplification pi)."""
+    case = _case_file(tmp_path, SLIDER)
+    out = tmp_path / "sweep"
+    r = CliRunner().invoke(app, ["sweep", str(case), "--out", str(out), "--frequencies", "3,20",
+                                 "--margin", "0", "--workers", "1", "--batch", "2"])
+    assert r.exit_code == ExitCode.RUN_FAILED, r.output
+    pts = {p["frequency_hz"]: p for p in json.loads((out / "sweep.json").read_text())["points"]}
+    assert pts[20.0]["status"] == "failed" and "max_speed" in pts[20.0]["error"]
+    assert pts[3.0]["status"] == "ok"
+    assert pts[3.0]["amplification"]["ds"] == pytest.approx(np.pi, rel=0.01)
+    ok, bad = (json.loads((out / pts[f]["dir"] / "summary.json").read_text()) for f in (3.0, 20.0))
+    assert ok["status"] == "ok" and ok["sim_time"] == pytest.approx(2 / 3.0, abs=2 * ok["dt"])
+    assert bad["status"] == "failed" and bad["sim_time"] < 0.02
+    assert ok["batch"]["n_scenes"] == bad["batch"]["n_scenes"] == 2
+    assert (out / pts[20.0]["dir"] / "frames.npz").is_file()  # the failed run is written
+
+
+def _sigterm_after_checkpoints(monkeypatch, n: int) -> None:
+    """A checkpoint at every frame; after the n-th (of all points together) the process gets a
+    SIGTERM, as from ``timeout`` or a batch scheduler."""
+    monkeypatch.setattr(dem.run.write, "CHECKPOINT_SECONDS", -1.0)
+    calls = [0]
+    original = RunWriter.checkpoint
+
+    def checkpoint(self, *args):
+        original(self, *args)
+        calls[0] += 1
+        if calls[0] == n:
+            os.kill(os.getpid(), signal.SIGTERM)
+
+    monkeypatch.setattr(RunWriter, "checkpoint", checkpoint)
+
+
+def test_a_sigterm_stops_every_point_and_a_rerun_resumes_each_from_its_own(tmp_path,
+                                                                          monkeypatch):
+    """Two realisations of the settling, sliding stack (tests/test_resume.py) in one engine.
+    A SIGTERM (received by the main thread, the scheduler's) ends both runs 'interrupted' with
+    their restart points; the rerun resumes seed 3 from its restart point and starts seed 4
+    over (its restart point removed); both then equal the batch that was never stopped."""
+    from dem.signals import stop_on_signals
+
+    cases = realisation_cases(Case.model_validate(STACK), 2, 3)
+    names = [n for n, _ in cases]
+    whole = run_cases_in_one_engine(cases, [tmp_path / "whole" / n for n in names])
+    assert [r["status"] for r in whole] == ["ok", "ok"]
+    cut = [tmp_path / "cut" / n for n in names]
+    with monkeypatch.context() as m:
+        _sigterm_after_checkpoints(m, 5)
+        with stop_on_signals(), pytest.raises(KeyboardInterrupt) as info:
+            run_cases_in_one_engine(cases, cut)
+    assert getattr(info.value, "signame", None) == "SIGTERM"
+    steps = []
+    for d in cut:
+        summ = json.loads((d / "summary.json").read_text())
+        assert summ["status"] == "interrupted" and "SIGTERM" in summ["error"]
+        assert summ["batch"]["n_scenes"] == 2
+        steps.append(int(_arrays(d / RESTART_FILE)["sim.step_count"]))
+    assert all(0 < s < whole[0]["summary"]["steps"] for s in steps)
+    (cut[1] / RESTART_FILE).unlink()
+    again = run_cases_in_one_engine(cases, cut)
+    assert [r["status"] for r in again] == ["ok", "ok"]
+    (entry,) = again[0]["summary"]["resumed"]
+    assert entry["step"] == steps[0]
+    assert "resumed" not in again[1]["summary"]
+    for d, n in zip(cut, names):
+        assert_same_run(tmp_path / "whole" / n, d)
+        assert not (d / RESTART_FILE).exists()
+
+
+def test_cases_with_different_solver_options_are_refused_naming_the_field(tmp_path):
+    data = json.loads(json.dumps(BLOCK))
+    a = Case.model_validate(data)
+    data["solver"] = {"max_speed": 2.0}
+    b = Case.model_validate(data)
+    with pytest.raises(BatchInputError, match="solver.max_speed"):
+        run_cases_in_one_engine([("a", a), ("b", b)], [tmp_path / "a", tmp_path / "b"])
+    assert not (tmp_path / "a").exists()
+
+
+def test_bad_batch_and_arch_options_exit_2_before_anything_runs(tmp_path):
+    case = _case_file(tmp_path, BLOCK)
+    base = ["sweep", str(case), "--out", str(tmp_path / "s"), "--frequencies", "2"]
+    r = CliRunner().invoke(app, [*base, "--batch", "0"])
+    assert r.exit_code == ExitCode.BAD_INPUT and "--batch must be >= 1" in r.output
+    r = CliRunner().invoke(app, [*base, "--arch", "tpu"])
+    assert r.exit_code == ExitCode.BAD_INPUT and "--arch must be one of cpu, cuda" in r.output
+    if not cuda_present():
+        r = CliRunner().invoke(app, ["ensemble", str(case), "--out", str(tmp_path / "e"), "-n",
+                                     "2", "--batch", "2", "--arch", "cuda"])
+        assert r.exit_code == ExitCode.BAD_INPUT
+        assert "CUDA was asked for and is not available" in r.output
