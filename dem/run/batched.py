@@ -102,7 +102,13 @@ def init_taichi(arch: str, threads: int | None, precision: str = "f64") -> None:
 
     check_arch(arch)
     if "arch" in inspect.signature(ti_runtime.init).parameters:
-        ti_runtime.init(threads=threads, precision=precision, arch=arch)
+        try:
+            ti_runtime.init(threads=threads, precision=precision, arch=arch)
+        except RuntimeError as err:  # no CUDA after all, or Taichi already started on the CPU
+            if arch == "cuda" and running_arch() != "cuda":
+                raise CudaUnavailable(f"--arch cuda: CUDA was asked for and is not available "
+                                      f"({err}); use --arch cpu") from None
+            raise
     elif arch == "cuda":
         raise CudaUnavailable("--arch cuda: this engine cannot start Taichi on CUDA "
                               "(dem.ti_runtime.init takes no arch); use --arch cpu")
