@@ -128,6 +128,37 @@ def running_arch() -> str:
     return "cuda" if arch == ti.cuda else ("cpu" if arch in (ti.x64, ti.arm64) else str(arch))
 
 
+def cuda_context_binder() -> Callable[[], None]:
+    """A function that makes Taichi's CUDA context current in the thread that calls it.
+
+    Why: a CUDA context is current per thread.  Taichi makes its context current in the thread
+    that started it and guards its kernel launches, but not its memory copies (an ndarray read,
+    a kernel's returned value): from another thread (a point thread of :class:`Hub`) they find
+    no context.  The context is this thread's current one (Taichi's, started here), else the
+    device's primary context, which Taichi retains (cuDevicePrimaryCtxRetain); made current
+    here too.  Through the driver API (libcuda), as Taichi itself.  Not yet run on a GPU."""
+    import ctypes
+
+    lib = ctypes.CDLL("libcuda.so.1")
+
+    def check(code: int, what: str) -> None:
+        if code != 0:
+            raise CudaUnavailable(f"--arch cuda: {what} failed (CUDA driver error {code})")
+
+    ctx = ctypes.c_void_p()
+    check(lib.cuCtxGetCurrent(ctypes.byref(ctx)), "cuCtxGetCurrent")
+    if not ctx.value:
+        dev = ctypes.c_int()
+        check(lib.cuInit(0), "cuInit")
+        check(lib.cuDeviceGet(ctypes.byref(dev), 0), "cuDeviceGet")
+        check(lib.cuDevicePrimaryCtxRetain(ctypes.byref(ctx), dev), "cuDevicePrimaryCtxRetain")
+        check(lib.cuCtxSetCurrent(ctx), "cuCtxSetCurrent")
+
+    def bind() -> None:
+        check(lib.cuCtxSetCurrent(ctx), "cuCtxSetCurrent")
+    return bind
+
+
 def solver_difference(cases: Sequence[Case]) -> str | None:
     """None if every case has the first one's ``solver:`` section, else a sentence naming the
     first field that differs (one engine steps every scene with the same solver options)."""
@@ -153,9 +184,10 @@ class Hub:
     The baton: a point runs only between ``turn[g].acquire()`` and ``back.release()``; the
     scheduler runs only while every live point waits."""
 
-    def __init__(self, engine, n: int):
+    def __init__(self, engine, n: int, bind_thread: Callable[[], None] | None = None):
         self.engine = engine
         self.n = n
+        self.bind_thread = bind_thread  # run first in each point thread (cuda_context_binder)
         self.turn = [threading.Semaphore(0) for _ in range(n)]  # point g may run
         self.back = threading.Semaphore(0)  # the running point gave the baton back
         self.request: list[list | None] = [None] * n  # [steps left, loads] of a waiting point
@@ -235,6 +267,8 @@ class Hub:
     def _body(self, g: int, fn, results: list) -> None:
         self.turn[g].acquire()
         try:
+            if self.bind_thread is not None:
+                self.bind_thread()
             results[g] = fn()
         except BaseException as err:  # noqa: BLE001 - reported as the point's result
             results[g] = err
@@ -386,6 +420,7 @@ def _run_members(cases, out_dirs, members, scenes, joints, gravity, options, rec
     from dem.engine.simulation import Engine
     from dem.run.loop import run_case
 
+    bind = cuda_context_binder() if running_arch() == "cuda" else None
     t1 = time.perf_counter()
     try:
         engine = Engine(scenes, joints, options, gravity=gravity)
@@ -396,7 +431,7 @@ def _run_members(cases, out_dirs, members, scenes, joints, gravity, options, rec
     engine_seconds = time.perf_counter() - t1
     sims = engine.simulations
     k = len(members)
-    hub = Hub(engine, k) if k > 1 else None
+    hub = Hub(engine, k, bind) if k > 1 else None
     if hub is not None:
         engine.hub = hub
 
