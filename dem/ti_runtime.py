@@ -20,20 +20,33 @@ from dem.signals import deferred
 _settings: dict | None = None
 
 
-def init(threads: int | None = None, precision: str = "f64", debug: bool = False) -> dict:
+ARCHS = ("cpu", "cuda")
+
+
+def init(threads: int | None = None, precision: str = "f64", debug: bool = False,
+         arch: str | None = None) -> dict:
     """Initialise Taichi once per process.
 
     threads   : CPU threads for parallel loops (None: the ``DEM_THREADS`` environment variable,
                 else all cores).
     precision : "f64" (default) or "f32", used as ``default_fp``.
+    arch      : "cpu" (default) or "cuda" (issue 35: an engine of many scenes on a GPU; the
+                engine then keeps its arrays on the device, dem.engine.device).  None: the
+                ``DEM_ARCH`` environment variable, else cpu; a later call with None accepts
+                the arch in use.  Taichi falls back to the CPU silently where CUDA is absent:
+                that raises RuntimeError here.
     """
     global _settings
     if threads is None and os.environ.get("DEM_THREADS"):
         threads = int(os.environ["DEM_THREADS"])
-    wanted = {"threads": threads, "precision": precision, "debug": debug}
+    if arch is None and _settings is None:
+        arch = os.environ.get("DEM_ARCH") or "cpu"
+    if arch is not None and arch not in ARCHS:
+        raise ValueError(f"arch must be one of {', '.join(ARCHS)}, got {arch!r}")
+    wanted = {"threads": threads, "precision": precision, "debug": debug, "arch": arch}
     if _settings is not None:
         for key, value in wanted.items():
-            if key == "threads" and value is None:
+            if key in ("threads", "arch") and value is None:
                 continue
             if _settings[key] != value:
                 raise RuntimeError(
@@ -42,7 +55,7 @@ def init(threads: int | None = None, precision: str = "f64", debug: bool = False
                 )
         return _settings
     kwargs = dict(
-        arch=ti.cpu,
+        arch=ti.cuda if arch == "cuda" else ti.cpu,
         default_fp=ti.f64 if precision == "f64" else ti.f32,
         default_ip=ti.i32,
         debug=debug,
@@ -63,6 +76,12 @@ def init(threads: int | None = None, precision: str = "f64", debug: bool = False
         print("\n".join(rest), file=sys.stderr)
     if not debug and not os.environ.get("DEM_TI_SOURCE_CARETS"):
         short_source_positions()
+    if arch == "cuda":
+        from taichi.lang import impl
+
+        if impl.current_cfg().arch != ti.cuda:
+            raise RuntimeError("arch cuda: CUDA was asked for and is not available (Taichi "
+                               "started on the CPU)")
     _settings = wanted
     return _settings
 

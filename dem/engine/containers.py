@@ -192,9 +192,14 @@ CONTROL_ROLES = {"loads": CONTROL_LOADS, "parameters": CONTROL_PARAMETERS,
                  "diagnostics": CONTROL_DIAGNOSTICS, "energy": CONTROL_ENERGY}
 CONTROL_FIELDS = CONTROL_LOADS + CONTROL_PARAMETERS + CONTROL_DIAGNOSTICS + CONTROL_ENERGY
 
-_ELEM = {"real": (None, ()), "vec3": (ti.math.vec3, (3,)), "vec4": (ti.math.vec4, (4,)),
-         "mat3": (ti.math.mat3, (3, 3)), "i32": (ti.i32, ()), "ivec2": (ti.math.ivec2, (2,)),
-         "pair": (ti.types.vector(N_PAIR_FIELDS, float), (N_PAIR_FIELDS,))}
+# the argpacks' element types, made at import (before ti.init) from explicit scalar types: a
+# numpy argument brings its own scalar type (f64, or f32 with solver.precision f32), a device
+# array (dem.engine.device) must match these: f64 (an engine on a device runs in f64 only)
+_ELEM = {"real": (None, ()), "vec3": (ti.types.vector(3, ti.f64), (3,)),
+         "vec4": (ti.types.vector(4, ti.f64), (4,)),
+         "mat3": (ti.types.matrix(3, 3, ti.f64), (3, 3)), "i32": (ti.i32, ()),
+         "ivec2": (ti.types.vector(2, ti.i32), (2,)),
+         "pair": (ti.types.vector(N_PAIR_FIELDS, ti.f64), (N_PAIR_FIELDS,))}
 
 
 def _argpack_type(fields):
@@ -462,8 +467,9 @@ class Control(_Container):
     SHARED = ("skin", "max_speed", "patch_tolerance", "steps_done")
 
     def __init__(self, skin: float, max_speed: float, local_damping: float,
-                 patch_tolerance: float = 0.0, n_scenes: int = 1):
-        _allocate(self, CONTROL_FIELDS, {"S": SERIAL_CHUNK, "G": int(n_scenes)})
+                 patch_tolerance: float = 0.0, n_scenes: int = 1, steps: int = SERIAL_CHUNK):
+        """``steps``: S, the most steps of one launch (or chunk of launches)."""
+        _allocate(self, CONTROL_FIELDS, {"S": int(steps), "G": int(n_scenes)})
         self.patch_tolerance[0] = patch_tolerance
         self.skin[0] = skin
         self.max_speed[0] = max_speed
@@ -551,34 +557,17 @@ class Contacts(_Container):
 
     def write_pairs(self, pairs: np.ndarray, n_bodies: int, history_from: dict | None,
                     old_pairs: np.ndarray | None) -> None:
-        """Install a new pair list (sorted (i, j), i < j) and carry the history of kept pairs."""
-        P = self.capacity
-        n = len(pairs)
-        pad = np.zeros((P, 2), dtype=np.int32)
-        pad[:n] = pairs
-        self.pairs[...] = pad
-        # CSR adjacency, deterministic order (pair index ascending)
-        ends = np.concatenate([pairs[:, 0], pairs[:, 1]])
-        entry = np.concatenate([2 * np.arange(n), 2 * np.arange(n) + 1]).astype(np.int32)
-        order = np.lexsort((entry, ends))
-        counts = np.bincount(ends, minlength=n_bodies)
-        ptr = np.zeros(n_bodies + 1, dtype=np.int32)
-        ptr[1:] = np.cumsum(counts)
-        adj = np.zeros(2 * P, dtype=np.int32)
-        adj[: 2 * n] = entry[order]
-        self.adj_ptr[...] = ptr
-        self.adj[...] = adj
-        # history: index of each new pair in the old list, or -1
-        new = {name: np.zeros_like(arr) for name, arr in (history_from or {}).items()}
-        if history_from is not None and old_pairs is not None and len(old_pairs):
-            key_old = old_pairs[:, 0].astype(np.int64) * n_bodies + old_pairs[:, 1]
-            key_new = pairs[:, 0].astype(np.int64) * n_bodies + pairs[:, 1]
-            srt = np.argsort(key_old)
-            pos = np.searchsorted(key_old[srt], key_new)
-            pos = np.minimum(pos, len(key_old) - 1)
-            found = key_old[srt][pos] == key_new
-            src = srt[pos[found]]
-            dst = np.flatnonzero(found)
+        """Install a new pair list (sorted (i, j), i < j) and carry the history of kept pairs
+        (the host's arrays; an engine on a device: dem.engine.device.install_pairs)."""
+        lists = pair_lists(pairs, n_bodies, self.capacity,
+                           old_pairs if history_from is not None else None)
+        self.pairs[...] = lists.pairs
+        self.adj_ptr[...] = lists.adj_ptr
+        self.adj[...] = lists.adj
+        if lists.src is not None:
+            found = lists.src >= 0
+            src, dst = lists.src[found], np.flatnonzero(found)
+            new = {name: np.zeros_like(arr) for name, arr in history_from.items()}
             new["code"][:] = -1
             for name in self.HISTORY:
                 new[name][dst] = history_from[name][src]
@@ -589,7 +578,7 @@ class Contacts(_Container):
             self.npts[...] = 0
         # a kept patch belongs to a pair index of the old list: none is reused across a rebuild
         self.patch_shape[:, 0, 3] = 0.0
-        self.n_pairs = n
+        self.n_pairs = lists.n
 
     def max_depth(self) -> float:
         """Deepest penetration among the current contact points (m)."""
@@ -615,3 +604,58 @@ class Contacts(_Container):
             "depth": self.depth[:n][mask],
             "pair": pairs[mask],
         }
+
+
+@dataclass(frozen=True)
+class PairLists:
+    """A scene's new neighbour list as its Contacts hold it: ``pairs`` [P, 2] (padded with
+    zeros), ``adj_ptr`` [n_bodies + 1] and ``adj`` [2P] (CSR, deterministic order: pair index
+    ascending), ``n`` pairs, and ``src`` [n]: each new pair's index in the old list, -1 for a
+    new pair (None where there was no old list)."""
+
+    pairs: np.ndarray
+    adj_ptr: np.ndarray
+    adj: np.ndarray
+    n: int
+    src: np.ndarray | None
+
+
+def pair_lists(pairs: np.ndarray, n_bodies: int, capacity: int,
+               old_pairs: np.ndarray | None) -> PairLists:
+    """The index arrays of a new pair list (sorted (i, j), i < j) and where each pair's history
+    comes from in ``old_pairs`` (pure: Contacts.write_pairs applies them to the host's arrays,
+    dem.engine.device.install_pairs to a device's)."""
+    P = int(capacity)
+    n = len(pairs)
+    pad = np.zeros((P, 2), dtype=np.int32)
+    pad[:n] = pairs
+    ends = np.concatenate([pairs[:, 0], pairs[:, 1]])
+    entry = np.concatenate([2 * np.arange(n), 2 * np.arange(n) + 1]).astype(np.int32)
+    order = np.lexsort((entry, ends))
+    counts = np.bincount(ends, minlength=n_bodies)
+    ptr = np.zeros(n_bodies + 1, dtype=np.int32)
+    ptr[1:] = np.cumsum(counts)
+    adj = np.zeros(2 * P, dtype=np.int32)
+    adj[: 2 * n] = entry[order]
+    src = None
+    if old_pairs is not None and len(old_pairs):
+        key_old = old_pairs[:, 0].astype(np.int64) * n_bodies + old_pairs[:, 1]
+        key_new = pairs[:, 0].astype(np.int64) * n_bodies + pairs[:, 1]
+        srt = np.argsort(key_old)
+        pos = np.searchsorted(key_old[srt], key_new)
+        pos = np.minimum(pos, len(key_old) - 1)
+        found = key_old[srt][pos] == key_new
+        src = np.where(found, srt[pos], -1).astype(np.int32)
+    return PairLists(pad, ptr, adj, n, src)
+
+
+def element_type(field: FieldDef):
+    """(Taichi element type, element shape) of a field: the type of a device array (ti.ndarray)
+    of it, in the engine's precision (call after dem.ti_runtime.init)."""
+    real = ti.f32 if real_dtype() == np.float32 else ti.f64
+    kinds = {"real": (real, ()), "vec3": (ti.types.vector(3, real), (3,)),
+             "vec4": (ti.types.vector(4, real), (4,)),
+             "mat3": (ti.types.matrix(3, 3, real), (3, 3)), "i32": (ti.i32, ()),
+             "ivec2": (ti.types.vector(2, ti.i32), (2,)),
+             "pair": (ti.types.vector(N_PAIR_FIELDS, real), (N_PAIR_FIELDS,))}
+    return kinds[field.elem]

@@ -62,6 +62,10 @@ class CachedLaunch:
         if rec.ctx is not None and hasattr(rec.ctx, "set_arg_int") and \
                 hasattr(rec.ctx, "set_arg_float"):
             self.ctx, self.compiled, self.prog = rec.ctx, rec.compiled, prog
+            self.device_arrays = _device_array_slots(scalars, arrays)
+            if self.device_arrays and (not hasattr(rec.ctx, "set_arg_ndarray")
+                                       or self.device_arrays[0][1] is None):
+                self.ctx = None
 
     @property
     def cached(self) -> bool:
@@ -72,9 +76,38 @@ class CachedLaunch:
             self.kernel(*scalars, *self.arrays)
             return
         ctx = self.ctx
+        for slot, arr in self.device_arrays:  # a launch replaces them by raw pointers
+            ctx.set_arg_ndarray(slot, arr)
         for k, (value, is_float) in enumerate(zip(scalars, self.kinds)):
             if is_float:
                 ctx.set_arg_float((k,), float(value))
             else:
                 ctx.set_arg_int((k,), int(value))
         self.prog.launch_kernel(self.compiled, ctx)
+
+
+def _device_array_slots(scalars: tuple, arrays: tuple) -> list:
+    """The launch-context slots of the Taichi ndarrays (device arrays, dem.engine.device) among
+    the members of the argpack arguments, with their C++ arrays: Taichi 1.7.4 sets an argpack's
+    array members as extra arguments after the kernel's own (in the order of the argpacks and
+    their members), and a launch replaces each ndarray's device allocation in the context by a
+    raw pointer, so the context is only valid for another launch once they are set again
+    (numpy arrays keep their host pointers: nothing to redo).  Empty without ndarrays."""
+    from taichi.lang._ndarray import Ndarray
+    from taichi.lang.argpack import ArgPack
+
+    positional = [v for v in (*scalars, *arrays) if not isinstance(v, bool)]
+    slot = len(positional)
+    out = []
+    for v in positional:
+        if not isinstance(v, ArgPack):
+            continue
+        names = getattr(v, "_ArgPack__annotations", None)  # Taichi's member order
+        if names is None:
+            return [((-1,), None)]  # not the Taichi this was written for: no cached launch
+        for name in names:
+            member = v[name]
+            if isinstance(member, Ndarray):
+                out.append(((slot,), member.arr))
+            slot += 1
+    return out

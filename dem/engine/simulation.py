@@ -32,13 +32,14 @@ import time
 from typing import Callable
 
 import numpy as np
+import taichi as ti
 
 from dem import ti_runtime
 from dem.engine import coherence
 from dem.engine import step as stepk
 from dem.engine.broadphase import candidate_pairs
 from dem.engine.containers import (NONFINITE, REBUILD, SERIAL_CHUNK, STOP, Contacts, Control,
-                                   Model, State)
+                                   Model, State, pair_lists)
 from dem.engine.launch import CachedLaunch
 from dem.engine.options import JointLaw, StepOptions
 from dem.engine.errors import CapacityError, InputError, InstabilityError, SimulationError
@@ -56,6 +57,10 @@ LoadFn = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
 # solver.mode: serial / parallel forces either.
 PARALLEL_MIN_BODIES = {2: 2500, 4: 500}  # threads (at most) -> bodies
 
+# an engine on a device: steps per chunk of launches (the loads of a chunk are copied to the
+# device before it; the host reads the status back after it)
+DEVICE_CHUNK = 256
+
 
 def parallel_min_bodies(threads: int) -> int | float:
     """Bodies from which auto mode takes the parallel kernel with ``threads`` threads."""
@@ -72,11 +77,17 @@ class Engine:
     joints   : one JointLaw per scene (or one for all)
     options  : the StepOptions of every scene (one time step, one kernel, one skin)
     gravity  : per scene, the gravity at rest (m/s^2, table frame), or one 3-vector for all
+    device_arrays : keep the arrays on the device (dem.engine.device); None: where Taichi runs
+               on a GPU (dem.ti_runtime.init(arch="cuda")); True on the CPU runs the device
+               path in host memory (its tests)
     """
 
     def __init__(self, scenes: list[Scene], joints, options: StepOptions, gravity=None,
-                 fast_launch: bool = True, lone: "Simulation | None" = None):
+                 fast_launch: bool = True, lone: "Simulation | None" = None,
+                 device_arrays: bool | None = None):
         ti_runtime.init(threads=options.threads, precision=options.precision)
+        self.on_device = (ti_runtime.settings()["arch"] == "cuda" if device_arrays is None
+                          else bool(device_arrays))
         scenes = list(scenes)
         G = len(scenes)
         if G == 0:
@@ -114,7 +125,8 @@ class Engine:
             self.mode = ("parallel" if self.model.n_bodies >= parallel_min_bodies(threads)
                          else "serial")
         self.control = Control(self.skin, options.max_speed, options.local_damping,
-                               options.patch_reuse, G)
+                               options.patch_reuse, G,
+                               DEVICE_CHUNK if self.on_device else SERIAL_CHUNK)
         # dt, dt_crit and the area caps of every body (each scene's clock keeps its anchors)
         self.clock = Clock()
         self.dt_changes: list[dict] = []
@@ -124,6 +136,7 @@ class Engine:
             sim._bind(self, g, scenes[g], models[g], joints[g], gravity[g])
             sims.append(sim)
         self.simulations = sims
+        self._device_init()
         t0 = time.perf_counter()
         self._warm_up()
         self.compile_seconds = time.perf_counter() - t0
@@ -217,10 +230,12 @@ class Engine:
         capped = np.isfinite(area_cap)
         if not capped.any():
             return
+        if self.on_device:  # the patches' areas (the kernels wrote them)
+            self._dev["contacts"].pull(["area", "npts"])
         patch = np.zeros(self.model.n_bodies)
         over_any = False
         for g, sim in enumerate(self.simulations):
-            c = sim.contacts
+            c = sim._contacts
             n = c.n_pairs
             if n == 0 or not self.control.active[g]:
                 continue
@@ -272,7 +287,7 @@ class Engine:
         among others is frozen with its failure in ``simulations[g].failure``."""
         done_total = 0
         while done_total < n_steps and self.control.active.any():
-            k = min(n_steps - done_total, SERIAL_CHUNK)
+            k = min(n_steps - done_total, self.control.loads.shape[0])
             done = self._launch(k, loads)
             done_total += done
             status = self.control.status.copy()
@@ -320,11 +335,13 @@ class Engine:
         if self._warped and self._overlap_wanted() != self._overlap:
             self._choose_launch()  # coherence.set_overlap_reuse switched the overlap reuse
         n_slots = self._n_slots()
+        self._to_device()
         if self.mode == "serial":
             self._advance(k, n_slots, self.dt)
         else:
             for s in range(k):  # no read-back between steps: a stopped chunk's launches idle
                 self._advance(s, n_slots, self.dt)
+        self._from_device()
         done = int(ctl.steps_done[0])
         for g, sim in enumerate(self.simulations):
             if not ctl.active[g]:
@@ -337,8 +354,76 @@ class Engine:
 
     # ------------------------------------------------------------------------------------
     def containers(self) -> tuple:
-        """The argpacks of (Model, State, Contacts, Control), as the kernels take them."""
+        """The argpacks of (Model, State, Contacts, Control), as the kernels take them (the
+        device's arrays for an engine on a device)."""
+        if self.on_device:
+            d = self._dev
+            return (d["model"].args, d["state"].args, d["contacts"].args, d["control"].args)
         return (self.model.args, self.state.args, self.contacts.args, self.control.args)
+
+    # -- an engine on a device (dem.engine.device) ------------------------------------------
+    def _device_init(self) -> None:
+        """Device arrays of every container, filled from the host's."""
+        if not self.on_device:
+            return
+        from dem.engine.device import DeviceArrays, HistoryScratch
+
+        self._dev = {name: DeviceArrays(box) for name, box in (
+            ("model", self.model), ("state", self.state), ("contacts", self.contacts),
+            ("control", self.control))}
+        for d in self._dev.values():
+            d.push()
+        real = ti.f32 if ti_runtime.real_dtype() == np.float32 else ti.f64
+        self._scratch = HistoryScratch(self.contacts.capacity, real)
+        self._stale = {"state": False, "contacts": False}   # the device's are newer
+        self._dirty = {"state": False, "contacts": False}   # the host's may be newer
+
+    def host(self, name: str, write: bool = True) -> None:
+        """Make the host's ``name`` ("state" or "contacts") current before the host reads it
+        (a copy from the device where the kernels wrote since), and, with ``write``, copy it
+        to the device before the next launch (the host may write it).  A no-op on the CPU."""
+        if not self.on_device:
+            return
+        if self._stale[name]:
+            self._dev[name].pull()
+            self._stale[name] = False
+        if write:
+            self._dirty[name] = True
+
+    def _to_device(self) -> None:
+        if not self.on_device:
+            return
+        self._dev["control"].push()
+        for name in ("state", "contacts"):
+            if self._dirty[name]:
+                self._dev[name].push()
+                self._dirty[name] = False
+
+    def _from_device(self) -> None:
+        if not self.on_device:
+            return
+        self._dev["control"].pull([f for f in self._dev["control"].dev if f != "loads"])
+        self._stale["state"] = self._stale["contacts"] = True
+
+    def install_pairs(self, g: int, lists, has_history: bool) -> None:
+        """Scene g's new pair lists (containers.pair_lists) into the device's contacts
+        (dem.engine.device.install_pairs: the history carried on the device)."""
+        from dem.engine.device import install_pairs
+
+        if self._dirty["contacts"]:  # the host wrote contacts since: the device gets them first
+            self._dev["contacts"].push()
+            self._dirty["contacts"] = False
+        if self._dirty["state"]:
+            self._dev["state"].push()
+            self._dirty["state"] = False
+        src = lists.src if lists.src is not None else np.zeros(0, dtype=np.int32)
+        src_full = np.full(self.contacts.capacity, -1, dtype=np.int32)
+        src_full[: len(src)] = src
+        sc = self._scratch
+        _, st, c, _ = self.containers()
+        install_pairs(g, lists.n, int(has_history), lists.pairs, lists.adj_ptr, lists.adj,
+                      src_full, self._dev["model"].args, st, c, sc.code, sc.npts, sc.loc,
+                      sc.shear)
 
     def _warm_up(self) -> None:
         """Compile every kernel (or load it from Taichi's offline cache) with zero work, and
@@ -351,7 +436,7 @@ class Engine:
         self._hyperbolic = any(sim.model.closure_limit() is not None
                                for sim in self.simulations)
         self._choose_launch()
-        m, st, c = self.model.args, self.state.args, self.contacts.args
+        m, st, c, _ = self.containers()
         depth = ti_nd_real(1)
         stepk.probe_contacts(0, 0, depth, depth, m, st, c, self._warped, self.batched)
         stepk.elastic_energy(0, 0, m, c, self._hyperbolic, self.batched)
@@ -359,7 +444,7 @@ class Engine:
     def _overlap_wanted(self) -> bool:
         """Whether the overlap reuse variant should run: a warped scene whose overlap reuse
         tolerance (coherence.set_overlap_reuse, read from the contacts) is > 0."""
-        return self._warped and any(coherence.overlap_reuse_tolerance(sim.contacts) > 0.0
+        return self._warped and any(coherence.overlap_reuse_tolerance(sim._contacts) > 0.0
                                     for sim in self.simulations)
 
     def _choose_launch(self) -> None:
@@ -408,13 +493,13 @@ class Simulation:
         self._movable = ~model.fixed_np
         self._movable[model.table] = False
         if engine.batched:
-            self.state = engine.state.region(self._b0, self._b1)
-            self.contacts = engine.contacts.region(g, self._b0, self._b1)
+            self._state = engine.state.region(self._b0, self._b1)
+            self._contacts = engine.contacts.region(g, self._b0, self._b1)
             self.control = engine.control.region(g)
             self.clock = Clock()
             self._slot0 = g * engine.contacts.capacity
         else:
-            self.state, self.contacts, self.control = \
+            self._state, self._contacts, self.control = \
                 engine.state, engine.contacts, engine.control
             self.clock = engine.clock
             self._slot0 = 0
@@ -424,6 +509,19 @@ class Simulation:
         self.energy_initial = 0.0
 
     # ------------------------------------------------------------------------------------
+    @property
+    def state(self) -> State:
+        """This scene's State (on a device: copied to the host first, and back before the
+        next launch: the caller may write it)."""
+        self.engine.host("state")
+        return self._state
+
+    @property
+    def contacts(self) -> Contacts:
+        """This scene's Contacts (on a device: as :attr:`state`)."""
+        self.engine.host("contacts")
+        return self._contacts
+
     @property
     def t(self) -> float:
         return self.clock.time(self.step_count)
@@ -503,11 +601,12 @@ class Simulation:
     def rebuild(self) -> None:
         """Broad phase of this scene: new neighbour list, history carried over for pairs that
         stay."""
-        st = self.state
+        self.engine.host("state", write=False)
+        st = self._state
         m = self.model
         pairs = candidate_pairs(st.pos, st.rot, m.half_np, m.radius_np, m.fixed_np, m.table,
                                 self.skin)
-        c = self.contacts
+        c = self._contacts
         if len(pairs) > c.capacity:
             counts = np.bincount(pairs.ravel(), minlength=m.n_bodies)[: self.n_blocks]
             worst = int(np.argmax(counts))
@@ -518,8 +617,18 @@ class Simulation:
                 f"(now {self.options.max_pairs_per_block}) or lower solver.skin ({self.skin:.3g} m)")
         n_old = c.n_pairs
         old_pairs = c.pairs[:n_old].copy() if n_old else None
-        history = c.read_history() if n_old else None
-        c.write_pairs(pairs, m.n_bodies, history, old_pairs)
+        if self.engine.on_device:
+            # the host keeps the index arrays (only it writes them); the history stays on the
+            # device (dem.engine.device.install_pairs)
+            lists = pair_lists(pairs, m.n_bodies, c.capacity, old_pairs)
+            c.pairs[...] = lists.pairs
+            c.adj_ptr[...] = lists.adj_ptr
+            c.adj[...] = lists.adj
+            c.n_pairs = lists.n
+            self.engine.install_pairs(self.scene_index, lists, n_old > 0)
+        else:
+            history = c.read_history() if n_old else None
+            c.write_pairs(pairs, m.n_bodies, history, old_pairs)
         c.ref_pos[...] = st.pos
         c.ref_quat[...] = st.quat
         self.n_rebuilds += 1
@@ -527,7 +636,7 @@ class Simulation:
     def check_initial_overlaps(self, tolerance: float) -> np.ndarray:
         """Raise if two bodies overlap by more than ``tolerance`` at the start; returns each
         body's largest contact patch area (m^2) at the start."""
-        c = self.contacts
+        c = self._contacts  # its pairs (written by the host)
         patch = np.zeros(self.model.n_bodies)
         n = c.n_pairs
         if n == 0:
@@ -535,8 +644,9 @@ class Simulation:
         depth = ti_nd_real(c.capacity)
         area = ti_nd_real(c.capacity)
         e = self.engine
-        stepk.probe_contacts(self._slot0, self._slot0 + n, depth, area, e.model.args,
-                             e.state.args, e.contacts.args, e._warped, e.batched)
+        m, st, ca, _ = e.containers()
+        stepk.probe_contacts(self._slot0, self._slot0 + n, depth, area, m, st, ca, e._warped,
+                             e.batched)
         d = depth[:n]
         worst = int(np.argmax(d))
         if d[worst] > tolerance:
@@ -621,6 +731,10 @@ class Simulation:
     EVOLVING = ("step_count", "_t_anchor", "_step_anchor", "dt", "dt_crit", "n_rebuilds",
                 "_deepest_time", "energy_initial", "area_cap", "_face_area")
 
+    # written before every launch, never read after it: not saved (a restart point then fits
+    # an engine with another chunk length, e.g. one on a device)
+    TRANSIENT = {("control", "loads")}
+
     def snapshot(self) -> dict[str, np.ndarray]:
         """Everything that evolves, as named arrays (an npz file's content): every array of
         State, Contacts and Control (this scene's), the pair count, :attr:`EVOLVING`,
@@ -629,7 +743,7 @@ class Simulation:
         alone or as a scene of an engine of several.  The Model is static, rebuilt from the
         scene, never saved."""
         out = {f"{name}.{k}": a.copy() for name, box in self._boxes()
-               for k, a in box.arrays().items()}
+               for k, a in box.arrays().items() if (name, k) not in self.TRANSIENT}
         out["contacts.n_pairs"] = np.array(self.contacts.n_pairs)
         out.update({f"sim.{k}": np.array(getattr(self, k)) for k in self.EVOLVING})
         out["sim.dt_changes"] = np.array(json.dumps(self.dt_changes))
@@ -647,6 +761,8 @@ class Simulation:
                              f"simulation runs the {self.mode} one")
         for name, box in self._boxes():
             for k, a in box.arrays().items():
+                if (name, k) in self.TRANSIENT:
+                    continue
                 key = f"{name}.{k}"
                 if key not in snap:
                     raise ValueError(f"the snapshot has no {key}")
@@ -657,7 +773,7 @@ class Simulation:
         shared = Control.SHARED if self.engine.batched else ()
         for name, box in self._boxes():
             for k, a in box.arrays().items():
-                if name == "control" and k in shared:
+                if (name == "control" and k in shared) or (name, k) in self.TRANSIENT:
                     continue
                 a[...] = snap[f"{name}.{k}"]
         self.contacts.n_pairs = int(snap["contacts.n_pairs"])
@@ -703,12 +819,13 @@ class Simulation:
                      + 0.5 * (w[movable] * L[movable]).sum())
 
     def elastic_energy(self) -> float:
-        n = self.contacts.n_pairs
+        n = self._contacts.n_pairs
         if n == 0:
             return 0.0
         e = self.engine
-        return float(stepk.elastic_energy(self._slot0, self._slot0 + n, e.model.args,
-                                          e.contacts.args, e._hyperbolic, e.batched))
+        m, _, c, _ = e.containers()
+        return float(stepk.elastic_energy(self._slot0, self._slot0 + n, m, c, e._hyperbolic,
+                                          e.batched))
 
     def mechanical_energy(self) -> float:
         return self.kinetic_energy() + self.elastic_energy()

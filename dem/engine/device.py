@@ -1,0 +1,122 @@
+"""The engine's arrays on a device (issue 35: many scenes on a CUDA GPU).
+
+On the CPU the kernels use the containers' numpy arrays in place (zero copy).  On a GPU a numpy
+argument is copied to the device and back at every launch, which for the arrays of a hundred
+scenes (~300 MB of contacts) would cost more than the step itself.  An engine on a device
+therefore keeps a device array (``ti.ndarray``) of every field beside the host's numpy array,
+hands the kernels the device arrays, and moves data only where the host needs it:
+
+* Model: copied once (static).
+* Control: all but the loads copied back after each launch (the status bits, steps done,
+  deepest penetration, energy sums: a few kB); all copied to the device before each launch
+  (the loads of the chunk's steps, the reset diagnostics, local damping, active scenes).
+* State: copied back only when the host reads it (a neighbour-list rebuild, a recorded frame:
+  ``stale``), copied to the device only after the host may have written it (``dirty``).
+* Contacts: the same, lazily; a neighbour-list rebuild does not copy them at all: the host
+  computes the new index arrays of the rebuilt scene (it wrote the old ones, so it still has
+  them) and :func:`install_pairs` installs them on the device and carries the shear history
+  there (the same arithmetic as Contacts.write_pairs: the same results).
+
+The same code runs on the CPU with ``device_arrays=True`` (Taichi's ndarrays in host memory):
+tests/test_engine_device.py checks it against the numpy path, with no GPU.
+"""
+
+import numpy as np
+import taichi as ti
+
+from dem.engine.containers import ContactArgs, ModelArgs, StateArgs, element_type
+from dem.engine.geometry import MAXP
+from dem.engine.mathutil import vec3
+from dem.engine.step import slots_per_scene
+
+
+class DeviceArrays:
+    """Device copies of one container's fields (``box``: Model, State, Contacts or Control),
+    with ``push`` (host -> device) and ``pull`` (device -> host, into the host arrays in
+    place) by field name, and the argpack of the device arrays for the kernels."""
+
+    def __init__(self, box):
+        self.box = box
+        self.dev = {}
+        for f in box.FIELDS:
+            host = getattr(box, f.name)
+            dtype, elem_shape = element_type(f)
+            shape = host.shape[: host.ndim - len(elem_shape)]
+            self.dev[f.name] = ti.ndarray(dtype=dtype, shape=shape)
+        self.args = box.ARGS(**self.dev)
+
+    def push(self, names=None) -> None:
+        for name in names or self.dev:
+            self.dev[name].from_numpy(np.ascontiguousarray(getattr(self.box, name)))
+
+    def pull(self, names=None) -> None:
+        for name in names or self.dev:
+            getattr(self.box, name)[...] = self.dev[name].to_numpy()
+
+    def nbytes(self) -> int:
+        return self.box.nbytes()
+
+
+class HistoryScratch:
+    """One scene's shear history (code, npts, loc, shear of its P slots) on the device: where
+    :func:`install_pairs` keeps the old list's history while it writes the new one."""
+
+    def __init__(self, capacity: int, real):
+        self.code = ti.ndarray(ti.i32, shape=(capacity,))
+        self.npts = ti.ndarray(ti.i32, shape=(capacity,))
+        self.loc = ti.ndarray(ti.types.vector(3, real), shape=(capacity, MAXP))
+        self.shear = ti.ndarray(ti.types.vector(3, real), shape=(capacity, MAXP))
+
+
+@ti.kernel
+def install_pairs(g: ti.i32, n_new: ti.i32, has_history: ti.i32,
+                  new_pairs: ti.types.ndarray(ndim=2), new_ptr: ti.types.ndarray(ndim=1),
+                  new_adj: ti.types.ndarray(ndim=1), src: ti.types.ndarray(ndim=1),
+                  model: ModelArgs, state: StateArgs, contacts: ContactArgs,
+                  s_code: ti.types.ndarray(ndim=1), s_npts: ti.types.ndarray(ndim=1),
+                  s_loc: ti.types.ndarray(ndim=2), s_shear: ti.types.ndarray(ndim=2)):
+    """Scene g's new neighbour list (dem.engine.containers.pair_lists: pairs [P, 2], adj_ptr,
+    adj, src [P]: the old slot of each new pair, -1 for a new one) into the device's Contacts,
+    as Contacts.write_pairs does on the host: the history (code, npts, loc, shear) of kept pairs
+    moved to their new slots, the others' cleared (code -1, no points), no kept patch reused,
+    the reference poses of the skin criterion set to the scene's poses."""
+    P = slots_per_scene(contacts)
+    base = g * P
+    for p in range(P):
+        s_code[p] = contacts.code[base + p]
+        s_npts[p] = contacts.npts[base + p]
+        for q in range(MAXP):
+            s_loc[p, q] = contacts.loc[base + p, q]
+            s_shear[p, q] = contacts.shear[base + p, q]
+    for p in range(P):
+        slot = base + p
+        contacts.pairs[slot] = ti.math.ivec2(new_pairs[p, 0], new_pairs[p, 1])
+        old = -1
+        if has_history != 0 and p < n_new:
+            old = src[p]
+        if old >= 0:
+            contacts.code[slot] = s_code[old]
+            contacts.npts[slot] = s_npts[old]
+            for q in range(MAXP):
+                contacts.loc[slot, q] = s_loc[old, q]
+                contacts.shear[slot, q] = s_shear[old, q]
+        else:
+            contacts.code[slot] = -1
+            contacts.npts[slot] = 0
+            if has_history != 0:
+                for q in range(MAXP):
+                    contacts.loc[slot, q] = vec3(0.0)
+                    contacts.shear[slot, q] = vec3(0.0)
+        shape = contacts.patch_shape[slot, 0]
+        shape[3] = 0.0
+        contacts.patch_shape[slot, 0] = shape
+    for e in range(2 * P):
+        contacts.adj[2 * base + e] = new_adj[e]
+    b0 = model.scene_bodies[g][0]
+    b1 = model.scene_bodies[g][1]
+    for k in range(b1 - b0 + 1):
+        contacts.adj_ptr[b0 + g + k] = new_ptr[k]
+    for b in range(b0, b1):
+        contacts.ref_pos[b] = state.pos[b]
+        contacts.ref_quat[b] = state.quat[b]
+    contacts.scene_pairs[g] = n_new
