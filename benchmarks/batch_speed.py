@@ -62,10 +62,17 @@ def realisation(seed: int, mode: str, dt: float | None = None):
         loading_from_case(case)
 
 
+_BUILT: dict = {}
+
+
 def build(k: int, mode: str, device: bool | None, dt: float | None = None):
+    """An engine of realisations 0..k-1 (the scenes built once per seed and mode)."""
     from dem.engine.simulation import Engine
 
-    parts = [realisation(s, mode, dt) for s in range(k)]
+    for seed in range(k):
+        if (seed, mode) not in _BUILT:
+            _BUILT[seed, mode] = realisation(seed, mode, dt)
+    parts = [_BUILT[seed, mode] for seed in range(k)]
     engine = Engine([p[0] for p in parts], [p[1] for p in parts], parts[0][2],
                     device_arrays=device)
     return engine, [p[3] for p in parts]

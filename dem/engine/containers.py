@@ -176,8 +176,9 @@ CONTROL_DIAGNOSTICS = (
        "per scene, bits REBUILD | NONFINITE | RUNAWAY"),
     _f("bad_body", "i32", "G", "-", "integrate_stage",
        "per scene, a body (within the scene) that raised NONFINITE/RUNAWAY"),
-    _f("steps_done", "i32", (1,), "-", "advance_serial, advance_parallel",
-       "steps done by the last launch (the serial kernel) or chunk of launches (the parallel)"),
+    _f("steps_done", "i32", (2,), "-", "advance_serial, advance_parallel, integrate_stage",
+       "[0] steps done by the last launch (the serial kernel) or chunk of launches (the "
+       "parallel); [1] the status bits of every scene or-ed (one test per step, not G)"),
     _f("active", "i32", "G", "-", "Engine",
        "1: scene g steps; 0: frozen (its run finished or failed; its bodies and pairs are skipped)"),
     _f("deepest", "real", "G", "m", "deepest_stage",

@@ -120,7 +120,9 @@ class Engine:
         hmin = min(float(m.half_np[: m.n_blocks].min()) for m in models)
         self.skin = float(options.skin) if options.skin is not None else 0.1 * hmin
         self.mode = options.mode
-        if self.mode == "auto":
+        if self.on_device:  # the serial kernel would run on one GPU thread
+            self.mode = "parallel"
+        elif self.mode == "auto":
             threads = ti_runtime.settings()["threads"] or os.cpu_count() or 1
             self.mode = ("parallel" if self.model.n_bodies >= parallel_min_bodies(threads)
                          else "serial")
@@ -331,7 +333,7 @@ class Engine:
         ctl.status[...] = 0
         ctl.bad_body[...] = 0
         ctl.deepest_step[...] = -1
-        ctl.steps_done[0] = 0
+        ctl.steps_done[...] = 0
         if self._warped and self._overlap_wanted() != self._overlap:
             self._choose_launch()  # coherence.set_overlap_reuse switched the overlap reuse
         n_slots = self._n_slots()
@@ -458,6 +460,7 @@ class Engine:
             kernel, scalars = stepk.advance_serial, (0, 0, float(self.dt))
         else:  # "step -2": the recording launch does nothing (steps_done is 0, not -2 or -1)
             kernel, scalars = stepk.advance_parallel, (-2, 0, float(self.dt))
+            variants = variants + (self.on_device,)  # atomic sums on a device
         if self.fast_launch:
             self._advance = CachedLaunch(kernel, scalars, *self.containers(), *variants)
         else:

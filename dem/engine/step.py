@@ -478,11 +478,13 @@ def integrate_stage(b, s, dt, model: ti.template(), state: ti.template(),
             bad = RUNAWAY
         if bad != 0:
             ti.atomic_or(control.status[k], bad)
+            ti.atomic_or(control.steps_done[1], bad)
             ti.atomic_max(control.bad_body[k], b - model.scene_bodies[k][0])
         moved = (x1 - contacts.ref_pos[b]).norm() + model.radius[b] * quat_angle_between(
             q1, contacts.ref_quat[b])
         if moved > REBUILD_FRACTION * control.skin[0]:
             ti.atomic_or(control.status[k], REBUILD)
+            ti.atomic_or(control.steps_done[1], REBUILD)
 
 
 @ti.func
@@ -538,12 +540,38 @@ def deepest_stage(k, s, n_pairs, model: ti.template(), state: ti.template(),
 
 @ti.func
 def no_stop(control: ti.template()):
-    """1 while no scene raised a status bit."""
+    """1 while no scene raised a status bit (control.steps_done[1]: all scenes' bits or-ed)."""
     ok = 1
-    for k in range(control.status.shape[0]):
-        if control.status[k] != 0:
-            ok = 0
+    if control.steps_done[1] != 0:
+        ok = 0
     return ok
+
+
+@ti.func
+def scene_sums_atomic(p, k, s, contacts: ti.template(), control: ti.template()):
+    """Pair p's part of its scene's energy sums and deepest penetration at step s, added with
+    atomics (the device kernel: no loop of one thread per scene; the sums' order, so their
+    last bits, then vary from run to run, the trajectories do not: they never read them)."""
+    d = contacts.dissipation[p]
+    ti.atomic_add(control.energy_sums[k, E_NORMAL], d[0])
+    ti.atomic_add(control.energy_sums[k, E_SHEAR], d[1])
+    ti.atomic_add(control.energy_sums[k, E_FRICTION], d[2])
+    deepest = 0.0
+    for q in range(contacts.npts[p]):
+        deepest = ti.max(deepest, contacts.depth[p, q])
+    if deepest > control.deepest[k]:
+        old = ti.atomic_max(control.deepest[k], deepest)
+        if deepest > old:
+            control.deepest_step[k] = s  # every writer of a step writes the same s
+
+
+@ti.func
+def body_sums_atomic(b, k, state: ti.template(), control: ti.template()):
+    """Body b's work of step s added to its scene's sums with atomics (as scene_sums_atomic)."""
+    w = state.work[b]
+    ti.atomic_add(control.energy_sums[k, E_GRAVITY], w[0])
+    ti.atomic_add(control.energy_sums[k, E_BASE], w[1])
+    ti.atomic_add(control.energy_sums[k, E_LOCAL], w[2])
 
 
 @ti.kernel
@@ -586,27 +614,43 @@ def advance_serial(n_steps: ti.i32, n_slots: ti.i32, dt: float, model: ModelArgs
 def advance_parallel(s: ti.i32, n_slots: ti.i32, dt: float, model: ModelArgs,
                      state: StateArgs, contacts: ContactArgs, control: ControlArgs,
                      warped: ti.template(), hyperbolic: ti.template(), overlap: ti.template(),
-                     batched: ti.template()):
+                     batched: ti.template(), atomic_sums: ti.template()):
     """Step s of a chunk of launches (control.loads[s]) as parallel loops: over pair slots,
     over bodies, then over scenes (each scene's energy and deepest stages on one thread, in
     the serial kernel's order).  The host launches s = 0, 1, ... without reading anything back
     (no round trip per step, the GPU's way): a launch whose chunk already stopped (an earlier
     step raised a status bit) does nothing, so the chunk stops where the serial kernel would,
     and control.steps_done counts the steps done (the host zeroes it before s = 0).
-    ``warped``, ``hyperbolic``, ``overlap``, ``batched`` as in :func:`advance_serial`."""
+    ``warped``, ``hyperbolic``, ``overlap``, ``batched`` as in :func:`advance_serial`;
+    ``atomic_sums`` (an engine on a device): the energy sums and the deepest penetration added
+    by each pair and body with atomics (scene_sums_atomic) instead of one thread per scene
+    summing its pairs in order, which on a GPU costs more than the step (latency-bound loops
+    of ~1000 loads): the trajectories are the same, the sums' last bits vary."""
     if control.steps_done[0] == s and no_stop(control) == 1:
         control.steps_done[0] = s + 1  # this step runs
     for p in range(n_slots):
         if control.steps_done[0] == s + 1 and slot_live(p, contacts, control, batched) == 1:
             contact_stage(p, dt, model, state, contacts, control, warped, hyperbolic, overlap,
                           batched)
+            if ti.static(atomic_sums):
+                k = 0
+                if ti.static(batched):
+                    k = p // slots_per_scene(contacts)
+                scene_sums_atomic(p, k, s, contacts, control)
     for b in range(state.pos.shape[0]):
         if control.steps_done[0] == s + 1:
             integrate_stage(b, s, dt, model, state, contacts, control, batched)
-    for k in range(control.status.shape[0]):
-        if control.steps_done[0] == s + 1 and control.active[k] != 0:
-            energy_stage(k, n_slots, model, state, contacts, control, batched)
-            deepest_stage(k, s, n_slots, model, state, contacts, control, batched)
+            if ti.static(atomic_sums):
+                k = 0
+                if ti.static(batched):
+                    k = model.scene[b]
+                if model.inv_mass[b] > 0.0 and control.active[k] != 0:
+                    body_sums_atomic(b, k, state, control)
+    if ti.static(not atomic_sums):
+        for k in range(control.status.shape[0]):
+            if control.steps_done[0] == s + 1 and control.active[k] != 0:
+                energy_stage(k, n_slots, model, state, contacts, control, batched)
+                deepest_stage(k, s, n_slots, model, state, contacts, control, batched)
 
 
 @ti.func

@@ -1,0 +1,138 @@
+"""Issue 35's GPU check, on a borrowed machine (tools/device/README.md): run from the repository
+root with `bash tools/device/gpu_batch_check.sh` (carry [".device"]).
+
+Three parts, each with its own time budget, results appended to $OUT as they come:
+  1. realisations: ``R`` realisations (seeds 0..R-1) of Model II y at 2.8 Hz, 1.53 m/s^2,
+     ``CYCLES`` cycles, as `dem ensemble` runs them (settling, table-frame start, the shake
+     analysis of each point), in one engine on the GPU (dem.run.batched, arch cuda) and, at the
+     same time, each alone in its own single-threaded process on the CPU cores: per seed, the shake
+     analysis of both (points_gpu.json, points_cpu.json: ds amplification, lag, ...);
+  2. throughput (benchmarks/batch_speed.py cuda): brick-steps/s against K on the GPU, the error
+     of scenes 0 and K-1 against each alone on the CPU, the 100 x 50-cycle extrapolation
+     (gpu.jsonl), run while part 1's CPU processes run (stated in the output);
+  3. the CPU baseline of the same machine: 16 single-threaded processes of one scene
+     (cpu_lone.jsonl), after part 1's CPU runs end.
+"""
+
+from __future__ import annotations
+
+import json
+import multiprocessing as mp
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import yaml
+
+ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT))
+OUT = Path(os.environ.get("OUT", "/tmp/out"))
+CASE = ROOT / "cases/shake/model-ii/group-3-y-1.53.yaml"
+FROZEN = ROOT / "studies/calibration/frozen.yaml"
+T0 = time.time()
+ARCH = os.environ.get("ARCH", "cuda")  # cpu: a dry run of this script on any machine
+
+
+def say(*a):
+    print(f"[{time.time() - T0:6.1f} s]", *a, flush=True)
+
+
+def case_of(seed: int, cycles: int):
+    from dem.case import parse_case
+
+    doc = yaml.safe_load(CASE.read_text())
+    doc["name"] = f"model-ii-y-2.8-seed{seed}"
+    doc["imperfections"] = {**yaml.safe_load(FROZEN.read_text())["imperfections"], "seed": seed}
+    doc["loading"]["cycles"] = cycles
+    doc["run"]["duration"] = cycles / 2.8 + 1.0
+    doc["run"]["vtk"] = False
+    return parse_case(doc)
+
+
+def compact_post(rec: dict) -> dict:
+    """A point's status and its shake analysis (postprocess.sweep.compact: amplification,
+    lag, ...), compared here and back home."""
+    return {"status": rec["status"], "error": rec.get("error"), "post": rec.get("post")}
+
+
+def cpu_point(args):
+    seed, cycles, out = args
+    os.environ["DEM_THREADS"] = "1"
+    from dem.batch import run_one
+    from postprocess.sweep import analyze_point
+
+    case = case_of(seed, cycles)
+    t0 = time.time()
+    rec = run_one(f"seed{seed}", case.model_dump_json(), str(out / f"seed{seed}"), 1, None,
+                  analyze_point, ())
+    return seed, {**compact_post(rec), "wall_s": time.time() - t0}
+
+
+def gpu_points(R: int, cycles: int) -> None:
+    """Part 1 on the GPU (its own process: a time limit can stop it)."""
+    from dem.run.batched import run_cases_in_one_engine
+    from postprocess.sweep import analyze_point
+
+    cases = [(f"seed{s}", case_of(s, cycles)) for s in range(R)]
+    t0 = time.time()
+    try:
+        recs = run_cases_in_one_engine(cases, [Path("/tmp/gpu_runs") / n for n, _ in cases],
+                                       arch=ARCH, post=analyze_point)
+        gpu = {s: compact_post(r) for s, r in enumerate(recs)}
+        batch = json.loads((Path("/tmp/gpu_runs/seed0/summary.json")).read_text()).get("batch")
+    except Exception as err:  # noqa: BLE001 - report it
+        gpu, batch = {"error": f"{type(err).__name__}: {err}"}, None
+    gpu_s = time.time() - t0
+    (OUT / "points_gpu.json").write_text(json.dumps({"wall_s": gpu_s, "batch": batch,
+                                                     "points": gpu}, indent=1, default=str))
+    say(f"part 1 GPU: {R} realisations in {gpu_s:.1f} s")
+
+
+def main() -> int:
+    R = int(os.environ.get("R", "8"))
+    cycles = int(os.environ.get("CYCLES", "10"))
+    if sys.argv[1:] == ["gpu-points"]:
+        gpu_points(R, cycles)
+        return 0
+    ks = os.environ.get("KS", "1,16,64,100")
+    OUT.mkdir(parents=True, exist_ok=True)
+    # part 1, CPU side: in the background from the start (one process per realisation)
+    pool = mp.get_context("spawn").Pool(R)
+    cpu_async = pool.map_async(cpu_point, [(s, cycles, Path("/tmp/cpu_runs")) for s in range(R)])
+    say(f"part 1: {R} CPU processes started ({cycles} cycles each)")
+    # part 2: throughput on the GPU (part 1's CPU processes running on other cores)
+    cmd = [sys.executable, str(ROOT / "benchmarks/batch_speed.py"), ARCH, "--ks", ks,
+           "--steps", os.environ.get("STEPS", "1000"), "--repeats", "3", "--error",
+           "--json", str(OUT / "gpu.jsonl")]
+    for part, argv, budget in (
+            ("2 (throughput)", cmd, float(os.environ.get("THROUGHPUT_S", "240"))),
+            ("1 GPU (realisations)", [sys.executable, __file__, "gpu-points"],
+             float(os.environ.get("GPU_POINTS_S", "200")))):
+        try:
+            subprocess.run(argv, timeout=budget, check=False)
+            say(f"part {part} done")
+        except subprocess.TimeoutExpired:
+            say(f"part {part} cut at {budget} s")
+    try:
+        cpu = dict(cpu_async.get(timeout=float(os.environ.get("CPU_WAIT_S", "60"))))
+    except mp.TimeoutError:
+        cpu = {"error": "the CPU runs did not finish in time"}
+    pool.terminate()
+    (OUT / "points_cpu.json").write_text(json.dumps(cpu, indent=1, default=str))
+    say("part 1 CPU done")
+    # part 3: the CPU baseline, if time is left
+    if time.time() - T0 < float(os.environ.get("LONE_BEFORE_S", "450")):
+        try:
+            subprocess.run([sys.executable, str(ROOT / "benchmarks/batch_speed.py"), "lone",
+                            "--steps", "400", "--repeats", "3", "--procs", "16", "--json",
+                            str(OUT / "cpu_lone.jsonl")], timeout=90, check=False)
+        except subprocess.TimeoutExpired:
+            say("part 3 cut at 90 s")
+    say("all done")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,11 @@
+#!/usr/bin/env bash
+# Issue 35's GPU check on a borrowed machine (tools/device/README.md), from the repository root:
+#   device run, carry [".device"] (bash tools/device/make_bundle.sh first), timeout_s 570:
+#   R=8 CYCLES=10 KS=1,16,64,100 bash tools/device/gpu_batch_check.sh
+# Everything it measures lands in $OUT (gpu.jsonl, points_gpu.json, points_cpu.json,
+# cpu_lone.jsonl, log.txt); tools/device/gpu_batch_check.py says what each part is.
+set -u
+python3 -c "import zipfile; zipfile.ZipFile('.device/site.zip').extractall('/tmp/site')" || exit 3
+export PYTHONPATH=/tmp/site:$PWD/.device/stubs:$PWD PYTHONUNBUFFERED=1
+{ nvidia-smi -L; nproc; grep -m1 "model name" /proc/cpuinfo; } 2>&1 | tee "$OUT/machine.txt"
+python3 tools/device/gpu_batch_check.py 2>&1 | tee "$OUT/log.txt"
