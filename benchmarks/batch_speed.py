@@ -17,8 +17,11 @@ each of K separate processes runs); ``--procs N`` runs N of them at once and pri
 aggregate (K separate processes on C cores run min(K, C) at a time).
 
 Error: after the timed steps, the first and last scenes of the batch against the same scene run
-alone for the same steps with the batch's time step (serial kernel, numpy arrays, on the CPU of
-the same machine): the largest |position difference| (m) and |quaternion difference|.
+alone for the same steps with the batch's time step (on the CPU: serial kernel; on a GPU: alone
+on the GPU, one process runs one arch): the largest |position difference| (m) and |quaternion
+difference|.  ``--save DIR``: the states of every scene after the timed steps of each K <= 16
+(states_K<k>.npz: pos, quat, steps, dt), to compare a GPU's with the CPU's elsewhere
+(``compare DIR``: runs scenes 0 and K-1 alone on this machine's CPU and prints the difference).
 
 The time for 100 realisations of 50 cycles is extrapolated from the K=100 step time (the
 loading phase only: 50 / 2.8 Hz + 1 s = 18.86 s of simulated time at the batch's dt).
@@ -95,12 +98,33 @@ def error_against_alone(engine, steps_done: int, which: list[int]) -> dict:
     dpos = dquat = 0.0
     for g in which:
         scene, joints, opts, loading = realisation(g, "serial", engine.dt)
-        alone = Engine([scene], [joints], opts, device_arrays=False)
+        alone = Engine([scene], [joints], opts)  # on a GPU: alone on the GPU
         alone.advance(steps_done, [loading])
         a, b = engine.simulations[g].state, alone.simulations[0].state
         dpos = max(dpos, float(np.abs(a.pos - b.pos).max()))
         dquat = max(dquat, float(np.abs(a.quat - b.quat).max()))
     return {"max_dpos_m": dpos, "max_dquat": dquat, "scenes_checked": which}
+
+
+def compare_saved(states: Path, path: str | None) -> int:
+    """Scenes 0 and K-1 of each saved batch (another machine's, e.g. a GPU's) run alone here on
+    the CPU (serial kernel) for the same steps and dt: the largest differences."""
+    from dem.engine.simulation import Engine
+
+    for f in sorted(states.glob("states_K*.npz")):
+        z = np.load(f)
+        k = z["pos"].shape[0]
+        for g in sorted({0, k - 1}):
+            scene, joints, opts, loading = realisation(g, "serial", float(z["dt"]))
+            alone = Engine([scene], [joints], opts)
+            alone.advance(int(z["steps"]), [loading])
+            st = alone.simulations[0].state
+            emit({"compare": f.name, "scene": g, "steps": int(z["steps"]),
+                  "max_dpos_m": float(np.abs(z["pos"][g] - st.pos).max()),
+                  "max_dquat": float(np.abs(z["quat"][g] - st.quat).max()),
+                  "max_disp_from_start_m": float(np.abs(st.pos[:-1] - scene.position).max())},
+                 path)
+    return 0
 
 
 def emit(rec: dict, path: str | None) -> None:
@@ -113,7 +137,8 @@ def emit(rec: dict, path: str | None) -> None:
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("arch", choices=["cpu", "cuda", "lone"])
+    ap.add_argument("arch", choices=["cpu", "cuda", "lone", "compare"])
+    ap.add_argument("states", nargs="?", help="compare: a --save directory")
     ap.add_argument("--ks", default="1,4,16,64")
     ap.add_argument("--steps", type=int, default=400)
     ap.add_argument("--repeats", type=int, default=3)
@@ -121,7 +146,10 @@ def main() -> int:
     ap.add_argument("--procs", type=int, default=1)
     ap.add_argument("--error", action="store_true", help="also the error against lone runs")
     ap.add_argument("--json", default=None)
+    ap.add_argument("--save", default=None)
     args = ap.parse_args()
+    if args.arch == "compare":
+        return compare_saved(Path(args.states), args.json)
     if args.arch == "lone" and args.procs > 1:
         cmd = [sys.executable, __file__, "lone", "--steps", str(args.steps), "--repeats",
                str(args.repeats)]
@@ -158,6 +186,12 @@ def main() -> int:
             steps = SIM_SECONDS_50_CYCLES / engine.dt
             rec["extrapolated_50_cycles"] = {"K": k, "steps": steps,
                                              "seconds": steps * step_s}
+        if args.save and k <= 16:
+            Path(args.save).mkdir(parents=True, exist_ok=True)
+            np.savez(Path(args.save) / f"states_K{k}.npz",
+                     pos=np.stack([s.state.pos for s in engine.simulations]),
+                     quat=np.stack([s.state.quat for s in engine.simulations]),
+                     steps=engine.simulations[0].step_count, dt=engine.dt)
         if args.error and k > 1:
             rec["error_vs_alone"] = error_against_alone(engine, 256 + args.repeats * args.steps,
                                                         [0, k - 1])

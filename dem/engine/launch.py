@@ -55,17 +55,38 @@ class CachedLaunch:
         prog = runtime.prog
         rec = _Recorder(prog)
         runtime.prog = rec
+        primal = getattr(kernel, "_primal", None)  # Taichi's Kernel: its C++ kernel, recorded
+        spied = {}
+        if primal is not None:
+            launch = primal.launch_kernel
+
+            def spy(t_kernel, *args):
+                spied["t_kernel"] = t_kernel
+                return launch(t_kernel, *args)
+            primal.launch_kernel = spy
         try:
             kernel(*scalars, *arrays)
         finally:
             runtime.prog = prog
+            if primal is not None:
+                del primal.launch_kernel
+        self.device_arrays = []
         if rec.ctx is not None and hasattr(rec.ctx, "set_arg_int") and \
                 hasattr(rec.ctx, "set_arg_float"):
             self.ctx, self.compiled, self.prog = rec.ctx, rec.compiled, prog
             self.device_arrays = _device_array_slots(scalars, arrays)
-            if self.device_arrays and (not hasattr(rec.ctx, "set_arg_ndarray")
-                                       or self.device_arrays[0][1] is None):
-                self.ctx = None
+            if self.device_arrays:
+                # device arrays: a fresh context per launch (reusing one after a CUDA launch
+                # crashed Taichi 1.7.4 in set_arg_int), filled with the scalars, the argpacks
+                # and their arrays as Taichi's own call does, without its Python-side checks
+                self.t_kernel = spied.get("t_kernel")
+                self.argpacks = [((k,), v._ArgPack__argpack) for k, v in enumerate(
+                    v for v in (*scalars, *arrays) if not isinstance(v, bool))
+                    if hasattr(v, "_ArgPack__argpack")]
+                if (self.t_kernel is None or self.device_arrays[0][1] is None
+                        or not hasattr(rec.ctx, "set_arg_ndarray")
+                        or not hasattr(rec.ctx, "set_arg_argpack")):
+                    self.ctx = None
 
     @property
     def cached(self) -> bool:
@@ -76,8 +97,12 @@ class CachedLaunch:
             self.kernel(*scalars, *self.arrays)
             return
         ctx = self.ctx
-        for slot, arr in self.device_arrays:  # a launch replaces them by raw pointers
-            ctx.set_arg_ndarray(slot, arr)
+        if self.device_arrays:
+            ctx = self.t_kernel.make_launch_context()
+            for slot, pack in self.argpacks:
+                ctx.set_arg_argpack(slot, pack)
+            for slot, arr in self.device_arrays:
+                ctx.set_arg_ndarray(slot, arr)
         for k, (value, is_float) in enumerate(zip(scalars, self.kinds)):
             if is_float:
                 ctx.set_arg_float((k,), float(value))

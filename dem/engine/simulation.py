@@ -86,8 +86,9 @@ class Engine:
                  fast_launch: bool = True, lone: "Simulation | None" = None,
                  device_arrays: bool | None = None):
         ti_runtime.init(threads=options.threads, precision=options.precision)
-        self.on_device = (ti_runtime.settings()["arch"] == "cuda" if device_arrays is None
-                          else bool(device_arrays))
+        # on a GPU always (numpy arguments would be copied at every launch, and a reused launch
+        # context of copied arrays crashed Taichi 1.7.4); on the CPU where asked (its tests)
+        self.on_device = (ti_runtime.settings()["arch"] == "cuda" or bool(device_arrays))
         scenes = list(scenes)
         G = len(scenes)
         if G == 0:

@@ -99,13 +99,16 @@ def main() -> int:
     ks = os.environ.get("KS", "1,16,64,100")
     OUT.mkdir(parents=True, exist_ok=True)
     # part 1, CPU side: in the background from the start (one process per realisation)
-    pool = mp.get_context("spawn").Pool(R)
-    cpu_async = pool.map_async(cpu_point, [(s, cycles, Path("/tmp/cpu_runs")) for s in range(R)])
-    say(f"part 1: {R} CPU processes started ({cycles} cycles each)")
+    cpu_points = os.environ.get("CPU_POINTS", "1") == "1"  # 0: an earlier call's are kept
+    pool = mp.get_context("spawn").Pool(R) if cpu_points else None
+    if pool is not None:
+        cpu_async = pool.map_async(cpu_point, [(s, cycles, Path("/tmp/cpu_runs"))
+                                               for s in range(R)])
+        say(f"part 1: {R} CPU processes started ({cycles} cycles each)")
     # part 2: throughput on the GPU (part 1's CPU processes running on other cores)
     cmd = [sys.executable, str(ROOT / "benchmarks/batch_speed.py"), ARCH, "--ks", ks,
            "--steps", os.environ.get("STEPS", "1000"), "--repeats", "3", "--error",
-           "--json", str(OUT / "gpu.jsonl")]
+           "--json", str(OUT / "gpu.jsonl"), "--save", str(OUT)]
     for part, argv, budget in (
             ("2 (throughput)", cmd, float(os.environ.get("THROUGHPUT_S", "240"))),
             ("1 GPU (realisations)", [sys.executable, __file__, "gpu-points"],
@@ -115,13 +118,14 @@ def main() -> int:
             say(f"part {part} done")
         except subprocess.TimeoutExpired:
             say(f"part {part} cut at {budget} s")
-    try:
-        cpu = dict(cpu_async.get(timeout=float(os.environ.get("CPU_WAIT_S", "60"))))
-    except mp.TimeoutError:
-        cpu = {"error": "the CPU runs did not finish in time"}
-    pool.terminate()
-    (OUT / "points_cpu.json").write_text(json.dumps(cpu, indent=1, default=str))
-    say("part 1 CPU done")
+    if pool is not None:
+        try:
+            cpu = dict(cpu_async.get(timeout=float(os.environ.get("CPU_WAIT_S", "60"))))
+        except mp.TimeoutError:
+            cpu = {"error": "the CPU runs did not finish in time"}
+        pool.terminate()
+        (OUT / "points_cpu.json").write_text(json.dumps(cpu, indent=1, default=str))
+        say("part 1 CPU done")
     # part 3: the CPU baseline, if time is left
     if time.time() - T0 < float(os.environ.get("LONE_BEFORE_S", "450")):
         try:
