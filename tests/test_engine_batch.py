@@ -77,13 +77,15 @@ def test_shakes_at_different_frequencies_equal_separate_runs(mode):
     loads = [shake(4.0, 7.0), shake(6.0, 8.0), shake(8.0, 9.0, axis=1)]
     opts = options(mode=mode)
     engine = Engine([wall() for _ in loads], JOINTS, opts)
-    steps = 6000
+    # the parallel kernel runs the same arithmetic ~3x slower here: half the steps (the 8 Hz
+    # wall has been rebuilt 6 times by then, 18 times by 6000 steps)
+    steps = 6000 if mode == "serial" else 3000
     engine.advance(steps, loads)
     for sim, ld in zip(engine.simulations, loads):
         alone = run_alone(wall(), ld, steps, opts)
         assert_same(sim, alone)
     moved = [np.abs(s.state.pos[:-1] - s.scene.position).max() for s in engine.simulations]
-    assert min(moved) > 1e-4 and max(s.n_rebuilds for s in engine.simulations) > 1
+    assert min(moved) > 1e-5 and max(s.n_rebuilds for s in engine.simulations) > 3
 
 
 def test_tilts_and_scenes_of_different_sizes_equal_separate_runs():
