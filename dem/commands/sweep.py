@@ -37,6 +37,7 @@ from dem.engine import RESULTS_REVISION
 from dem.run.sweep import DEFAULT_MARGIN, SweepInputError, parse_frequencies, sweep_cases
 from postprocess.sweep import (MAIN_QUANTITY, analyze_point, characteristic_text, compact,
                                finite, point_record, sweep_meta, write_sweep)
+from dem.case.identity import same_case
 
 
 def say(msg: str) -> None:
@@ -51,8 +52,7 @@ def finished_run(case, out_dir: Path, max_steps: int | None = None) -> dict | No
     run an engine with different physics finished is not mixed in); else None."""
     try:
         summ = json.loads((out_dir / "summary.json").read_text())
-        same = json.loads((out_dir / "case.json").read_text()) == \
-            json.loads(case.model_dump_json())
+        same = same_case(json.loads((out_dir / "case.json").read_text()), case)
     except (OSError, ValueError):
         return None
     if not same or summ.get("status") != "ok" or summ.get("step_limit") != max_steps \

@@ -41,6 +41,7 @@ from dem.engine import RESULTS_REVISION
 from dem.loading import HeldTilt
 from dem.output.atomic import save_npz
 from dem.rundir import RESTART_FILE  # the file's name is kept where claim() needs it
+from dem.case.identity import same_case
 
 FORMAT = 1
 RESUMABLE_STATUS = ("running", "interrupted")
@@ -121,7 +122,7 @@ def load_restart(out: Path, case) -> tuple[dict | None, str]:
     if int(arrays.get("results_revision", -1)) != RESULTS_REVISION:
         return None, (f"{RESTART_FILE} from results revision {arrays.get('results_revision')}, "
                       f"this engine is {RESULTS_REVISION}")
-    if json.loads(str(arrays["case"])) != json.loads(case.model_dump_json()):
+    if not same_case(json.loads(str(arrays["case"])), case):
         return None, f"{RESTART_FILE} is of another case"
     return arrays, ""
 

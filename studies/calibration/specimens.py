@@ -15,6 +15,7 @@ from dem.case import Case, load_case
 from dem.engine import RESULTS_REVISION
 from studies.calibration.select import is_perfect
 from studies.tilt.study import quasi_static_case, study_settings
+from dem.case.identity import identity_json
 
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -178,7 +179,7 @@ def realisations_for(params: dict, requested: int) -> int:
 def fingerprint(case: Case, n: int, max_steps: int | None) -> str:
     """What a finished point must match to be reused: the case, N, the step cap, the engine's
     results revision (dem.engine.RESULTS_REVISION)."""
-    h = hashlib.sha256(case.model_dump_json().encode())
+    h = hashlib.sha256(identity_json(case).encode())
     h.update(f"|{n}|{max_steps}|{RESULTS_REVISION}".encode())
     return h.hexdigest()[:16]
 

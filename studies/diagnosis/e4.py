@@ -40,6 +40,7 @@ from studies.kit.records import merge_json, read_json
 from studies.prediction.plan import load_frozen, sweep_case
 from studies.prediction.points import collect_rows
 from studies.prediction.protocol import DEFAULT_FROZEN, ROOT
+from dem.case.identity import identity_json
 
 SWEEP = "model-ii-y"
 FREQUENCIES = (2.4, 2.8, 3.2)          # Hz: the thesis' effective range of Model II y
@@ -71,7 +72,7 @@ def level_case(params: dict, accel: float):
 
 def fingerprint(case) -> str:
     """What a finished row must match to count: the case, the plan and the engine's revision."""
-    h = hashlib.sha256(case.model_dump_json().encode())
+    h = hashlib.sha256(identity_json(case).encode())
     h.update(json.dumps([list(FREQUENCIES), list(SEEDS), CYCLES, RESULTS_REVISION]).encode())
     return h.hexdigest()[:16]
 

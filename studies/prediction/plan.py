@@ -17,6 +17,7 @@ from studies.kit.provenance import git_state, NotInGit, source_state
 from studies.prediction.protocol import (ORDER, PARAM_KEYS, PredictionInputError, PROVENANCE_KEYS,
                                          ROOT)
 from studies.shake.study import CASES, SWEEPS
+from dem.case.identity import identity_json
 
 
 # ---- the frozen set -----------------------------------------------------------------------------
@@ -130,7 +131,7 @@ def sweep_case(name: str, params: dict):
 def fingerprint(case, freqs, seeds, cycles, max_steps) -> str:
     """What a finished sweep must match to be skipped (the engine's results revision included,
     dem.engine.RESULTS_REVISION)."""
-    h = hashlib.sha256(case.model_dump_json().encode())
+    h = hashlib.sha256(identity_json(case).encode())
     h.update(json.dumps([list(freqs), list(seeds), cycles, max_steps,
                          RESULTS_REVISION]).encode())
     return h.hexdigest()[:16]
