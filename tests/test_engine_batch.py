@@ -159,3 +159,24 @@ def test_a_scene_of_an_engine_advances_only_with_the_others():
     engine = Engine([wall(), wall()], JOINTS, options())
     with pytest.raises(RuntimeError, match="advances with the others"):
         engine.simulations[0].advance(10, shake(2.0, 1.0))
+
+
+def test_a_restart_point_with_another_time_step_keeps_its_clock():
+    """A scene restored from a restart point taken with a smaller time step (a lone run whose
+    area caps shortened it) goes on from the snapshot's time, and the engine takes the smaller
+    step for every scene, each clock re-anchored where it stands."""
+    opts = options()
+    loads = [shake(2.0, 2.0), shake(3.0, 3.0)]
+    lone = Simulation(wall(), JOINTS, options(dt=0.5 * Engine([wall()], JOINTS, opts).dt))
+    lone.advance(400, loads[1])
+    snap = lone.snapshot()
+    engine = Engine([wall(), wall()], JOINTS, opts)
+    engine.advance(100, loads)
+    t_other = engine.simulations[0].t
+    engine.simulations[1].restore(snap)
+    assert engine.dt == lone.dt
+    assert engine.simulations[1].t == pytest.approx(lone.t, rel=1e-12)
+    assert engine.simulations[0].t == pytest.approx(t_other, rel=1e-12)
+    engine.advance(10, loads)
+    assert engine.simulations[1].t == pytest.approx(lone.t + 10 * lone.dt, rel=1e-12)
+    assert engine.simulations[0].t == pytest.approx(t_other + 10 * lone.dt, rel=1e-12)

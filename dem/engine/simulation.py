@@ -545,7 +545,13 @@ class Simulation:
     @dt.setter
     def dt(self, value: float) -> None:
         if self.engine.batched:
-            self.engine.adopt_dt(float(value))
+            # (a restart point's dt, set after its anchors) this scene's clock at its present
+            # step in that dt, then the engine's step from here on (the smaller of the two)
+            value = float(value)
+            t = self.clock.t_anchor + (self.step_count - self.clock.step_anchor) * value
+            self.clock.anchor(t, self.step_count)
+            self.clock.dt = self.engine.clock.dt
+            self.engine.adopt_dt(value)
         else:
             self.engine.clock.dt = value
 
