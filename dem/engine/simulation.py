@@ -548,10 +548,11 @@ class Simulation:
             # (a restart point's dt, set after its anchors) this scene's clock at its present
             # step in that dt, then the engine's step from here on (the smaller of the two)
             value = float(value)
-            t = self.clock.t_anchor + (self.step_count - self.clock.step_anchor) * value
-            self.clock.anchor(t, self.step_count)
-            self.clock.dt = self.engine.clock.dt
-            self.engine.adopt_dt(value)
+            if value != self.engine.clock.dt:  # the same step: the anchors stand as saved
+                t = self.clock.t_anchor + (self.step_count - self.clock.step_anchor) * value
+                self.clock.anchor(t, self.step_count)
+                self.clock.dt = self.engine.clock.dt
+                self.engine.adopt_dt(value)
         else:
             self.engine.clock.dt = value
 
