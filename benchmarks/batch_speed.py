@@ -144,6 +144,9 @@ def main() -> int:
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--threads", type=int, default=None)
     ap.add_argument("--procs", type=int, default=1)
+    ap.add_argument("--mode", choices=["parallel", "serial"], default="parallel",
+                    help="cpu: the kernel of the batch (dem sweep/ensemble --batch on the CPU "
+                         "run single-threaded workers, hence the serial kernel)")
     ap.add_argument("--error", action="store_true", help="also the error against lone runs")
     ap.add_argument("--json", default=None)
     ap.add_argument("--save", default=None)
@@ -166,7 +169,7 @@ def main() -> int:
     threads = 1 if args.arch == "lone" else args.threads
     ti_runtime.init(threads=threads, arch="cuda" if args.arch == "cuda" else "cpu")
     ks = [1] if args.arch == "lone" else [int(x) for x in args.ks.split(",")]
-    mode = "serial" if args.arch == "lone" else "parallel"
+    mode = "serial" if args.arch == "lone" else ("parallel" if args.arch == "cuda" else args.mode)
     for k in ks:
         t0 = time.perf_counter()
         engine, loads = build(k, mode, args.arch == "cuda")
