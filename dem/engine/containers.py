@@ -14,7 +14,8 @@ argpack member for that kernel argument ("Kernel argument 'area' is immutable"):
 locals differently from the fields below.
 
 Taichi 1.7.4 limits a kernel's arguments ("The number of elements in kernel arguments is too
-big! Do not exceed 64 on x64 backend"): the kernels take the 56 arrays below and 3 scalars; 58
+big! Do not exceed 64 on x64 backend"): the kernels take the 55 arrays below and 3 scalars (56 before the six energy sums became one
+energy_sums row and the scenes added four fields); 58
 arrays failed (patch reuse first wanted four Contacts fields, now two).  Pack a new field into an
 existing one (a wider vec or another row) when near the limit.
 
