@@ -14,10 +14,10 @@ argpack member for that kernel argument ("Kernel argument 'area' is immutable"):
 locals differently from the fields below.
 
 Taichi 1.7.4 limits a kernel's arguments ("The number of elements in kernel arguments is too
-big! Do not exceed 64 on x64 backend"): the kernels take the 55 arrays below and 3 scalars (56 before the six energy sums became one
-energy_sums row and the scenes added four fields); 58
-arrays failed (patch reuse first wanted four Contacts fields, now two).  Pack a new field into an
-existing one (a wider vec or another row) when near the limit.
+big! Do not exceed 64 on x64 backend"): the kernels take the 55 arrays below and 3 scalars
+(56 before the six energy sums became one energy_sums row and the scenes added four fields);
+58 arrays failed (patch reuse first wanted four Contacts fields, now two).  Pack a new field
+into an existing one (a wider vec or another row) when near the limit.
 
 Arrays are allocated once and only ever written in place (``a[...] = ...``): the argpacks and
 the cached launch contexts of :mod:`dem.engine.launch` hold their addresses.
