@@ -4,6 +4,7 @@ separate single-threaded processes, with the error of the batch against the scen
     python benchmarks/batch_speed.py cpu  --ks 1,4,16,64 --steps 400 --threads 2
     python benchmarks/batch_speed.py cuda --ks 1,16,64,100,256 --steps 2000
     python benchmarks/batch_speed.py lone --steps 400          # one scene, serial, 1 thread
+    python benchmarks/batch_speed.py cuda --ks 16,64 --steps 300 --profile   # + each task's time
 
 The scenes: Model II shaken along y at 2.8 Hz, 1.53 m/s^2 (cases/shake/model-ii/
 group-3-y-1.53.yaml: 217 bodies, 212 blocks), each with the frozen imperfection set
@@ -150,6 +151,8 @@ def main() -> int:
     ap.add_argument("--error", action="store_true", help="also the error against lone runs")
     ap.add_argument("--json", default=None)
     ap.add_argument("--save", default=None)
+    ap.add_argument("--profile", action="store_true",
+                    help="Taichi's kernel profiler: each task's time, printed after each K")
     args = ap.parse_args()
     if args.arch == "compare":
         return compare_saved(Path(args.states), args.json)
@@ -167,7 +170,8 @@ def main() -> int:
     from dem import ti_runtime
 
     threads = 1 if args.arch == "lone" else args.threads
-    ti_runtime.init(threads=threads, arch="cuda" if args.arch == "cuda" else "cpu")
+    ti_runtime.init(threads=threads, arch="cuda" if args.arch == "cuda" else "cpu",
+                    kernel_profiler=args.profile)
     ks = [1] if args.arch == "lone" else [int(x) for x in args.ks.split(",")]
     mode = "serial" if args.arch == "lone" else ("parallel" if args.arch == "cuda" else args.mode)
     for k in ks:
@@ -199,6 +203,12 @@ def main() -> int:
             rec["error_vs_alone"] = error_against_alone(engine, 256 + args.repeats * args.steps,
                                                         [0, k - 1])
         emit(rec, args.json)
+        if args.profile:  # the timed advances' tasks (warm-up and error runs included)
+            import taichi as ti
+
+            print(f"kernel profile, K = {k}:", flush=True)
+            ti.profiler.print_kernel_profiler_info("count")
+            ti.profiler.clear_kernel_profiler_info()
         del engine
     return 0
 

@@ -24,7 +24,7 @@ ARCHS = ("cpu", "cuda")
 
 
 def init(threads: int | None = None, precision: str = "f64", debug: bool = False,
-         arch: str | None = None) -> dict:
+         arch: str | None = None, kernel_profiler: bool = False) -> dict:
     """Initialise Taichi once per process.
 
     threads   : CPU threads for parallel loops (None: the ``DEM_THREADS`` environment variable,
@@ -35,6 +35,8 @@ def init(threads: int | None = None, precision: str = "f64", debug: bool = False
                 ``DEM_ARCH`` environment variable, else cpu; a later call with None accepts
                 the arch in use.  Taichi falls back to the CPU silently where CUDA is absent:
                 that raises RuntimeError here.
+    kernel_profiler : Taichi's per-task kernel timing (``ti.profiler``), for benchmarks
+                (benchmarks/batch_speed.py --profile); off by default.
     """
     global _settings
     if threads is None and os.environ.get("DEM_THREADS"):
@@ -61,6 +63,8 @@ def init(threads: int | None = None, precision: str = "f64", debug: bool = False
         debug=debug,
         log_level=ti.WARN,
     )
+    if kernel_profiler:
+        kwargs["kernel_profiler"] = True
     if threads is not None:
         kwargs["cpu_max_num_threads"] = int(threads)
     # ti.init prints "[Taichi] Starting on arch=x64" on stdout unconditionally; stdout is for

@@ -1,7 +1,8 @@
 """Issue 35's GPU check, on a borrowed machine (tools/device/README.md): run from the repository
 root with `bash tools/device/gpu_batch_check.sh` (carry [".device"]).
 
-Three parts, each with its own time budget, results appended to $OUT as they come:
+Parts, each with its own time budget, results appended to $OUT as they come (part 0 first:
+Taichi's kernel profiler on K = PROFILE_KS, each task's GPU time, printed to log.txt):
   1. realisations: ``R`` realisations (seeds 0..R-1) of Model II y at 2.8 Hz, 1.53 m/s^2,
      ``CYCLES`` cycles, as `dem ensemble` runs them (settling, table-frame start, the shake
      analysis of each point), in one engine on the GPU (dem.run.batched, arch cuda) and, at the
@@ -109,7 +110,11 @@ def main() -> int:
     cmd = [sys.executable, str(ROOT / "benchmarks/batch_speed.py"), ARCH, "--ks", ks,
            "--steps", os.environ.get("STEPS", "1000"), "--repeats", "3", "--error",
            "--json", str(OUT / "gpu.jsonl"), "--save", str(OUT)]
+    profile = [sys.executable, str(ROOT / "benchmarks/batch_speed.py"), ARCH, "--ks",
+               os.environ.get("PROFILE_KS", "16,64"), "--steps", "300", "--repeats", "1",
+               "--profile", "--json", str(OUT / "gpu_profile.jsonl")]
     for part, argv, budget in (
+            ("0 (each kernel task's time)", profile, float(os.environ.get("PROFILE_S", "150"))),
             ("2 (throughput)", cmd, float(os.environ.get("THROUGHPUT_S", "240"))),
             ("1 GPU (realisations)", [sys.executable, __file__, "gpu-points"],
              float(os.environ.get("GPU_POINTS_S", "200")))):
