@@ -85,6 +85,9 @@ class Engine:
     def __init__(self, scenes: list[Scene], joints, options: StepOptions, gravity=None,
                  fast_launch: bool = True, lone: "Simulation | None" = None,
                  device_arrays: bool | None = None):
+        # Taichi is started by the process's entry point (dem.run.build, dem.batch,
+        # dem.run.batched: arch, threads, precision); for a library user who did not, this
+        # starts it with the options' settings, and otherwise checks that they agree
         ti_runtime.init(threads=options.threads, precision=options.precision)
         # on a GPU always (numpy arguments would be copied at every launch, and a reused launch
         # context of copied arrays crashed Taichi 1.7.4); on the CPU where asked (its tests)

@@ -196,8 +196,12 @@ def build(case: Case, scene: Scene | None = None, sim=None) -> Built:
     scene = scene if scene is not None else scene_from_case(case)
     loading = loading_from_case(case)
     if sim is None:
+        from dem import ti_runtime
         from dem.engine import Simulation
 
+        # the run starts Taichi with its solver's settings (the arch: DEM_ARCH, or an earlier
+        # init of the process's entry point); the engine's own call then only checks them
+        ti_runtime.init(threads=case.solver.threads, precision=case.solver.precision)
         sim = Simulation(scene, case_joint_law(case, scene), step_options(case.solver),
                          gravity=loading.g0)
     if case.solver.overlap_reuse > 0.0:  # 0: the engine's default, left untouched (bit for bit)
