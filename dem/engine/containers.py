@@ -47,7 +47,7 @@ import numpy as np
 import taichi as ti
 
 from dem.engine.geometry import MAXP
-from dem.engine.pair import LAWS, N_PAIR_FIELDS, PAIR_FIELDS, PairMaterial
+from dem.engine.pair import LAWS, N_PAIR_FIELDS, PairMaterial
 from dem.scene import Scene
 from dem.ti_runtime import real_dtype
 
