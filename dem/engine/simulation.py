@@ -161,8 +161,11 @@ class Engine:
         stiff = [m.stiffest() for m in models]
         self._kn_step, self._ks_step, self._zeta_step = (max(x[k] for x in stiff)
                                                          for k in range(3))
-        limits = [m.closure_limit() for m in models]
-        self._closure_limit = min((x for x in limits if x is not None), default=None)
+        # per scene, the closure its hyperbolic pairs may reach (None: linear); the step is made
+        # for the stiffest tangent of them all, so each scene's own limit holds in the batch
+        self._closure_limits = [m.closure_limit() for m in models]
+        self._closure_limit = min((x for x in self._closure_limits if x is not None),
+                                  default=None)
         self.clock.face_area, self.clock.area_cap = face_area_caps(
             2 * self.model.half_np, self.model.mass_np, self.model.inertia_np, self._movable,
             self._kn_step, self._ks_step, options.safety, patch)
@@ -305,9 +308,11 @@ class Engine:
                         self.simulations[g].rebuild()
                     except CapacityError as err:
                         self._fail(g, err)
-            if self._closure_limit is not None:
+            if self._closure_limit is not None:  # each scene against its own law's limit
                 for g in np.flatnonzero(self.control.active):
-                    err = self.simulations[g]._closure_error(self._closure_limit)
+                    limit = self._closure_limits[g]
+                    err = None if limit is None else \
+                        self.simulations[g]._closure_error(limit)
                     if err is not None:
                         self._fail(g, err)
             self._check_caps()

@@ -196,8 +196,9 @@ def build(case: Case, scene: Scene | None = None, sim=None) -> Built:
     scene = scene if scene is not None else scene_from_case(case)
     loading = loading_from_case(case)
     if sim is None:
+        from dem.engine import Simulation  # first: it imports Taichi with signals deferred
+
         from dem import ti_runtime
-        from dem.engine import Simulation
 
         # the run starts Taichi with its solver's settings (the arch: DEM_ARCH, or an earlier
         # init of the process's entry point); the engine's own call then only checks them
