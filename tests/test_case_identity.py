@@ -49,3 +49,25 @@ def test_a_case_json_written_before_the_field_is_the_same_case():
     other = json.loads(case.model_dump_json())
     other["material"]["friction"] = 0.6
     assert not same_case(other, case)
+
+
+def test_the_recorded_prediction_fingerprints_still_match():
+    """Each sweep of results/prediction (recorded before solver.overlap_reuse existed) keeps the
+    fingerprint its plan gives today: the prediction is not run again."""
+    from pathlib import Path
+
+    from studies.prediction import plan as P
+
+    root = Path(__file__).parents[1] / "results/prediction"
+    plan = json.loads((root / "plan.json").read_text())
+    checked = 0
+    for name, sweep in plan["sweeps"].items():
+        points = root / name / "points.json"
+        if not points.exists():
+            continue
+        stored = (json.loads(points.read_text()).get("prediction") or {}).get("fingerprint")
+        case = P.sweep_case(name, plan["frozen"]["parameters"])
+        assert stored == P.fingerprint(case, sweep["frequencies_hz"], plan["seeds"],
+                                       P.sweep_cycles(plan, name), plan["max_steps"]), name
+        checked += 1
+    assert checked >= 5
