@@ -164,8 +164,6 @@ class Engine:
         # per scene, the closure its hyperbolic pairs may reach (None: linear); the step is made
         # for the stiffest tangent of them all, so each scene's own limit holds in the batch
         self._closure_limits = [m.closure_limit() for m in models]
-        self._closure_limit = min((x for x in self._closure_limits if x is not None),
-                                  default=None)
         self.clock.face_area, self.clock.area_cap = face_area_caps(
             2 * self.model.half_np, self.model.mass_np, self.model.inertia_np, self._movable,
             self._kn_step, self._ks_step, options.safety, patch)
@@ -308,7 +306,7 @@ class Engine:
                         self.simulations[g].rebuild()
                     except CapacityError as err:
                         self._fail(g, err)
-            if self._closure_limit is not None:  # each scene against its own law's limit
+            if self._hyperbolic:  # each scene against its own law's limit
                 for g in np.flatnonzero(self.control.active):
                     limit = self._closure_limits[g]
                     err = None if limit is None else \

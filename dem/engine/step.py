@@ -657,7 +657,8 @@ def advance_parallel(s: ti.i32, n_slots: ti.i32, dt: float, model: ModelArgs,
 def probe_pair(p, out_depth: ti.template(), out_area: ti.template(), p0, model: ti.template(),
                state: ti.template(), contacts: ti.template(), warped: ti.template(),
                batched: ti.template()):
-    """Largest penetration (m) and patch area (m^2) of pair p into out_depth[p], out_area[p]."""
+    """Largest penetration (m) and patch area (m^2) of pair slot p into out_depth[p - p0],
+    out_area[p - p0] (p0: the first slot of the probed scene)."""
     i, j = pair_bodies(p, model, contacts, batched)
     hA = model.half[i]
     hB = model.half[j]
