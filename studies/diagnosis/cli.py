@@ -30,6 +30,29 @@ def e4(workers: int = typer.Option(1, help="dem sweep workers (one single-thread
 
 
 @app.command()
+def grid(keys: list[str] = typer.Argument(..., help="experiments to run together, seed by seed: "
+                                          "e3 (the table's start), e5 (Model III at 5 mm), "
+                                          "e6 (the roof boundary)"),
+         workers: int = typer.Option(1, help="dem sweep workers (one single-threaded run each)"),
+         stop_at: str = typer.Option(None, help="UTC HH:MM after which no new sweep starts"),
+         report: bool = typer.Option(False, "--report", help="only rebuild the reports")) -> None:
+    """E3 / E5 / E6: case variants x frequencies x 3 seeds, 10 cycles, each run judged rocking or
+    not (resumable; touch runs/diagnosis/DRAIN to end softly).  studies/diagnosis/experiments.py."""
+    from studies.diagnosis import grid as exp
+    from studies.diagnosis.experiments import GRIDS
+
+    bad = [k for k in keys if k not in GRIDS]
+    if bad:
+        raise typer.BadParameter(f"unknown experiment(s) {bad}; choose from {sorted(GRIDS)}",
+                                 param_hint="KEYS")
+    grids = [GRIDS[k] for k in keys]
+    if not report:
+        exp.run(grids, workers=workers, stop_at=stop_at)
+    for g in grids:
+        exp.report(g)
+
+
+@app.command()
 def e7() -> None:
     """E7: the thesis' accelerations read as relative to the table, from the first prediction's
     committed rows (analysis only: no run)."""

@@ -1,0 +1,78 @@
+"""The diagnosis' grid experiments (issue 33): E3, E5 and E6 as :class:`studies.diagnosis.grid.Grid`.
+
+Each varies one thing of the first prediction's case (frozen imperfect joints, thesis friction,
+the same table motion otherwise) and nothing else; the runs are 10 cycles (+ 1 s) like E4's,
+judged by the library's branch verdict.  The baseline is the first prediction's rows of the same
+sweep and seeds (50 cycles, the case unchanged).
+
+E3, the table's start (thesis line 698: the table starts from rest; issue 32 item 1 built the
+options, cases/shake/protocol/): Model II y at the thesis' 1.53 m/s2, 2.4 / 2.8 / 3.2 Hz,
+  * ``lab-start``: the table at rest before t = 0, u = A sin(w t) after: every brick receives
+    the jump -A w in velocity relative to the table (-87 mm/s at 2.8 Hz);
+  * ``ramp``: the amplitude raised over the first 2 cycles (quintic taper, no jump of any kind),
+    a short controller ramp, then held.
+  The first prediction's start (``table-frame``) is the baseline.
+
+E5, Model III's level (thesis lines 726, 1119: group 8 at constant 5 mm, where the first study
+used group 9's 1.23 m/s2): Model III y at 5.00 mm, 2.8 / 3.2 / 3.6 Hz (1.55, 2.02, 2.56 m/s2).
+
+E6, the roof boundary: Model II y, 1.53 m/s2, 2.8 Hz,
+  * ``timber-beams``: the five roof beams timber on brick at mu 0.5 (an assumption: no
+    timber-brick friction is given by the thesis; dry timber on fired clay is commonly 0.4-0.6)
+    and the steel masses steel (the default 0.81 against timber and brick), as
+    cases/joint/model-ii-timber-beams.yaml;
+  * ``held-masses``: the roof and corner masses unable to slide on what they rest on (steel at
+    mu 5 against brick, the beams being brick here): they can still lift and rock, but their
+    inertia reaches the walls through friction without slip, the nearest the engine comes to
+    "masses fixed to the top course" (it has no glued joint).
+"""
+
+from __future__ import annotations
+
+from studies.diagnosis.grid import Grid, Variant
+
+SEEDS = (0, 1, 2)
+CYCLES = 10.0
+
+E3 = Grid(
+    key="e3", title="the table's start, Model II y at 1.53 m/s2",
+    hypothesis="the table's start put the tests on the upper (rocking) branch",
+    sweep="model-ii-y",
+    variants=(
+        Variant("lab-start", "lab start: table at rest before t = 0 (velocity jump)",
+                {"loading": {"start": "lab"}}),
+        Variant("ramp", "2-cycle ramp from rest (no jump)",
+                {"loading": {"start": "ramp", "ramp_cycles": 2.0}}),
+    ),
+    frequencies=(2.4, 2.8, 3.2), seeds=SEEDS, cycles=CYCLES)
+
+E5 = Grid(
+    key="e5", title="Model III y at constant 5 mm (group 8)",
+    hypothesis="Model III's level was 5 mm, not 1.23 m/s2",
+    sweep="model-iii-y",
+    variants=(
+        Variant("5mm", "5.00 mm amplitude (1.55-2.56 m/s2)",
+                {"loading": {"amplitude": 0.005, "peak_acceleration": None}}),
+    ),
+    frequencies=(2.8, 3.2, 3.6), seeds=SEEDS, cycles=CYCLES)
+
+E6 = Grid(
+    key="e6", title="the roof boundary, Model II y at 1.53 m/s2, 2.8 Hz",
+    hypothesis="the roof boundary (beam friction, loose masses) keeps the DEM quiet",
+    sweep="model-ii-y",
+    variants=(
+        Variant("timber-beams", "timber beams on brick at mu 0.5",
+                {"scene": {"box_model": {"materials": {"roof-beam": "timber",
+                                                       "roof-mass": "steel",
+                                                       "corner-mass": "steel"}}},
+                 "material": {"materials": ["timber", "steel"],
+                              "pairs": [{"between": ["timber", "brick"], "friction": 0.5}]}}),
+        Variant("held-masses", "roof and corner masses that cannot slide (mu 5)",
+                {"scene": {"box_model": {"materials": {"roof-mass": "steel",
+                                                       "corner-mass": "steel"}}},
+                 "material": {"materials": ["steel"],
+                              "pairs": [{"between": ["steel", "brick"], "friction": 5.0}]}}),
+    ),
+    frequencies=(2.8,), seeds=SEEDS, cycles=CYCLES)
+
+GRIDS = {g.key: g for g in (E3, E5, E6)}

@@ -1,0 +1,99 @@
+"""The diagnosis' grid experiments (studies/diagnosis/grid.py, experiments.py; issue 33 E3/E5/E6):
+a variant changes only what its patch names, a finished row counts only under its fingerprint,
+and the report counts the rocking runs by the library's verdict."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from studies.diagnosis import grid as G
+from studies.diagnosis.experiments import GRIDS
+from studies.prediction.plan import load_frozen, sweep_case
+from studies.prediction.protocol import DEFAULT_FROZEN
+
+
+def test_merge_patch_nested_none_and_no_mutation():
+    base = {"loading": {"peak_acceleration": 1.53, "amplitude": None, "frequency": 2.8},
+            "material": {"friction": 0.81, "pairs": []}}
+    out = G.merge_patch(base, {"loading": {"amplitude": 0.005, "peak_acceleration": None},
+                               "material": {"pairs": [{"between": ["a", "b"]}]}})
+    assert out["loading"] == {"peak_acceleration": None, "amplitude": 0.005, "frequency": 2.8}
+    assert out["material"] == {"friction": 0.81, "pairs": [{"between": ["a", "b"]}]}
+    assert base["loading"]["peak_acceleration"] == 1.53 and base["material"]["pairs"] == []
+
+
+def _leaves(d, prefix=()):
+    for k, v in d.items():
+        if isinstance(v, dict):
+            yield from _leaves(v, prefix + (k,))
+        else:
+            yield prefix + (k,), v
+
+
+@pytest.mark.parametrize("key", sorted(GRIDS))
+def test_a_variant_changes_only_what_it_names(key):
+    """Every leaf of the variant's case equals the first prediction's case except the patched
+    leaves (and the name); the patched ones hold the patch's values."""
+    params = load_frozen(DEFAULT_FROZEN)["parameters"]
+    grid = GRIDS[key]
+    base = dict(_leaves(sweep_case(grid.sweep, params).model_dump(mode="json")))
+    for v in grid.variants:
+        case = G.variant_case(grid, v, params)
+        got = dict(_leaves(case.model_dump(mode="json")))
+        patched = dict(_leaves(v.patch))
+        for path, value in got.items():
+            if path == ("name",):
+                assert value == f"diag-{key}-{v.name}"
+            elif path in patched:
+                want = patched[path]
+                if isinstance(value, list) and value and isinstance(value[0], dict):
+                    # a list of models: the patch's keys, the rest at their defaults
+                    value = [{k: x[k] for k in w} for x, w in zip(value, want)]
+                assert value == want, path
+            else:
+                assert value == base.get(path), (v.name, path)
+        assert set(patched) <= set(got)
+        assert G.fingerprint(grid, case) != G.fingerprint(
+            grid, sweep_case(grid.sweep, params))
+
+
+def test_e5_holds_the_amplitude_and_e3_the_start():
+    params = load_frozen(DEFAULT_FROZEN)["parameters"]
+    e5 = G.variant_case(GRIDS["e5"], GRIDS["e5"].variants[0], params)
+    assert e5.loading.amplitude == 0.005 and e5.loading.peak_acceleration is None
+    starts = [G.variant_case(GRIDS["e3"], v, params).loading.start for v in GRIDS["e3"].variants]
+    assert starts == ["lab", "ramp"]
+
+
+def _row(seed, f, ds, phase_deg, status="ok"):
+    return {"seed": seed, "frequency_hz": f, "run_status": status,
+            "amplification": {"ds": ds}, "lag_s": {"ds": phase_deg / (360.0 * f)}}
+
+
+def test_finished_rows_need_the_fingerprint_and_an_ok_run():
+    data = {"variants": {"v": {"fingerprint": "abc", "rows": [
+        _row(0, 2.8, 2.0, 140.0), _row(1, 2.8, 0.2, 12.0, status="pending")]}}}
+    assert list(G.finished(data, "v", "abc")) == [(0, 2.8)]
+    assert G.finished(data, "v", "other") == {}
+    assert G.finished(data, "w", "abc") == {}
+
+
+def test_report_counts_rocking_runs(tmp_path, monkeypatch):
+    monkeypatch.setattr(G, "RESULTS", tmp_path)
+    grid = G.Grid(key="ex", title="t", hypothesis="h", sweep="model-ii-y",
+                  variants=(G.Variant("v", "a variant", {"loading": {"start": "lab"}}),),
+                  frequencies=(2.8,), seeds=(0, 1, 2), cycles=10.0)
+    grid.out.mkdir(parents=True)
+    (grid.out / "points.json").write_text(json.dumps({"variants": {"v": {
+        "fingerprint": "x", "rows": [_row(0, 2.8, 2.4, 140.0), _row(1, 2.8, 0.2, 12.0),
+                                     _row(2, 2.8, 1.5, 60.0)]}}}))
+    s = G.report(grid, log=lambda *_: None)
+    cell = s["variants"]["v"]["cells"][0]
+    assert (cell["runs"], cell["rocking"]) == (3, 1)
+    assert [j["branch"] for j in cell["seeds"]] == ["rocking", "quasi-static", "between"]
+    assert cell["median_ds"] == pytest.approx(1.5)
+    # the baseline: the first prediction's committed rows of seeds 0-2 at 2.8 Hz
+    assert s["variants"][G.BASELINE]["cells"][0]["runs"] == 3
+    assert (grid.out / "branches.png").stat().st_size > 0
