@@ -55,8 +55,9 @@ def test_a_variant_changes_only_what_it_names(key):
             else:
                 assert value == base.get(path), (v.name, path)
         assert set(patched) <= set(got)
-        assert G.fingerprint(grid, case) != G.fingerprint(
-            grid, sweep_case(grid.sweep, params))
+        if v.patch:
+            assert G.fingerprint(grid, case) != G.fingerprint(
+                grid, sweep_case(grid.sweep, params))
 
 
 def test_e5_holds_the_amplitude_and_e3_the_start():
@@ -87,13 +88,16 @@ def test_report_counts_rocking_runs(tmp_path, monkeypatch):
                   frequencies=(2.8,), seeds=(0, 1, 2), cycles=10.0)
     grid.out.mkdir(parents=True)
     (grid.out / "points.json").write_text(json.dumps({"variants": {"v": {
-        "fingerprint": "x", "rows": [_row(0, 2.8, 2.4, 140.0), _row(1, 2.8, 0.2, 12.0),
-                                     _row(2, 2.8, 1.5, 60.0)]}}}))
+        "fingerprint": "x", "rows": [
+            dict(_row(0, 2.8, 2.4, 140.0), survival={"verdict": "local collapse", "n_fallen": 2}),
+            dict(_row(1, 2.8, 0.2, 12.0), survival={"verdict": "standing", "n_fallen": 0}),
+            _row(2, 2.8, 1.5, 60.0)]}}}))
     s = G.report(grid, log=lambda *_: None)
     cell = s["variants"]["v"]["cells"][0]
     assert (cell["runs"], cell["rocking"]) == (3, 1)
     assert [j["branch"] for j in cell["seeds"]] == ["rocking", "quasi-static", "between"]
     assert cell["median_ds"] == pytest.approx(1.5)
+    assert cell["survival"] == {"local collapse": 1, "standing": 1}
     # the baseline: the first prediction's committed rows of seeds 0-2 at 2.8 Hz
     assert s["variants"][G.BASELINE]["cells"][0]["runs"] == 3
     assert (grid.out / "branches.png").stat().st_size > 0

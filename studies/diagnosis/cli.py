@@ -32,11 +32,12 @@ def e4(workers: int = typer.Option(1, help="dem sweep workers (one single-thread
 @app.command()
 def grid(keys: list[str] = typer.Argument(..., help="experiments to run together, seed by seed: "
                                           "e3 (the table's start), e5 (Model III at 5 mm), "
-                                          "e6 (the roof boundary)"),
+                                          "e6 (the roof boundary), survival-model-i-y, "
+                                          "survival-model-ii-x (50 cycles)"),
          workers: int = typer.Option(1, help="dem sweep workers (one single-threaded run each)"),
          stop_at: str = typer.Option(None, help="UTC HH:MM after which no new sweep starts"),
          report: bool = typer.Option(False, "--report", help="only rebuild the reports")) -> None:
-    """E3 / E5 / E6: case variants x frequencies x 3 seeds, 10 cycles, each run judged rocking or
+    """E3 / E5 / E6 and the survival points: case variants x frequencies x 3 seeds, 10 cycles, each run judged rocking or
     not (resumable; touch runs/diagnosis/DRAIN to end softly).  studies/diagnosis/experiments.py."""
     from studies.diagnosis import grid as exp
     from studies.diagnosis.experiments import GRIDS

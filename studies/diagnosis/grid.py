@@ -1,5 +1,6 @@
 """A diagnosis experiment as a grid: case variants x frequencies x seeds of one first-prediction
-sweep, each run judged by the library's branch verdict (issue 33: E3, E5, E6).
+sweep, each run judged by the library's branch and survival verdicts (issue 33: E3, E5, E6, the survival
+points).
 
 An experiment (:class:`Grid`) names the first prediction's sweep whose case it starts from
 (``studies.prediction.plan.sweep_case``: the cases/shake file with the frozen imperfect joints of
@@ -10,8 +11,8 @@ the sweeps go seed by seed across every variant of every grid run together (:fun
 session cut short leaves whole seeds.
 
 Each run is judged by ``postprocess.verdicts.response_branch`` (rocking: ds amplification >= 1
-and phase of ds behind the table >= 90 deg) and, where the run recorded one, by its collapse
-flag.  The baseline beside each variant is the first prediction's committed rows of the same
+and phase of ds behind the table >= 90 deg) and by ``postprocess.survival`` (standing, local
+collapse or collapse, from every brick of its frames).  The baseline beside each variant is the first prediction's committed rows of the same
 sweep, seeds and frequencies (results/prediction/<sweep>/points.json: 50 cycles or its cut, the
 case without the variant's patch).
 
@@ -188,7 +189,10 @@ def judged(row: dict) -> dict:
     b = response_branch(row)
     return {"seed": row["seed"], "frequency_hz": row["frequency_hz"], **b,
             "lag_s": (row.get("lag_s") or {}).get("ds"),
-            "collapse_suspected": row.get("collapse_suspected")}
+            "collapse_suspected": row.get("collapse_suspected"),
+            "survival": (row.get("survival") or {}).get("verdict"),
+            "n_fallen": (row.get("survival") or {}).get("n_fallen"),
+            "first_fall_cycle": (row.get("survival") or {}).get("first_fall_cycle")}
 
 
 def cells(rows: list[dict]) -> list[dict]:
@@ -205,6 +209,8 @@ def cells(rows: list[dict]) -> list[dict]:
         out.append({"frequency_hz": f, "runs": len(js),
                     "rocking": sum(j["branch"] == "rocking" for j in js),
                     "collapse_suspected": sum(bool(j["collapse_suspected"]) for j in js),
+                    "survival": {v: sum(j["survival"] == v for j in js) for v in
+                                 sorted({j["survival"] for j in js if j["survival"]})},
                     "median_ds": float(np.median(ds)) if ds else None,
                     "median_phase_deg": float(np.median(ph)) if ph else None,
                     "seeds": sorted(js, key=lambda j: j["seed"])})
@@ -271,7 +277,9 @@ def report(grid: Grid, log=print) -> dict:
         plot(grid, table, grid.out / "branches.png")
     for name, t in table.items():
         line = "; ".join(f"{c['frequency_hz']:g} Hz {c['rocking']}/{c['runs']} rocking, "
-                         f"ds {c['median_ds']:.2g}" for c in t["cells"] if c["median_ds"])
+                         f"ds {c['median_ds']:.2g}" + (f", {c['survival']}" if c["survival"]
+                                                       else "")
+                         for c in t["cells"] if c["median_ds"])
         log(f"{grid.key.upper()} {name}: {line or 'no finished run'}")
     log(f"{grid.key.upper()}: {done} of {summary['runs_planned']} runs finished")
     return summary

@@ -17,6 +17,9 @@ def points_path(out: Path, name: str) -> Path:
     return Path(out) / name / "points.json"
 
 
+SURVIVAL_KEYS = ("verdict", "n_fallen", "first_fall_time_s", "first_fall_cycle", "by_wall")
+
+
 def row_from_point(seed: int, p: dict) -> dict:
     """One committed row from a sweep.json point record (postprocess.sweep.point_record)."""
     amp = p.get("amplification") or {}
@@ -53,6 +56,9 @@ def row_from_point(seed: int, p: dict) -> dict:
             "collapse_suspected": p.get("collapse_suspected"),
             "mechanism": {k: mech.get(k) for k in ("response", "corners", "line")},
             "note": p.get("note")})
+        surv = p.get("survival")
+        if surv:   # postprocess.survival's verdict (points analysed since issue 32 item 3)
+            row["survival"] = {k: surv.get(k) for k in SURVIVAL_KEYS}
     return row
 
 
