@@ -101,3 +101,38 @@ def test_report_counts_rocking_runs(tmp_path, monkeypatch):
     # the baseline: the first prediction's committed rows of seeds 0-2 at 2.8 Hz
     assert s["variants"][G.BASELINE]["cells"][0]["runs"] == 3
     assert (grid.out / "branches.png").stat().st_size > 0
+
+
+# ---- E2: the stepped specimen ------------------------------------------------------------------
+def test_e2_specimen_is_the_predictions_case_with_a_stepped_table():
+    from studies.diagnosis import e2
+
+    params = load_frozen(DEFAULT_FROZEN)["parameters"]
+    base = sweep_case("model-ii-y", params)
+    case = e2.specimen_case("model-ii-y", 2, params)
+    ld = case.loading
+    assert ld.type == "stepped_shake" and ld.peak_acceleration == base.loading.peak_acceleration
+    assert [s.frequency for s in ld.steps] == list(e2.DOWN + e2.UP)
+    assert case.imperfections.seed == 2 and case.material == base.material
+    # the steps' own durations, cycles / f, plus the margin
+    want = sum(e2.CYCLES_PER_STEP / f for f in e2.DOWN + e2.UP) + e2.MARGIN_S
+    assert case.run.duration == pytest.approx(want, rel=1e-12)
+
+
+def test_e2_step_rows_and_verdicts(tmp_path, monkeypatch):
+    from studies.diagnosis import e2
+
+    def step(f, pas, ds, phase):
+        return {"frequency_hz": f, "pass": pas, "t_start_s": 0.0, "amplification": {"ds": ds},
+                "lag": {"ds": {"s": phase / (360.0 * f)}}}
+    analysis = {"steps": [step(4.4, "down", 3.0, 140.0), step(2.8, "down", 2.5, 130.0),
+                          step(2.4, "down", 0.2, 10.0), step(2.8, "up", 0.2, 12.0)]}
+    rows = e2.step_rows(analysis)
+    assert [r["branch"] for r in rows] == ["rocking", "rocking", "quasi-static", "quasi-static"]
+    monkeypatch.setattr(e2, "OUT", tmp_path)
+    (tmp_path / "points.json").write_text(json.dumps({"specimens": {"model-ii-y-seed-0": {
+        "sweep": "model-ii-y", "seed": 0, "run_status": "ok", "steps": rows}}}))
+    v = e2.report(log=lambda *_: None)["verdicts"]["model-ii-y-seed-0"]
+    assert v["rocking_going_down_hz"] == [4.4, 2.8] and v["lowest_rocking_down_hz"] == 2.8
+    assert v["rocking_going_up_hz"] == []
+    assert (tmp_path / "passes.png").stat().st_size > 0

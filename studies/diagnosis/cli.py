@@ -30,6 +30,19 @@ def e4(workers: int = typer.Option(1, help="dem sweep workers (one single-thread
 
 
 @app.command()
+def e2(stop_at: str = typer.Option(None, help="UTC HH:MM after which no new specimen starts"),
+       report: bool = typer.Option(False, "--report", help="only rebuild the report")) -> None:
+    """E2: one specimen per (model, seed) stepped down from 4.4 to 2.0 Hz and up again, 15 cycles
+    a step: does a rocking specimen stay rocking where one from rest does not?  (resumable; a
+    killed run continues from its restart point; touch runs/diagnosis/e2/DRAIN to end softly)."""
+    from studies.diagnosis import e2 as exp
+
+    if not report:
+        exp.run(stop_at=stop_at)
+    exp.report()
+
+
+@app.command()
 def grid(keys: list[str] = typer.Argument(..., help="experiments to run together, seed by seed: "
                                           "e3 (the table's start), e5 (Model III at 5 mm), "
                                           "e6 (the roof boundary), survival-model-i-y, "
