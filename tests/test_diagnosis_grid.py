@@ -136,3 +136,31 @@ def test_e2_step_rows_and_verdicts(tmp_path, monkeypatch):
     assert v["rocking_going_down_hz"] == [4.4, 2.8] and v["lowest_rocking_down_hz"] == 2.8
     assert v["rocking_going_up_hz"] == []
     assert (tmp_path / "passes.png").stat().st_size > 0
+
+
+# ---- E1: the frequency fingerprint --------------------------------------------------------------
+@pytest.mark.parametrize("r, phase", [(0.3, 5.0), (0.7, 20.0), (1.5, 175.0), (2.5, 179.0)])
+def test_e1_natural_frequency_inverts_the_base_excited_oscillator(r, phase):
+    """A = r^2 / |1 - r^2| (undamped, Chopra 3.6) of f = r f_n gives back f_n on either side of
+    resonance (the phase says which)."""
+    from studies.diagnosis.e1 import natural_frequency
+
+    fn, f = 7.0, 7.0 * r
+    row = _row(0, f, r * r / abs(1.0 - r * r), phase)
+    assert natural_frequency(row) == pytest.approx(fn, rel=1e-12)
+
+
+def test_e1_fingerprint_ratios_and_verdict():
+    from studies.diagnosis import e1
+
+    def rows(fn):            # three seeds at 2.0 Hz on the low branch of f_n
+        r = e1.FREQUENCY / fn
+        return [_row(s, e1.FREQUENCY, r * r / (1 - r * r), 10.0) for s in range(3)]
+    thesis = e1.fingerprint_of({s: rows(3.0 * f) for s, f in e1.THESIS_FC.items()})
+    assert thesis["fingerprint"] == "passes"
+    for v in thesis["ratios"].values():
+        assert v["dem"] == pytest.approx(v["thesis"], rel=1e-12)
+    off = e1.fingerprint_of({**{s: rows(3.0 * f) for s, f in e1.THESIS_FC.items()},
+                             "model-iii-y": rows(3.0 * 2.0)})     # III / II = 2.0 / 2.8
+    assert off["fingerprint"] == "fails"
+    assert e1.fingerprint_of({"model-ii-y": rows(8.0)})["fingerprint"] == "pending"

@@ -46,7 +46,8 @@ def e2(stop_at: str = typer.Option(None, help="UTC HH:MM after which no new spec
 def grid(keys: list[str] = typer.Argument(..., help="experiments to run together, seed by seed: "
                                           "e3 (the table's start), e5 (Model III at 5 mm), "
                                           "e6 (the roof boundary), survival-model-i-y, "
-                                          "survival-model-ii-x (50 cycles)"),
+                                          "survival-model-ii-x (50 cycles), e1-<sweep> (E1's "
+                                          "fingerprint runs)"),
          workers: int = typer.Option(1, help="dem sweep workers (one single-threaded run each)"),
          stop_at: str = typer.Option(None, help="UTC HH:MM after which no new sweep starts"),
          report: bool = typer.Option(False, "--report", help="only rebuild the reports")) -> None:
@@ -64,6 +65,16 @@ def grid(keys: list[str] = typer.Argument(..., help="experiments to run together
         exp.run(grids, workers=workers, stop_at=stop_at)
     for g in grids:
         exp.report(g)
+
+
+@app.command()
+def e1() -> None:
+    """E1: the low-branch frequency fingerprint of each candidate joint from the runs of the
+    e1-* grids (analysis only: run them with `grid e1-model-ii-y e1-model-i-y e1-model-ii-x
+    e1-model-iii-y`)."""
+    from studies.diagnosis import e1 as exp
+
+    exp.report()
 
 
 @app.command()

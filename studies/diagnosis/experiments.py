@@ -89,4 +89,6 @@ SURVIVAL_II_X = Grid(
     hypothesis="the first prediction's survival at 20 cycles missed a local collapse",
     sweep="model-ii-x", variants=(AS_PREDICTED,), frequencies=(2.5,), seeds=SEEDS, cycles=50.0)
 
-GRIDS = {g.key: g for g in (E3, E5, E6, SURVIVAL_I_Y, SURVIVAL_II_X)}
+from studies.diagnosis.e1 import GRIDS as E1_GRIDS  # noqa: E402 - E1's runs are grids too
+
+GRIDS = {g.key: g for g in (E3, E5, E6, SURVIVAL_I_Y, SURVIVAL_II_X, *E1_GRIDS)}

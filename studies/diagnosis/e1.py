@@ -1,0 +1,162 @@
+"""E1 (issue 33): are the joints too stiff at low stress?  The low-branch frequency fingerprint.
+
+Hypothesis: the DEM's box models are stiffer than the laboratory's, and unevenly so between
+models; a joint law that is right at 1-7 kPa would move each model's natural frequency to the
+thesis' and, with it, the ratios between models.
+
+The fingerprint.  On the quiet (quasi-static) branch a model responds like a linear oscillator
+on a moving base (studies/resonance: Chopra, Dynamics of Structures, Section 3.6, zeta ~ 0):
+the ds amplification (peak-to-peak displacement relative to the table over the table's) is
+
+    A = r^2 / |1 - r^2|,   r = f / f_n,
+
+so one run at f gives f_n = f sqrt((1 + A) / A) below resonance (phase of ds behind the table
+under 90 deg) and f sqrt((A - 1) / A) above it (phase over 90 deg, A > 1).  Each candidate runs
+Models II y, I y, II x and III y at FREQUENCY = 2.0 Hz (below every thesis f_c), 10 cycles,
+seeds 0-2; the fingerprint is the three ratios of the median f_n: I y / II y, II x / II y,
+III y / II y, against the thesis' characteristic frequencies 2.0 / 2.8, 2.8 / 2.8, 2.4 / 2.8
+(Chapter 4: 0.71, 1.0, 0.86).  A candidate passes if all three lie within RATIO_TOLERANCE of the
+thesis' (and, checked separately, Chapter 3's tilt results stay within 5 %).
+
+A uniform change of a linear joint's kn (ks = 0.4 kn follows) scales every model's stiffness
+alike, so f_n by sqrt(kn'/kn) and the ratios not at all, if the joints stay closed: the
+kn candidates test that scaling (and put f_n where the thesis' f_c is); only a change that acts
+unevenly between models (stress-dependent stiffness, joint geometry) can move the ratios.
+
+Candidates (CANDIDATES: a patch of the first prediction's case each; the baseline is the first
+prediction's own rows at 2.0 Hz, kn = 5e9 Pa/m, planar 0.1 mm beds): linear kn 1e9 and 2e8
+Pa/m; planar beds of 0.2 and 0.3 mm; twisted (bilinear) faces of 0.1 mm.  The hyperbolic
+closure law at literature kn0 / d_max is not among them: no measured values could be read
+(results/diagnosis/README.md, E1).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from postprocess.verdicts import response_branch
+from studies.diagnosis.grid import Grid, RESULTS, Variant, baseline_rows
+from studies.kit.records import read_json
+
+FREQUENCY = 2.0
+SEEDS = (0, 1, 2)
+CYCLES = 10.0
+RATIO_TOLERANCE = 0.1
+THESIS_FC = {"model-ii-y": 2.8, "model-i-y": 2.0, "model-ii-x": 2.8, "model-iii-y": 2.4}
+REFERENCE = "model-ii-y"
+SWEEPS = tuple(THESIS_FC)
+
+CANDIDATES = (
+    Variant("kn-1e9", "linear kn 1e9 Pa/m (ks 0.4 kn)", {"material": {"normal_stiffness": 1e9}}),
+    Variant("kn-2e8", "linear kn 2e8 Pa/m (ks 0.4 kn)", {"material": {"normal_stiffness": 2e8}}),
+    Variant("planar-0.2", "planar beds, 0.2 mm unevenness",
+            {"imperfections": {"bed_unevenness": 0.0002}}),
+    Variant("planar-0.3", "planar beds, 0.3 mm unevenness",
+            {"imperfections": {"bed_unevenness": 0.0003}}),
+    Variant("twisted", "twisted (bilinear) faces, 0.1 mm",
+            {"imperfections": {"face_shape": "bilinear"}}),
+)
+
+GRIDS = tuple(Grid(key=f"e1-{s}", title=f"E1 fingerprint run: {s} at {FREQUENCY:g} Hz",
+                   hypothesis="the joints are too stiff at low stress", sweep=s,
+                   variants=CANDIDATES, frequencies=(FREQUENCY,), seeds=SEEDS, cycles=CYCLES)
+              for s in SWEEPS)
+OUT = RESULTS / "e1"
+
+
+def natural_frequency(row: dict) -> float | None:
+    """f_n (Hz) of one run from its ds amplification A and phase (module docstring); None
+    without them, or above resonance with A <= 1 (no real root)."""
+    b = response_branch(row)
+    a, ph, f = b["ds"], b["phase_deg"], row["frequency_hz"]
+    if a is None or ph is None or not a > 0.0:
+        return None
+    if ph < 90.0:
+        return f * math.sqrt((1.0 + a) / a)
+    return f * math.sqrt((a - 1.0) / a) if a > 1.0 else None
+
+
+def fingerprint_of(rows_by_sweep: dict) -> dict:
+    """Per sweep the seeds' f_n and their median; the ratios to REFERENCE's median and whether
+    each lies within RATIO_TOLERANCE of the thesis' f_c ratio."""
+    per = {}
+    for s, rows in rows_by_sweep.items():
+        fn = {int(r["seed"]): natural_frequency(r) for r in rows
+              if r.get("run_status") == "ok" and abs(r["frequency_hz"] - FREQUENCY) < 1e-9}
+        vals = [v for v in fn.values() if v is not None]
+        per[s] = {"fn_hz_by_seed": fn, "median_fn_hz": float(np.median(vals)) if vals else None}
+    ref = (per.get(REFERENCE) or {}).get("median_fn_hz")
+    ratios = {}
+    for s in SWEEPS:
+        if s == REFERENCE:
+            continue
+        m = (per.get(s) or {}).get("median_fn_hz")
+        want = THESIS_FC[s] / THESIS_FC[REFERENCE]
+        got = m / ref if (m and ref) else None
+        ratios[f"{s} / {REFERENCE}"] = {
+            "dem": got, "thesis": want,
+            "within": None if got is None else abs(got - want) <= RATIO_TOLERANCE}
+    known = [r["within"] for r in ratios.values()]
+    verdict = ("pending" if None in known else "passes" if all(known) else "fails")
+    return {"sweeps": per, "ratios": ratios, "fingerprint": verdict}
+
+
+def plot(table: dict, path: Path) -> None:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    names = list(table)
+    keys = [k for k in next(iter(table.values()))["ratios"]]
+    fig, ax = plt.subplots(figsize=(7.0, 3.8))
+    x = np.arange(len(keys))
+    w = 0.8 / (len(names) + 1)
+    for i, k in enumerate(keys):
+        t = table[names[0]]["ratios"][k]["thesis"]
+        ax.fill_between([i - 0.45, i + 0.45], t - RATIO_TOLERANCE, t + RATIO_TOLERANCE,
+                        color="0.85", lw=0)
+        ax.plot([i - 0.45, i + 0.45], [t, t], "k-", lw=1)
+    for j, n in enumerate(names):
+        vals = [table[n]["ratios"][k]["dem"] for k in keys]
+        ax.bar(x - 0.4 + (j + 0.5) * w, [v if v is not None else 0.0 for v in vals], w,
+               label=n)
+    ax.set_xticks(x, [k.replace(" / ", "\n/ ") for k in keys], fontsize=7)
+    ax.set_ylabel("ratio of natural frequencies")
+    ax.set_title(f"E1 fingerprint at {FREQUENCY:g} Hz: thesis' f_c ratio (line) +- "
+                 f"{RATIO_TOLERANCE:g} (grey)", fontsize=8)
+    ax.legend(fontsize=6, ncol=2)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def report(log=print) -> dict:
+    """summary.json and fingerprint.png: the baseline's and each candidate's fingerprint."""
+    from dem.output.atomic import write_json
+
+    table = {"first prediction (kn 5e9, planar 0.1 mm)": fingerprint_of(
+        {g.sweep: baseline_rows(g) for g in GRIDS})}
+    for v in CANDIDATES:
+        rows = {}
+        for g in GRIDS:
+            data = read_json(g.out / "points.json") or {}
+            rows[g.sweep] = ((data.get("variants") or {}).get(v.name) or {}).get("rows", [])
+        table[v.name] = {"label": v.label, **fingerprint_of(rows)}
+    cpu = sum((read_json(g.out / "cpu.json") or {}).get(g.key, 0.0) for g in GRIDS)
+    summary = {"experiment": "E1", "frequency_hz": FREQUENCY, "seeds": list(SEEDS),
+               "cycles": CYCLES, "ratio_tolerance": RATIO_TOLERANCE,
+               "thesis_fc_hz": THESIS_FC, "candidates": table, "cpu_seconds": cpu,
+               "command": "python -m studies diagnosis grid " + " ".join(g.key for g in GRIDS)
+               + " && python -m studies diagnosis e1"}
+    OUT.mkdir(parents=True, exist_ok=True)
+    write_json(OUT / "summary.json", summary, indent=1)
+    plot(table, OUT / "fingerprint.png")
+    for n, t in table.items():
+        fns = ", ".join(f"{s} {p['median_fn_hz']:.2f}" for s, p in t["sweeps"].items()
+                        if p["median_fn_hz"])
+        rats = ", ".join(f"{r['dem']:.2f}" if r["dem"] else "-" for r in t["ratios"].values())
+        log(f"E1 {n}: f_n (Hz) {fns or '-'}; ratios {rats} -> {t['fingerprint']}")
+    return summary
