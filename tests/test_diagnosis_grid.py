@@ -164,3 +164,22 @@ def test_e1_fingerprint_ratios_and_verdict():
                              "model-iii-y": rows(3.0 * 2.0)})     # III / II = 2.0 / 2.8
     assert off["fingerprint"] == "fails"
     assert e1.fingerprint_of({"model-ii-y": rows(8.0)})["fingerprint"] == "pending"
+
+
+def test_run_order_is_seed_then_variant_then_grid(tmp_path, monkeypatch):
+    """Within a seed, one variant on every grid before the next variant (E1: one candidate on
+    every model first), so that a cut session leaves whole candidates of a seed."""
+    calls = []
+    monkeypatch.setattr(G, "RESULTS", tmp_path / "results")
+    monkeypatch.setattr(G, "RUNS", tmp_path / "runs")
+    monkeypatch.setattr(G.child, "run_dem", lambda args, log: (
+        calls.append((args[1].split("/")[-2], args[1].split("/")[-1], args[args.index("--seed")
+                                                                          + 1])), (0, 0.0, 0.0))[1])
+    va, vb = (G.Variant("a", "a", {"loading": {"start": "lab"}}),
+              G.Variant("b", "b", {"loading": {"start": "ramp", "ramp_cycles": 1.0}}))
+    grids = [G.Grid(key=k, title="t", hypothesis="h", sweep="model-ii-y", variants=(va, vb),
+                    frequencies=(2.8,), seeds=(0, 1), cycles=2.0) for k in ("g1", "g2")]
+    G.run(grids, log=lambda *_: None)
+    assert calls == [("g1", "a.yaml", "0"), ("g2", "a.yaml", "0"), ("g1", "b.yaml", "0"),
+                     ("g2", "b.yaml", "0"), ("g1", "a.yaml", "1"), ("g2", "a.yaml", "1"),
+                     ("g1", "b.yaml", "1"), ("g2", "b.yaml", "1")]

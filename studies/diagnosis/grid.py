@@ -137,39 +137,40 @@ def merge_variant(grid: Grid, variant: Variant, case_file: Path, fp: str) -> dic
 
 def run(grids, workers: int = 1, stop_at: str | None = None, log=print) -> None:
     """Run every unfinished (grid, variant, seed) as one ``dem sweep`` over its unfinished
-    frequencies, seed by seed across all ``grids``, merging points.json and the CPU ledger
-    after each sweep.  Ends softly on the drain file runs/diagnosis/DRAIN, a signal or
+    frequencies, seed by seed, and within a seed the first variant of every grid, then the
+    second ... (E1: one candidate on every model before the next), merging points.json and the
+    CPU ledger after each sweep.  Ends softly on the drain file runs/diagnosis/DRAIN, a signal or
     ``stop_at`` (UTC HH:MM)."""
     frozen = load_frozen(DEFAULT_FROZEN)
     drain = session.start(RUNS, log=log)
-    for seed in sorted({s for g in grids for s in g.seeds}):
-        for grid in grids:
-            if seed not in grid.seeds:
-                continue
-            for variant in grid.variants:
-                if session.should_stop(drain, stop_at, log):
-                    return
-                case = variant_case(grid, variant, frozen["parameters"])
-                fp = fingerprint(grid, case)
-                case_file = grid.runs / f"{variant.name}.yaml"
-                case_file.parent.mkdir(parents=True, exist_ok=True)
-                case_file.write_text(yaml.safe_dump(case.model_dump(mode="json"),
-                                                    sort_keys=False))
-                done = finished(merge_variant(grid, variant, case_file, fp), variant.name, fp)
-                todo = [f for f in grid.frequencies if (seed, round(f, 9)) not in done]
-                if not todo:
-                    continue
-                log(f"[{time.strftime('%H:%M:%S', time.gmtime())} UTC] {grid.key.upper()} "
-                    f"{variant.name} seed {seed}: {', '.join(f'{f:g}' for f in todo)} Hz")
-                args = ["sweep", str(case_file), "--out", str(grid.runs / variant.name),
-                        "--frequencies", ",".join(f"{f:g}" for f in todo),
-                        "--cycles", f"{grid.cycles:g}", "--realisations", "1",
-                        "--seed", str(seed), "--workers", str(workers),
-                        "--drain-file", str(drain)]
-                rc, cpu, wall = child.run_dem(args, log)
-                session.add_cpu(grid.out / "cpu.json", grid.key, cpu)
-                merge_variant(grid, variant, case_file, fp)
-                log(f"    exit {rc}, {cpu:.0f} CPU-s, {wall:.0f} s")
+    order = [(seed, i, grid) for seed in sorted({s for g in grids for s in g.seeds})
+             for i in range(max(len(g.variants) for g in grids)) for grid in grids
+             if seed in grid.seeds and i < len(grid.variants)]
+    for seed, i, grid in order:
+        variant = grid.variants[i]
+        if session.should_stop(drain, stop_at, log):
+            return
+        case = variant_case(grid, variant, frozen["parameters"])
+        fp = fingerprint(grid, case)
+        case_file = grid.runs / f"{variant.name}.yaml"
+        case_file.parent.mkdir(parents=True, exist_ok=True)
+        case_file.write_text(yaml.safe_dump(case.model_dump(mode="json"),
+                                            sort_keys=False))
+        done = finished(merge_variant(grid, variant, case_file, fp), variant.name, fp)
+        todo = [f for f in grid.frequencies if (seed, round(f, 9)) not in done]
+        if not todo:
+            continue
+        log(f"[{time.strftime('%H:%M:%S', time.gmtime())} UTC] {grid.key.upper()} "
+            f"{variant.name} seed {seed}: {', '.join(f'{f:g}' for f in todo)} Hz")
+        args = ["sweep", str(case_file), "--out", str(grid.runs / variant.name),
+                "--frequencies", ",".join(f"{f:g}" for f in todo),
+                "--cycles", f"{grid.cycles:g}", "--realisations", "1",
+                "--seed", str(seed), "--workers", str(workers),
+                "--drain-file", str(drain)]
+        rc, cpu, wall = child.run_dem(args, log)
+        session.add_cpu(grid.out / "cpu.json", grid.key, cpu)
+        merge_variant(grid, variant, case_file, fp)
+        log(f"    exit {rc}, {cpu:.0f} CPU-s, {wall:.0f} s")
 
 
 # ---- the report ---------------------------------------------------------------------------------
