@@ -119,6 +119,106 @@ def short_source_positions() -> bool:
     return True
 
 
+def quick_front_end() -> bool:
+    """Two of Taichi 1.7.4's Python front-end costs that repeat work whose answer cannot change
+    within a process, replaced by equivalents that keep the answer (issue 36 defect 8):
+
+    * ``kernel_impl._get_tree_and_ctx`` runs for the kernel and again at every call site of
+      every ``ti.func`` it inlines (~500 for the stepping kernel): each time it re-reads the
+      function's source through ``inspect.getsourcelines`` (which tokenizes the module's text
+      to find the block), passes every line through ``textwrap.fill`` and dedents it.  Here
+      that text is worked out once per function object and kept; each call still parses it into
+      a fresh tree (the transformer writes into the tree's nodes) and builds its own context
+      and globals, exactly as Taichi does.
+    * ``kernel_impl._inside_class`` (each ``@ti.func`` / ``@ti.kernel`` decoration: is it
+      inside a ``class`` body?) reads the decorating frame's line through
+      ``inspect.getframeinfo``, whose ``inspect.getmodule`` scans every loaded module (twice
+      for the import machinery's frozen frames): here the same line comes from ``linecache``
+      directly (the file, line and cache ``inspect`` would use).
+
+    The kernels' source text, hence their IR, the compiled code and the offline-cache keys, are
+    those Taichi builds itself: results are the same bit for bit.  Called (idempotent) by each
+    kernel module of dem.engine before its decorators run; ``DEM_TI_PLAIN_FRONT_END=1`` leaves
+    Taichi as it is.  Returns False,
+    changing nothing, where Taichi's internals are not as expected."""
+    if os.environ.get("DEM_TI_PLAIN_FRONT_END"):
+        return False
+    try:
+        from taichi.lang import kernel_impl
+        from taichi.lang.ast.ast_transformer_utils import ASTTransformerContext
+    except ImportError:
+        return False
+    if getattr(kernel_impl, "_dem_quick_front_end", False):
+        return True
+    needed = ("_get_tree_and_ctx", "_inside_class", "_get_global_vars", "getsourcefile",
+              "getsourcelines", "_KERNEL_CLASS_STACKFRAME_STMT_RES")
+    if ti.__version__ != (1, 7, 4) or not all(hasattr(kernel_impl, n) for n in needed):
+        return False
+    import ast
+    import itertools
+    import linecache
+    import textwrap
+
+    sources: dict = {}  # function object -> (file, lines, first line number, dedented text)
+
+    def source_of(func):
+        known = sources.get(func)
+        if known is None:
+            file = kernel_impl.getsourcefile(func)
+            lines, start_lineno = kernel_impl.getsourcelines(func)
+            lines = [textwrap.fill(line, tabsize=4, width=9999) for line in lines]
+            known = (file, lines, start_lineno, textwrap.dedent("\n".join(lines)))
+            sources[func] = known
+        return known
+
+    def get_tree_and_ctx(self, excluded_parameters=(), is_kernel=True, arg_features=None,
+                         args=None, ast_builder=None, is_real_function=False):
+        file, src, start_lineno, text = source_of(self.func)
+        tree = ast.parse(text)
+        tree.body[0].decorator_list = []
+        global_vars = kernel_impl._get_global_vars(self.func)
+        if is_kernel or is_real_function:  # template arguments are seen as globals
+            for i in self.template_slot_locations:
+                global_vars[self.arguments[i].name] = args[i]
+        return tree, ASTTransformerContext(
+            excluded_parameters=excluded_parameters, is_kernel=is_kernel, func=self,
+            arg_features=arg_features, global_vars=global_vars, argument_data=args,
+            src=src, start_lineno=start_lineno, file=file, ast_builder=ast_builder,
+            is_real_function=is_real_function)
+
+    class_line = kernel_impl._KERNEL_CLASS_STACKFRAME_STMT_RES
+
+    def inside_class(level_of_class_stackframe):
+        # the frame Taichi's version looks at: the same depth below this function
+        try:
+            frame = sys._getframe(level_of_class_stackframe)
+            code = frame.f_code
+            lineno = None
+            if frame.f_lasti >= 0:  # the line of the current instruction, as inspect takes it
+                lineno = next(itertools.islice(code.co_positions(), frame.f_lasti // 2,
+                                               None))[0]
+            if lineno is None:
+                lineno = frame.f_lineno
+            file = code.co_filename
+            if not (file.startswith("<") and file.endswith(">")):
+                linecache.checkcache(file)
+            lines = linecache.getlines(file, frame.f_globals)
+            if not lines:
+                return False
+            start = max(0, min(lineno - 1, len(lines) - 1))
+            first = lines[start].strip()
+            return any(pat.match(first) for pat in class_line)
+        except Exception:
+            return False
+
+    # Taichi's own versions kept for tests/test_ti_front_end.py, which compares the two
+    kernel_impl._dem_taichi_originals = (kernel_impl._get_tree_and_ctx, kernel_impl._inside_class)
+    kernel_impl._get_tree_and_ctx = get_tree_and_ctx
+    kernel_impl._inside_class = inside_class
+    kernel_impl._dem_quick_front_end = True
+    return True
+
+
 def real_dtype():
     """numpy dtype of the engine's real arrays: float64, or float32 with precision "f32"."""
     import numpy as np

@@ -32,3 +32,47 @@ def test_compile_error_names_file_line_and_function():
     src, first = inspect.getsourcelines(test_compile_error_names_file_line_and_function)
     bad = first + next(k for k, ln in enumerate(src) if "return undefined_name" in ln)
     assert f"line {bad}," in text
+
+
+def test_quick_front_end_gives_taichi_answers():
+    """ti_runtime.quick_front_end: the kept source text gives the tree and context Taichi's own
+    _get_tree_and_ctx gives, and the line-cache reading of the decorating frame says 'inside a
+    class' exactly where Taichi's does (a data-oriented class's kernel still works)."""
+    import ast
+
+    from taichi.lang import kernel_impl
+
+    from dem.engine import geometry, step  # noqa: F401  (their kernels use the shortcut)
+
+    if "DEM_TI_PLAIN_FRONT_END" in os.environ:
+        pytest.skip("DEM_TI_PLAIN_FRONT_END set: Taichi's front end as it is")
+    assert ti_runtime.quick_front_end()
+    plain_tree_and_ctx, plain_inside_class = kernel_impl._dem_taichi_originals
+    ti_runtime.init()
+    funcs = [f.func for f in (geometry.box_contact, geometry.face_contact, step.probe_pair)]
+    for fn in funcs + funcs:  # the second round reads the kept text
+        ours, taichi_s = kernel_impl._get_tree_and_ctx(fn, is_kernel=False), \
+            plain_tree_and_ctx(fn, is_kernel=False)
+        assert ast.dump(ours[0]) == ast.dump(taichi_s[0])
+        for attr in ("src", "file", "lineno_offset", "is_kernel", "excluded_parameters"):
+            assert getattr(ours[1], attr) == getattr(taichi_s[1], attr), attr
+
+    # level 1: this function's frame (its line is no class statement); level 2 from a class
+    # body: the frame running the `class` statement (where a decorator's level points)
+    assert (kernel_impl._inside_class(1), plain_inside_class(1)) == (False, False)
+
+    class Probe:
+        found = (kernel_impl._inside_class(2), plain_inside_class(2))
+
+    assert Probe.found == (True, True)
+
+    @ti.data_oriented
+    class Doubler:
+        def __init__(self):
+            self.k = 2
+
+        @ti.kernel
+        def twice(self, x: ti.i32) -> ti.i32:
+            return x * self.k
+
+    assert Doubler().twice(21) == 42
