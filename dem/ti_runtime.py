@@ -211,11 +211,163 @@ def quick_front_end() -> bool:
         except Exception:
             return False
 
+    quick_matrix_ops()
     # Taichi's own versions kept for tests/test_ti_front_end.py, which compares the two
     kernel_impl._dem_taichi_originals = (kernel_impl._get_tree_and_ctx, kernel_impl._inside_class)
     kernel_impl._get_tree_and_ctx = get_tree_and_ctx
     kernel_impl._inside_class = inside_class
     kernel_impl._dem_quick_front_end = True
+    return True
+
+
+def quick_matrix_ops() -> bool:
+    """Taichi's vector and matrix helpers (``a.dot(b)``, ``a.cross(b)``, ``m @ v``,
+    ``m.transpose()``, ``v.sum()``: ``taichi.lang.matrix_ops``) are Taichi functions written
+    in Python that the front end transforms from their source at every call site, with their
+    loops over the components unrolled statement by statement: ~300 call sites and a third of
+    the front end of the stepping kernel (issue 36 defect 8).  Inside a kernel, the versions
+    here make the same calls on Taichi's expression builder, in the same order, that the
+    transform of Taichi's source makes (each argument copied into a local variable, each
+    assignment initialised twice, as Taichi's ``build_FunctionDef`` / ``build_Assign`` do), so
+    the kernel's IR, hence its offline-cache key and compiled code, are those of Taichi's own
+    helpers; their argument checks run as before.  Outside kernels, and with keyword arguments,
+    Taichi's own functions run.  Called by :func:`quick_front_end`; returns False, changing
+    nothing, where Taichi's internals are not as expected."""
+    import functools
+
+    try:
+        from taichi.lang import impl, matrix, matrix_ops
+        from taichi.lang import ops as ti_ops
+        from taichi.lang.exception import TaichiCompilationError
+        from taichi.lang.matrix_ops_utils import do_check
+    except ImportError:
+        return False
+    names = ("_reduce", "sum", "dot", "cross", "transpose", "_matmul_helper", "matmul",
+             "_filled_vector", "_filled_matrix")
+    if getattr(matrix_ops, "_dem_quick", False) or not all(
+            callable(getattr(matrix_ops, n, None)) for n in names):
+        return getattr(matrix_ops, "_dem_quick", False)
+
+    def checks_of(fn):
+        """The argument checks of Taichi's @preconditions wrapper (none for a bare pyfunc)."""
+        code = getattr(fn, "__code__", None)
+        if code is None or "checker_funcs" not in code.co_freevars:
+            return ()
+        return fn.__closure__[code.co_freevars.index("checker_funcs")].cell_contents
+
+    def builder():
+        return impl.get_runtime().current_kernel.ast_builder()
+
+    def sub(value, *indices):  # value[indices], as build_Subscript makes it
+        return impl.subscript(builder(), value, *indices)
+
+    def copy(value):  # a non-template argument, passed by value (build_FunctionDef)
+        return impl.expr_init_func(value)
+
+    def assign_new(value):  # `name = value` for a new name (build_Assign + build_assign_basic)
+        return impl.expr_init(impl.expr_init(value))
+
+    def reduce_(mat, fun):
+        mat = copy(mat)
+        shape = mat.get_shape()
+        if len(shape) == 1:
+            result = assign_new(sub(mat, 0))
+            for i in range(1, shape[0]):
+                result._assign(impl.expr_init(fun(result, sub(mat, i))))
+            return result
+        result = assign_new(sub(mat, 0, 0))
+        for i in range(shape[0]):
+            for j in range(shape[1]):
+                if i != 0 or j != 0:
+                    result._assign(impl.expr_init(fun(result, sub(mat, i, j))))
+        return result
+
+    def sum_(mat):
+        mat = copy(mat)
+        return matrix_ops._reduce(mat, ti_ops.add)
+
+    def dot_(vec_x, vec_y):
+        vec_x, vec_y = copy(vec_x), copy(vec_y)
+        return matrix_ops.sum(vec_x * vec_y)
+
+    def cross_(vec_x, vec_y):
+        vec_x, vec_y = copy(vec_x), copy(vec_y)
+        shape = vec_x.get_shape()
+        x, y = vec_x, vec_y
+        if shape[0] == 2:
+            return sub(x, 0) * sub(y, 1) - sub(x, 1) * sub(y, 0)
+        if shape[0] == 3:
+            return matrix.make_matrix([sub(x, 1) * sub(y, 2) - sub(x, 2) * sub(y, 1),
+                                       sub(x, 2) * sub(y, 0) - sub(x, 0) * sub(y, 2),
+                                       sub(x, 0) * sub(y, 1) - sub(x, 1) * sub(y, 0)])
+        return None
+
+    def transpose_(mat):
+        mat = copy(mat)
+        shape = mat.get_shape()
+        return matrix.make_matrix([[sub(mat, i, j) for i in range(shape[0])]
+                                   for j in range(shape[1])])
+
+    def filled_vector_(n, dtype, val):  # template arguments: no copies
+        return matrix.make_matrix([val for _ in range(n)], dtype)
+
+    def filled_matrix_(n, m, dtype, val):
+        return matrix.make_matrix([[val for _ in range(m)] for _ in range(n)], dtype)
+
+    def matmul_helper_(mat_x, mat_y):
+        mat_x, mat_y = copy(mat_x), copy(mat_y)
+        shape_x, shape_y = mat_x.get_shape(), mat_y.get_shape()
+        if len(shape_x) == 1 and len(shape_y) == 1:
+            return matrix_ops.dot(mat_x, mat_y)
+        if len(shape_y) == 1:
+            zero_elem = assign_new(sub(mat_x, 0, 0) * sub(mat_y, 0) * 0)
+            vec_z = assign_new(matrix_ops._filled_vector(shape_x[0], None, zero_elem))
+            for i in range(shape_x[0]):
+                for j in range(shape_x[1]):
+                    value = impl.expr_init(sub(vec_z, i) + sub(mat_x, i, j) * sub(mat_y, j))
+                    sub(vec_z, i)._assign(value)
+            return vec_z
+        zero_elem = assign_new(sub(mat_x, 0, 0) * sub(mat_y, 0, 0) * 0)
+        mat_z = assign_new(matrix_ops._filled_matrix(shape_x[0], shape_y[1], None, zero_elem))
+        for i in range(shape_x[0]):
+            for j in range(shape_y[1]):
+                for k in range(shape_x[1]):
+                    value = impl.expr_init(sub(mat_z, i, j) + sub(mat_x, i, k) * sub(mat_y, k, j))
+                    sub(mat_z, i, j)._assign(value)
+        return mat_z
+
+    def matmul_(mat_x, mat_y):
+        mat_x, mat_y = copy(mat_x), copy(mat_y)
+        shape_x, shape_y = mat_x.get_shape(), mat_y.get_shape()
+        if len(shape_x) == 1 and len(shape_y) == 2:
+            return matrix_ops._matmul_helper(matrix_ops.transpose(mat_y), mat_x)
+        return matrix_ops._matmul_helper(mat_x, mat_y)
+
+    def quick(name, ours):
+        taichis = getattr(matrix_ops, name)
+        checks = checks_of(taichis)
+
+        def helper(*args, **kwargs):
+            if kwargs or not impl.inside_kernel() or impl.get_runtime().current_kernel is None:
+                return taichis(*args, **kwargs)
+            if checks:
+                ok, msg = do_check(checks, *args)
+                if not ok:
+                    raise TaichiCompilationError(msg)
+            return ours(*args)
+
+        # Taichi's marks (_is_taichi_function, func, module): its transformer treats the helper
+        # as the Taichi function it replaces (no 'non-taichi function' warning)
+        functools.update_wrapper(helper, taichis)
+        helper.taichis = taichis
+        setattr(matrix_ops, name, helper)
+
+    for name, ours in (("_reduce", reduce_), ("sum", sum_), ("dot", dot_), ("cross", cross_),
+                       ("transpose", transpose_), ("_filled_vector", filled_vector_),
+                       ("_filled_matrix", filled_matrix_), ("_matmul_helper", matmul_helper_),
+                       ("matmul", matmul_)):
+        quick(name, ours)
+    matrix_ops._dem_quick = True
     return True
 
 

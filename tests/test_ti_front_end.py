@@ -76,3 +76,64 @@ def test_quick_front_end_gives_taichi_answers():
             return x * self.k
 
     assert Doubler().twice(21) == 42
+
+
+KERNEL_OF_HELPERS = r'''
+import json, sys
+import numpy as np
+import taichi as ti
+from dem import ti_runtime
+print(json.dumps({"quick": ti_runtime.quick_front_end()}))
+ti_runtime.init()
+
+@ti.func
+def helpers(a, b, m):
+    n = m @ m.transpose()  # matmul (matrix @ matrix), transpose
+    u = m @ a + a @ m      # matrix @ vector, vector @ matrix
+    w = a.cross(b) + n @ u
+    c2 = ti.math.vec2(a[0], b[1]).cross(ti.math.vec2(b[0], a[2]))  # 2-D cross: a scalar
+    return a.dot(w) + w.sum() + m.sum() + w.norm() + w.norm_sqr() + c2
+
+@ti.kernel
+def run(x: ti.types.ndarray(dtype=ti.f64, ndim=1)) -> ti.f64:
+    a = ti.math.vec3(x[0], x[1], x[2])
+    b = ti.math.vec3(x[3], x[4], x[5])
+    m = ti.math.mat3(x[0], x[1], x[2], x[3], x[4], x[5], x[6], x[7], x[8])
+    return helpers(a, b, m)
+
+x = np.linspace(-1.3, 2.1, 9)
+print(json.dumps({"value": run(x).hex()}))
+'''
+
+
+def test_quick_matrix_ops_compile_the_same_kernel(tmp_path):
+    """ti_runtime.quick_matrix_ops: a kernel using every replaced helper (dot, cross in 2-D and
+    3-D, sum of a vector and of a matrix, transpose, matrix @ matrix, matrix @ vector,
+    vector @ matrix, and norm / norm_sqr, Taichi's own helpers calling them) gets the same
+    offline-cache key (a hash of its IR) with the quick front end as with Taichi's own, hence
+    the same compiled code, and the same value bit for bit."""
+    import json
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    script = tmp_path / "helpers_kernel.py"  # Taichi reads a kernel's source from its file
+    script.write_text(KERNEL_OF_HELPERS)
+    out = {}
+    for label, plain in (("taichi", "1"), ("quick", "")):
+        cache = tmp_path / label
+        env = dict(os.environ, TI_OFFLINE_CACHE_FILE_PATH=str(cache), PYTHONPATH=str(root))
+        env.pop("DEM_TI_PLAIN_FRONT_END", None)
+        if plain:
+            env["DEM_TI_PLAIN_FRONT_END"] = plain
+        res = subprocess.run([sys.executable, str(script)], env=env, cwd=root,
+                             capture_output=True, text=True, timeout=600)
+        assert res.returncode == 0, res.stderr
+        assert "non-taichi function" not in res.stderr
+        lines = [json.loads(ln) for ln in res.stdout.splitlines() if ln.startswith("{")]
+        keys = sorted(p.name for p in cache.rglob("*.tic"))
+        out[label] = (lines[0]["quick"], lines[1]["value"], keys)
+    assert out["taichi"][0] is False and out["quick"][0] is True
+    assert out["quick"][1] == out["taichi"][1]
+    assert out["quick"][2] == out["taichi"][2] and len(out["quick"][2]) == 1
