@@ -133,8 +133,9 @@ def quick_front_end() -> bool:
     * ``kernel_impl._inside_class`` (each ``@ti.func`` / ``@ti.kernel`` decoration: is it
       inside a ``class`` body?) reads the decorating frame's line through
       ``inspect.getframeinfo``, whose ``inspect.getmodule`` scans every loaded module (twice
-      for the import machinery's frozen frames): here the same line comes from ``linecache``
-      directly (the file, line and cache ``inspect`` would use).
+      for the import machinery's frozen frames): :func:`dem.ti_import.swap` reads the same
+      line from ``linecache`` directly (the file, line and cache ``inspect`` would use); it is
+      swapped in from Taichi's own import on where dem is imported first (dem.ti_import).
 
     The kernels' source text, hence their IR, the compiled code and the offline-cache keys, are
     those Taichi builds itself: results are the same bit for bit.  Called (idempotent) by each
@@ -155,9 +156,9 @@ def quick_front_end() -> bool:
     if ti.__version__ != (1, 7, 4) or not all(hasattr(kernel_impl, n) for n in needed):
         return False
     import ast
-    import itertools
-    import linecache
     import textwrap
+
+    from dem import ti_import
 
     sources: dict = {}  # function object -> (file, lines, first line number, dedented text)
 
@@ -186,36 +187,14 @@ def quick_front_end() -> bool:
             src=src, start_lineno=start_lineno, file=file, ast_builder=ast_builder,
             is_real_function=is_real_function)
 
-    class_line = kernel_impl._KERNEL_CLASS_STACKFRAME_STMT_RES
-
-    def inside_class(level_of_class_stackframe):
-        # the frame Taichi's version looks at: the same depth below this function
-        try:
-            frame = sys._getframe(level_of_class_stackframe)
-            code = frame.f_code
-            lineno = None
-            if frame.f_lasti >= 0:  # the line of the current instruction, as inspect takes it
-                lineno = next(itertools.islice(code.co_positions(), frame.f_lasti // 2,
-                                               None))[0]
-            if lineno is None:
-                lineno = frame.f_lineno
-            file = code.co_filename
-            if not (file.startswith("<") and file.endswith(">")):
-                linecache.checkcache(file)
-            lines = linecache.getlines(file, frame.f_globals)
-            if not lines:
-                return False
-            start = max(0, min(lineno - 1, len(lines) - 1))
-            first = lines[start].strip()
-            return any(pat.match(first) for pat in class_line)
-        except Exception:
-            return False
-
     quick_matrix_ops()
     # Taichi's own versions kept for tests/test_ti_front_end.py, which compares the two
-    kernel_impl._dem_taichi_originals = (kernel_impl._get_tree_and_ctx, kernel_impl._inside_class)
+    # (dem.ti_import swapped _inside_class already where dem was imported before Taichi)
+    ti_import.swap(kernel_impl)
+    kernel_impl._dem_taichi_originals = (
+        kernel_impl._get_tree_and_ctx,
+        getattr(kernel_impl, "_dem_taichi_inside_class", kernel_impl._inside_class))
     kernel_impl._get_tree_and_ctx = get_tree_and_ctx
-    kernel_impl._inside_class = inside_class
     kernel_impl._dem_quick_front_end = True
     return True
 

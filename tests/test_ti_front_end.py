@@ -81,9 +81,11 @@ def test_quick_front_end_gives_taichi_answers():
 KERNEL_OF_HELPERS = r'''
 import json, sys
 import numpy as np
+from dem import ti_runtime  # before Taichi, as in a dem process (dem.ti_import)
 import taichi as ti
-from dem import ti_runtime
-print(json.dumps({"quick": ti_runtime.quick_front_end()}))
+from taichi.lang import kernel_impl
+print(json.dumps({"quick": ti_runtime.quick_front_end(),
+                  "reader": kernel_impl._inside_class.__module__}))
 ti_runtime.init()
 
 @ti.func
@@ -133,7 +135,9 @@ def test_quick_matrix_ops_compile_the_same_kernel(tmp_path):
         assert "non-taichi function" not in res.stderr
         lines = [json.loads(ln) for ln in res.stdout.splitlines() if ln.startswith("{")]
         keys = sorted(p.name for p in cache.rglob("*.tic"))
-        out[label] = (lines[0]["quick"], lines[1]["value"], keys)
+        out[label] = (lines[0]["quick"], lines[1]["value"], keys, lines[0]["reader"])
     assert out["taichi"][0] is False and out["quick"][0] is True
+    # from Taichi's own import on, its decorators used dem.ti_import's reader (Taichi's not)
+    assert out["taichi"][3] == "taichi.lang.kernel_impl" and out["quick"][3] == "dem.ti_import"
     assert out["quick"][1] == out["taichi"][1]
     assert out["quick"][2] == out["taichi"][2] and len(out["quick"][2]) == 1
