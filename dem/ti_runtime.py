@@ -137,11 +137,12 @@ def quick_front_end() -> bool:
       line from ``linecache`` directly (the file, line and cache ``inspect`` would use); it is
       swapped in from Taichi's own import on where dem is imported first (dem.ti_import).
 
+    It also applies :func:`quick_matrix_ops` (Taichi's vector helpers without the transform).
     The kernels' source text, hence their IR, the compiled code and the offline-cache keys, are
     those Taichi builds itself: results are the same bit for bit.  Called (idempotent) by each
     kernel module of dem.engine before its decorators run; ``DEM_TI_PLAIN_FRONT_END=1`` leaves
-    Taichi as it is.  Returns False,
-    changing nothing, where Taichi's internals are not as expected."""
+    Taichi as it is.  Returns False, changing nothing, where Taichi's internals are not as
+    expected (another Taichi than 1.7.4)."""
     if os.environ.get("DEM_TI_PLAIN_FRONT_END"):
         return False
     try:
