@@ -42,9 +42,12 @@ The warped kernels have their own, off by default: the overlap reuse at the end 
 
 import taichi as ti
 
+from dem import ti_runtime
 from dem.engine import geometry
 from dem.engine.geometry import point_buffer
 from dem.engine.mathutil import vec3, vec4
+
+ti_runtime.quick_front_end()  # before this module's kernels are decorated
 
 CLOSED_RATIO = 1e-3  # a patch is closed when its shallowest vertex is this fraction of its deepest
 

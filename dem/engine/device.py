@@ -24,10 +24,13 @@ tests/test_engine_device.py checks it against the numpy path, with no GPU.
 import numpy as np
 import taichi as ti
 
+from dem import ti_runtime
 from dem.engine.containers import ContactArgs, ModelArgs, StateArgs, element_type
 from dem.engine.geometry import MAXP
 from dem.engine.mathutil import vec3
 from dem.engine.step import slots_per_scene
+
+ti_runtime.quick_front_end()  # before this module's kernels are decorated
 
 
 class DeviceArrays:

@@ -63,7 +63,10 @@ weights are areas (m^2).  Codes: 0-2 face k of A, 3-5 face k of B, 6-14 edge pai
 
 import taichi as ti
 
+from dem import ti_runtime
 from dem.engine.mathutil import vec3
+
+ti_runtime.quick_front_end()  # before this module's kernels are decorated
 
 MAXP = 9  # face polygon: 4 corners, clipped by 4 sides (<= 8) then by d >= 0 (<= 9)
 

@@ -41,7 +41,10 @@ otherwise.
 
 import taichi as ti
 
+from dem import ti_runtime
 from dem.engine.mathutil import vec3
+
+ti_runtime.quick_front_end()  # before this module's kernels are decorated
 
 
 @ti.func

@@ -6,6 +6,10 @@ coordinates: v_world = R(q) v_body.
 
 import taichi as ti
 
+from dem import ti_runtime
+
+ti_runtime.quick_front_end()  # before this module's kernels are decorated
+
 vec3 = ti.math.vec3
 vec4 = ti.math.vec4
 mat3 = ti.math.mat3

@@ -39,6 +39,10 @@ from dataclasses import astuple, dataclass, fields
 
 import taichi as ti
 
+from dem import ti_runtime
+
+ti_runtime.quick_front_end()  # before this module's kernels are decorated
+
 LINEAR, HYPERBOLIC = 0, 1
 LAWS = {"linear": LINEAR, "hyperbolic": HYPERBOLIC}
 

@@ -52,12 +52,15 @@ Integrator (symplectic Euler with an exact-angular-momentum rotation splitting):
 
 import taichi as ti
 
+from dem import ti_runtime
 from dem.engine import coherence, geometry, laws
 from dem.engine.containers import (ENERGY_TERMS, NONFINITE, REBUILD, RUNAWAY, ContactArgs,
                                    ControlArgs, ModelArgs, StateArgs)
 from dem.engine.geometry import point_buffer
 from dem.engine.mathutil import TINY_ANGLE, quat_angle_between, quat_mul, quat_to_mat, vec3, vec4
 from dem.engine.pair import HYPERBOLIC, pair_material, pair_properties
+
+ti_runtime.quick_front_end()  # before this module's kernels are decorated
 
 # Tolerances of the stages, in units of the smaller half extent hmin of the pair's blocks (m),
 # so that they scale with the masonry unit:
