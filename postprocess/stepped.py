@@ -66,8 +66,19 @@ def analyze_steps(sig: ShakeSignals, steps: list[dict], scene=None, frames=None)
     from postprocess.excited import excited_portion
 
     out = []
+    t_rec = float(sig.t[-1]) if len(sig.t) else 0.0
+    half = 0.5 * float(np.median(np.diff(sig.t))) if len(sig.t) > 1 else 0.0
     for st, direction in zip(steps, passes(s["frequency_hz"] for s in steps)):
         t0, t1, f = st["t_start_s"], st["t_end_s"], st["frequency_hz"]
+        if t1 > t_rec + half:   # a stopped or killed run: the steps it reached, no others
+            entry = {"frequency_hz": f, "pass": direction, "t_start_s": t0, "t_end_s": t1,
+                     "cycles_run": st["cycles_run"], "amplitude_m": st["amplitude_m"],
+                     "peak_acceleration_m_s2": st["peak_acceleration_m_s2"],
+                     "amplification": {}, "lag": {}, "not_analysed":
+                     f"the record ends at t = {t_rec:.3f} s, before this step's end "
+                     f"({t1:.3f} s)"}
+            out.append(entry)
+            continue
         sk = step_signals(sig, t0, t1, f)
         res, arr = analyze_signals(sk)
         win = arr["window"]
@@ -163,5 +174,6 @@ def steps_line(res: dict) -> str:
     for s in res["steps"]:
         a = s["amplification"].get("ds")
         parts.append(f"{s['frequency_hz']:g} Hz {s['pass']} "
-                     + (f"ds {a:.3g}" if a is not None and np.isfinite(a) else "no steady window"))
+                     + ("not reached" if "not_analysed" in s else
+                        f"ds {a:.3g}" if a is not None and np.isfinite(a) else "no steady window"))
     return f"{len(res['steps'])} steps: " + "; ".join(parts)

@@ -178,3 +178,23 @@ def test_dem_check_warns_of_an_implausible_stepped_table(tmp_path):
     assert r.exit_code == 0, r.output
     assert "loading.steps[0]: IMPLAUSIBLE: peak table acceleration 500 m/s2" in r.output, r.output
     assert "loading.steps[0]: IMPLAUSIBLE: table displacement amplitude 3.17 m" in r.output
+
+
+def test_a_run_stopped_in_a_step_gives_the_steps_it_reached(tmp_path):
+    """A stepped run that ended early (stopped, killed, or its duration shorter than the
+    steps): the steps it finished are analysed as in a full run, the others are named, not
+    analysed (they used to crash the analysis on an empty record)."""
+    from postprocess.stepped import analyze_stepped_run, steps_line
+
+    (f1, n1), (f2, n2) = STEPS
+    case = _case({"type": "stepped_shake", "peak_acceleration": A_P,
+                  "steps": [{"frequency": f, "cycles": n} for f, n in STEPS]},
+                 n1 / f1 + 0.5 * n2 / f2)      # ends half-way through the second step
+    from dem.run import run_case
+
+    run_case(case, tmp_path / "cut")
+    res = analyze_stepped_run(tmp_path / "cut", plots=True)
+    first, second = res["steps"]
+    assert "not_analysed" not in first and first["amplification"]["ds"] < 1e-3
+    assert second["amplification"] == {} and "record ends" in second["not_analysed"]
+    assert steps_line(res).endswith(f"{f2:g} Hz up not reached")
