@@ -13,7 +13,9 @@ continuous) starting where the DEM rocks from rest, 4.4 Hz (results/prediction, 
 search: the jump lies above 3.6 Hz at 1.53 m/s2), stepped DOWN through 4.0, 3.6, 3.2, 2.8, 2.4,
 2.0 Hz, then UP again through 2.4 ... 4.4 Hz, CYCLES_PER_STEP cycles a step.  Each step is
 analysed as a shake of its own (postprocess.stepped) and judged by the library's branch verdict
-(postprocess.verdicts.response_branch).
+(postprocess.verdicts.response_branch), and the specimen by the library's survival verdict
+(postprocess.survival): a step by whose end a brick had fallen is the response of a ruin, and
+only intact steps count.
 
 Ruled in if a specimen rocking at 4.4 Hz keeps rocking down into 2.4-3.2 Hz where the same
 specimen from rest does not (the first prediction's rows of the same seeds); ruled out if the
@@ -85,27 +87,44 @@ def fingerprint(case) -> str:
     return h.hexdigest()[:16]
 
 
-def step_rows(analysis: dict) -> list[dict]:
-    """One row per step of postprocess.stepped's result: frequency, pass, ds amplification, lag,
-    and the branch verdict."""
+def step_rows(analysis: dict, fall_times=()) -> list[dict]:
+    """One row per step of postprocess.stepped's result: frequency, pass, times, ds
+    amplification, lag, the branch verdict, and ``fallen_by_end``: how many bricks had fallen
+    (postprocess.survival) by the step's end, of the fall times ``fall_times`` (s).  A step
+    with bricks down is the response of a ruin (the instrumented brick may be among them), not
+    of the model: :func:`report` reads the branch of intact steps only."""
+    falls = np.sort(np.asarray(list(fall_times), float))
     rows = []
     for st in analysis.get("steps", []):
         lag = (st.get("lag") or {}).get("ds") or {}
         row = {"frequency_hz": st["frequency_hz"], "pass": st["pass"],
-               "t_start_s": st["t_start_s"],
+               "t_start_s": st["t_start_s"], "t_end_s": st.get("t_end_s"),
                "amplification": {"ds": (st.get("amplification") or {}).get("ds")},
-               "lag_s": {"ds": lag.get("s") if isinstance(lag, dict) else None}}
+               "lag_s": {"ds": lag.get("s") if isinstance(lag, dict) else None},
+               "fallen_by_end": int(np.searchsorted(falls, st.get("t_end_s", np.inf),
+                                                    side="right"))}
         row.update({k: v for k, v in response_branch(row).items() if k != "ds"})
         rows.append(row)
     return rows
 
 
+def survival_record(run_dir: Path) -> tuple[dict, list[float]]:
+    """postprocess.survival's verdict of a finished specimen (compact) and every fall time."""
+    from postprocess.survival import compact, survival_of_run
+
+    full = survival_of_run(run_dir)
+    rec = compact(full)
+    return {k: rec[k] for k in ("verdict", "n_fallen", "first_fall_time_s", "by_wall")}, \
+        [f["time_s"] for f in full["fallen"]]
+
+
 def record(name: str, sweep: str, seed: int, case_file: Path, fp: str, status: str,
-           analysis: dict | None) -> dict:
+           analysis: dict | None, survival: dict | None = None, fall_times=()) -> dict:
     def change(data):
         data.setdefault("specimens", {})[name] = {
             "sweep": sweep, "seed": seed, "run_case": rel(case_file), "fingerprint": fp,
-            "run_status": status, "steps": step_rows(analysis) if analysis else []}
+            "run_status": status, "survival": survival,
+            "steps": step_rows(analysis, fall_times) if analysis else []}
         data.update({"kind": "diagnosis-e2", "down_hz": list(DOWN), "up_hz": list(UP),
                      "cycles_per_step": CYCLES_PER_STEP, "source": source_state()})
     return merge_json(OUT / "points.json", change)
@@ -126,21 +145,30 @@ def run(sweeps=SWEEPS, seeds=SEEDS, stop_at: str | None = None, log=print) -> No
             case = specimen_case(sweep, seed, frozen["parameters"])
             fp = fingerprint(case)
             rec = ((read_json(OUT / "points.json") or {}).get("specimens") or {}).get(name)
-            if rec and rec.get("fingerprint") == fp and rec.get("run_status") == "ok":
+            done = rec and rec.get("fingerprint") == fp and rec.get("run_status") == "ok"
+            if done and rec.get("survival"):
                 continue
             case_file = RUNS / f"{name}.yaml"
-            case_file.parent.mkdir(parents=True, exist_ok=True)
-            case_file.write_text(yaml.safe_dump(case.model_dump(mode="json"), sort_keys=False))
-            log(f"[{time.strftime('%H:%M:%S', time.gmtime())} UTC] E2 {name}: "
-                f"{len(steps())} steps, {case.run.duration:.1f} s")
-            rc, cpu, wall = child.run_dem(["run", str(case_file), "--out", str(RUNS / name),
-                                           "--resume", "--no-progress"], log)
-            session.add_cpu(OUT / "cpu.json", "e2", cpu)
+            if not done:   # (else: a finished run recorded before its survival was: analyse)
+                case_file.parent.mkdir(parents=True, exist_ok=True)
+                case_file.write_text(yaml.safe_dump(case.model_dump(mode="json"),
+                                                    sort_keys=False))
+                log(f"[{time.strftime('%H:%M:%S', time.gmtime())} UTC] E2 {name}: "
+                    f"{len(steps())} steps, {case.run.duration:.1f} s")
+                rc, cpu, wall = child.run_dem(["run", str(case_file), "--out",
+                                               str(RUNS / name), "--resume", "--no-progress"],
+                                              log)
+                session.add_cpu(OUT / "cpu.json", "e2", cpu)
+                log(f"    exit {rc}, {cpu:.0f} CPU-s, {wall:.0f} s")
             summary = read_json(RUNS / name / "summary.json") or {}
-            status = summary.get("status", "failed" if rc else "unknown")
-            analysis = analyze_stepped_run(RUNS / name) if status == "ok" else None
-            record(name, sweep, seed, case_file, fp, status, analysis)
-            log(f"    exit {rc}, {status}, {cpu:.0f} CPU-s, {wall:.0f} s")
+            status = summary.get("status", "unknown")
+            analysis, surv, falls = None, None, []
+            if status == "ok":
+                analysis = analyze_stepped_run(RUNS / name)
+                surv, falls = survival_record(RUNS / name)
+            record(name, sweep, seed, case_file, fp, status, analysis, surv, falls)
+            log(f"    {name}: {status}" + (f", {surv['verdict']} ({surv['n_fallen']} bricks "
+                                          f"down)" if surv else ""))
 
 
 # ---- the report ---------------------------------------------------------------------------------
@@ -178,6 +206,10 @@ def plot(specimens: dict, path: Path) -> None:
                         label=f"seed {s['seed']} {pas}")
                 for r in pts:
                     rock = r.get("branch") == "rocking"
+                    if r.get("fallen_by_end", 0) > 0:     # a ruin's response: a cross
+                        ax.scatter(r["frequency_hz"], r["amplification"]["ds"], s=30,
+                                   marker="x", color=color)
+                        continue
                     ax.scatter(r["frequency_hz"], r["amplification"]["ds"], s=24,
                                facecolors=color if rock else "none", edgecolors=color)
         rest = from_rest(sweep, SEEDS)
@@ -187,7 +219,7 @@ def plot(specimens: dict, path: Path) -> None:
         ax.axhline(BRANCH_AMPLIFICATION, color="0.5", ls=":", lw=0.8)
         ax.set_yscale("log")
         ax.set_xlabel("frequency, Hz")
-        ax.set_ylabel("ds amplification (filled: rocking branch)")
+        ax.set_ylabel("ds amplification (filled: rocking; x: bricks down)")
         ax.set_title(sweep, fontsize=8)
         ax.legend(fontsize=6)
     fig.suptitle(f"E2: stepped down from 4.4 Hz and up again, {CYCLES_PER_STEP} cycles a step",
@@ -206,20 +238,28 @@ def report(log=print) -> dict:
     verdicts = {}
     for name, s in sorted(specimens.items()):
         rest = from_rest(s["sweep"], [s["seed"]])
-        down = [r for r in s["steps"] if r["pass"] == "down"]
-        rocking_down = [r["frequency_hz"] for r in down if r.get("branch") == "rocking"]
-        rocking_up = [r["frequency_hz"] for r in s["steps"] if r["pass"] == "up"
+        intact = [r for r in s["steps"] if r.get("fallen_by_end", 0) == 0]
+        rocking_down = [r["frequency_hz"] for r in intact if r["pass"] == "down"
+                        and r.get("branch") == "rocking"]
+        rocking_up = [r["frequency_hz"] for r in intact if r["pass"] == "up"
                       and r.get("branch") == "rocking"]
         rest_rocking = sorted(f for f, bs in rest.items()
                               if any(b["branch"] == "rocking" for b in bs))
+        ruined = [(r["frequency_hz"], r["pass"]) for r in s["steps"]
+                  if r.get("fallen_by_end", 0) > 0]
+        surv = s.get("survival") or {}
         verdicts[name] = {
             "rocking_going_down_hz": rocking_down, "rocking_going_up_hz": rocking_up,
             "lowest_rocking_down_hz": min(rocking_down) if rocking_down else None,
             "lowest_rocking_up_hz": min(rocking_up) if rocking_up else None,
-            "from_rest_rocking_hz": rest_rocking}
-        log(f"E2 {name}: rocking going down at {rocking_down or 'none'} Hz, going up at "
-            f"{rocking_up or 'none'} Hz; from rest (first prediction) at "
-            f"{rest_rocking or 'none of its frequencies'}")
+            "from_rest_rocking_hz": rest_rocking,
+            "steps_with_bricks_down": ruined, "survival": surv.get("verdict"),
+            "first_fall_time_s": surv.get("first_fall_time_s")}
+        log(f"E2 {name}: intact steps rocking going down at {rocking_down or 'none'} Hz, going "
+            f"up at {rocking_up or 'none'} Hz; from rest (first prediction) at "
+            f"{rest_rocking or 'none of its frequencies'}; {surv.get('verdict')}, first brick "
+            f"down at t = {surv.get('first_fall_time_s')} s, {len(ruined)} steps with bricks "
+            f"down")
     summary = {"experiment": "E2", "hypothesis": "two branches coexist; the tests were on the "
                "upper one", "down_hz": list(DOWN), "up_hz": list(UP),
                "cycles_per_step": CYCLES_PER_STEP,
