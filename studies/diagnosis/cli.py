@@ -51,8 +51,9 @@ def grid(keys: list[str] = typer.Argument(..., help="experiments to run together
          workers: int = typer.Option(1, help="dem sweep workers (one single-threaded run each)"),
          stop_at: str = typer.Option(None, help="UTC HH:MM after which no new sweep starts"),
          report: bool = typer.Option(False, "--report", help="only rebuild the reports")) -> None:
-    """E3 / E5 / E6 and the survival points: case variants x frequencies x 3 seeds, 10 cycles, each run judged rocking or
-    not (resumable; touch runs/diagnosis/DRAIN to end softly).  studies/diagnosis/experiments.py."""
+    """E1 / E3 / E5 / E6 and the survival points: case variants x frequencies x 3 seeds, each
+    run judged rocking or not and standing or not (resumable; touch runs/diagnosis/DRAIN to end
+    softly).  studies/diagnosis/experiments.py."""
     from studies.diagnosis import grid as exp
     from studies.diagnosis.experiments import GRIDS
 

@@ -1,4 +1,5 @@
-"""The diagnosis' grid experiments (issue 33): E3, E5, E6 and the survival points as :class:`studies.diagnosis.grid.Grid`.
+"""The diagnosis' grid experiments (issue 33): E3, E5, E6 and the survival points as
+:class:`studies.diagnosis.grid.Grid` (E1's grids: studies.diagnosis.e1).
 
 Each varies one thing of the first prediction's case (frozen imperfect joints, thesis friction,
 the same table motion otherwise) and nothing else; the runs are 10 cycles (+ 1 s) like E4's,

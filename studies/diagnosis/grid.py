@@ -1,6 +1,6 @@
 """A diagnosis experiment as a grid: case variants x frequencies x seeds of one first-prediction
-sweep, each run judged by the library's branch and survival verdicts (issue 33: E3, E5, E6, the survival
-points).
+sweep, each run judged by the library's branch and survival verdicts (issue 33: E1, E3, E5, E6,
+the survival points).
 
 An experiment (:class:`Grid`) names the first prediction's sweep whose case it starts from
 (``studies.prediction.plan.sweep_case``: the cases/shake file with the frozen imperfect joints of
@@ -12,8 +12,8 @@ session cut short leaves whole seeds.
 
 Each run is judged by ``postprocess.verdicts.response_branch`` (rocking: ds amplification >= 1
 and phase of ds behind the table >= 90 deg) and by ``postprocess.survival`` (standing, local
-collapse or collapse, from every brick of its frames).  The baseline beside each variant is the first prediction's committed rows of the same
-sweep, seeds and frequencies (results/prediction/<sweep>/points.json: 50 cycles or its cut, the
+collapse or collapse, from every brick of its frames).  The baseline beside each variant is
+the first prediction's committed rows of the same sweep, seeds and frequencies (results/prediction/<sweep>/points.json: 50 cycles or its cut, the
 case without the variant's patch).
 
 Records per grid (committed, resumable): results/diagnosis/<key>/points.json (one row per run,
