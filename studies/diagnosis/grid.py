@@ -13,8 +13,9 @@ session cut short leaves whole seeds.
 Each run is judged by ``postprocess.verdicts.response_branch`` (rocking: ds amplification >= 1
 and phase of ds behind the table >= 90 deg) and by ``postprocess.survival`` (standing, local
 collapse or collapse, from every brick of its frames).  The baseline beside each variant is
-the first prediction's committed rows of the same sweep, seeds and frequencies (results/prediction/<sweep>/points.json: 50 cycles or its cut, the
-case without the variant's patch).
+the first prediction's committed rows of the same sweep, seeds and frequencies
+(results/prediction/<sweep>/points.json: 50 cycles or its cut, the case without the variant's
+patch).
 
 Records per grid (committed, resumable): results/diagnosis/<key>/points.json (one row per run,
 merged after each sweep; a finished row of the same fingerprint never runs again), cpu.json,
