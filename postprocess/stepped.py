@@ -70,14 +70,13 @@ def analyze_steps(sig: ShakeSignals, steps: list[dict], scene=None, frames=None)
     half = 0.5 * float(np.median(np.diff(sig.t))) if len(sig.t) > 1 else 0.0
     for st, direction in zip(steps, passes(s["frequency_hz"] for s in steps)):
         t0, t1, f = st["t_start_s"], st["t_end_s"], st["frequency_hz"]
-        if t1 > t_rec + half:   # a stopped or killed run: the steps it reached, no others
-            entry = {"frequency_hz": f, "pass": direction, "t_start_s": t0, "t_end_s": t1,
-                     "cycles_run": st["cycles_run"], "amplitude_m": st["amplitude_m"],
-                     "peak_acceleration_m_s2": st["peak_acceleration_m_s2"],
-                     "amplification": {}, "lag": {}, "not_analysed":
-                     f"the record ends at t = {t_rec:.3f} s, before this step's end "
-                     f"({t1:.3f} s)"}
-            out.append(entry)
+        if t_rec - t0 < 1.0 / f:   # a stopped or killed run: not one cycle of this step
+            out.append({"frequency_hz": f, "pass": direction, "t_start_s": t0, "t_end_s": t1,
+                        "cycles_run": st["cycles_run"], "amplitude_m": st["amplitude_m"],
+                        "peak_acceleration_m_s2": st["peak_acceleration_m_s2"],
+                        "amplification": {}, "lag": {}, "not_analysed":
+                        f"the record ends at t = {t_rec:.3f} s, less than a cycle into this "
+                        f"step ({t0:.3f}-{t1:.3f} s)"})
             continue
         sk = step_signals(sig, t0, t1, f)
         res, arr = analyze_signals(sk)
@@ -89,6 +88,8 @@ def analyze_steps(sig: ShakeSignals, steps: list[dict], scene=None, frames=None)
                  "lag": res["lag"]}
         if "error" in res:
             entry["error"] = res["error"]
+        if t1 > t_rec + half:   # analysed on the part the run reached
+            entry["record_ends_s"] = t_rec
         rel = relative_to_table(sk, win)
         if rel is not None:
             entry["relative_to_table"] = {"amplification": rel["amplification"],
