@@ -13,6 +13,9 @@ Taichi's kernel profiler on K = PROFILE_KS, each task's GPU time, printed to log
      (gpu.jsonl), run while part 1's CPU processes run (stated in the output);
   3. the CPU baseline of the same machine: 16 single-threaded processes of one scene
      (cpu_lone.jsonl), after part 1's CPU runs end.
+``PARTS`` (default "0,2,1") picks the parts to run (3 runs where time is left, LONE_BEFORE_S);
+``CPU_PROCS`` (default R) the processes of part 1's CPU side; each point's record carries its
+run's size and speed (steps, dt, wall seconds, neighbour rebuilds: SUMMARY_KEYS).
 """
 
 from __future__ import annotations
@@ -22,6 +25,7 @@ import multiprocessing as mp
 import os
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -34,6 +38,7 @@ CASE = ROOT / "cases/shake/model-ii/group-3-y-1.53.yaml"
 FROZEN = ROOT / "studies/calibration/frozen.yaml"
 T0 = time.time()
 ARCH = os.environ.get("ARCH", "cuda")  # cpu: a dry run of this script on any machine
+TAG = os.environ.get("TAG", "")  # suffix of part 1's files (points_gpu<TAG>.json ...)
 
 
 def say(*a):
@@ -52,10 +57,16 @@ def case_of(seed: int, cycles: int):
     return parse_case(doc)
 
 
+SUMMARY_KEYS = ("steps", "dt", "sim_time", "wall_seconds", "neighbour_rebuilds",
+                "brick_steps_per_second", "n_pairs", "max_penetration_m")
+
+
 def compact_post(rec: dict) -> dict:
-    """A point's status and its shake analysis (postprocess.sweep.compact: amplification,
-    lag, ...), compared here and back home."""
-    return {"status": rec["status"], "error": rec.get("error"), "post": rec.get("post")}
+    """A point's status, its shake analysis (postprocess.sweep.compact: amplification,
+    lag, ...) and its run's size and speed (summary.json), compared here and back home."""
+    summary = rec.get("summary") or {}
+    return {"status": rec["status"], "error": rec.get("error"), "post": rec.get("post"),
+            "run": {k: summary.get(k) for k in SUMMARY_KEYS}}
 
 
 def cpu_point(args):
@@ -77,18 +88,38 @@ def gpu_points(R: int, cycles: int) -> None:
     from postprocess.sweep import analyze_point
 
     cases = [(f"seed{s}", case_of(s, cycles)) for s in range(R)]
+    runs = Path(f"/tmp/gpu_runs{TAG}")
     t0 = time.time()
+    threading.Thread(target=heartbeat, args=(t0,), daemon=True).start()
     try:
-        recs = run_cases_in_one_engine(cases, [Path("/tmp/gpu_runs") / n for n, _ in cases],
+        recs = run_cases_in_one_engine(cases, [runs / n for n, _ in cases],
                                        arch=ARCH, post=analyze_point)
         gpu = {s: compact_post(r) for s, r in enumerate(recs)}
-        batch = json.loads((Path("/tmp/gpu_runs/seed0/summary.json")).read_text()).get("batch")
+        batch = json.loads((runs / "seed0/summary.json").read_text()).get("batch")
     except Exception as err:  # noqa: BLE001 - report it
         gpu, batch = {"error": f"{type(err).__name__}: {err}"}, None
     gpu_s = time.time() - t0
-    (OUT / "points_gpu.json").write_text(json.dumps({"wall_s": gpu_s, "batch": batch,
-                                                     "points": gpu}, indent=1, default=str))
+    (OUT / f"points_gpu{TAG}.json").write_text(json.dumps(
+        {"wall_s": gpu_s, "R": R, "cycles": cycles, "batch": batch, "points": gpu}, indent=1,
+        default=str))
     say(f"part 1 GPU: {R} realisations in {gpu_s:.1f} s")
+
+
+def heartbeat(t0: float, every: float = 15.0) -> None:
+    """Every ``every`` s: the batch's steps and neighbour rebuilds so far (a call cut at its
+    time limit still tells how fast the batch went)."""
+    import gc
+
+    from dem.engine.simulation import Engine
+
+    while True:
+        time.sleep(every)
+        engines = [o for o in gc.get_objects() if isinstance(o, Engine)]
+        if engines:
+            sims = engines[-1].simulations
+            say(f"heartbeat {time.time() - t0:.0f} s: scene 0 at step "
+                f"{sims[0].step_count}, {sum(s.n_rebuilds for s in sims)} rebuilds "
+                f"({len(sims)} scenes)")
 
 
 def main() -> int:
@@ -101,7 +132,9 @@ def main() -> int:
     OUT.mkdir(parents=True, exist_ok=True)
     # part 1, CPU side: in the background from the start (one process per realisation)
     cpu_points = os.environ.get("CPU_POINTS", "1") == "1"  # 0: an earlier call's are kept
-    pool = mp.get_context("spawn").Pool(R) if cpu_points else None
+    parts = os.environ.get("PARTS", "0,2,1")  # which of parts 0, 2, 1 (in that order) run
+    procs = int(os.environ.get("CPU_PROCS", str(R)))  # CPU processes of part 1
+    pool = mp.get_context("spawn").Pool(procs) if cpu_points else None
     if pool is not None:
         cpu_async = pool.map_async(cpu_point, [(s, cycles, Path("/tmp/cpu_runs"))
                                                for s in range(R)])
@@ -118,6 +151,8 @@ def main() -> int:
             ("2 (throughput)", cmd, float(os.environ.get("THROUGHPUT_S", "240"))),
             ("1 GPU (realisations)", [sys.executable, __file__, "gpu-points"],
              float(os.environ.get("GPU_POINTS_S", "200")))):
+        if part[0] not in parts.split(","):
+            continue
         try:
             subprocess.run(argv, timeout=budget, check=False)
             say(f"part {part} done")
@@ -129,7 +164,7 @@ def main() -> int:
         except mp.TimeoutError:
             cpu = {"error": "the CPU runs did not finish in time"}
         pool.terminate()
-        (OUT / "points_cpu.json").write_text(json.dumps(cpu, indent=1, default=str))
+        (OUT / f"points_cpu{TAG}.json").write_text(json.dumps(cpu, indent=1, default=str))
         say("part 1 CPU done")
     # part 3: the CPU baseline, if time is left
     if time.time() - T0 < float(os.environ.get("LONE_BEFORE_S", "450")):
