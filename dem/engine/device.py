@@ -21,6 +21,8 @@ The same code runs on the CPU with ``device_arrays=True`` (Taichi's ndarrays in 
 tests/test_engine_device.py checks it against the numpy path, with no GPU.
 """
 
+import time
+
 import numpy as np
 import taichi as ti
 
@@ -36,7 +38,12 @@ ti_runtime.quick_front_end()  # before this module's kernels are decorated
 class DeviceArrays:
     """Device copies of one container's fields (``box``: Model, State, Contacts or Control),
     with ``push`` (host -> device) and ``pull`` (device -> host, into the host arrays in
-    place) by field name, and the argpack of the device arrays for the kernels."""
+    place) by field name, and the argpack of the device arrays for the kernels.
+
+    ``counts``: the copies made each way since construction, ``{"push" | "pull": {"copies",
+    "bytes", "seconds"}}`` (one copy per field moved: a Taichi from_numpy / to_numpy, on a GPU a
+    kernel launch, a copy and a synchronisation each; seconds: the host's wall time in them),
+    for benchmarks/batch_speed.py's ``run`` mode (Engine.transfer_stats)."""
 
     def __init__(self, box):
         self.box = box
@@ -47,14 +54,27 @@ class DeviceArrays:
             shape = host.shape[: host.ndim - len(elem_shape)]
             self.dev[f.name] = ti.ndarray(dtype=dtype, shape=shape)
         self.args = box.ARGS(**self.dev)
+        self.counts = {way: {"copies": 0, "bytes": 0, "seconds": 0.0} for way in ("push", "pull")}
 
     def push(self, names=None) -> None:
+        t0 = time.perf_counter()
+        c = self.counts["push"]
         for name in names or self.dev:
-            self.dev[name].from_numpy(np.ascontiguousarray(getattr(self.box, name)))
+            a = np.ascontiguousarray(getattr(self.box, name))
+            self.dev[name].from_numpy(a)
+            c["copies"] += 1
+            c["bytes"] += a.nbytes
+        c["seconds"] += time.perf_counter() - t0
 
     def pull(self, names=None) -> None:
+        t0 = time.perf_counter()
+        c = self.counts["pull"]
         for name in names or self.dev:
-            getattr(self.box, name)[...] = self.dev[name].to_numpy()
+            a = self.dev[name].to_numpy()
+            getattr(self.box, name)[...] = a
+            c["copies"] += 1
+            c["bytes"] += a.nbytes
+        c["seconds"] += time.perf_counter() - t0
 
     def nbytes(self) -> int:
         return self.box.nbytes()

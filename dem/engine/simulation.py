@@ -104,6 +104,8 @@ class Engine:
         self.options = options
         self.fast_launch = fast_launch
         self.hub = None  # with several scenes: what Simulation.advance calls (dem.run.batched)
+        self.n_chunks = 0  # chunks launched (_launch: one launch, or k of the parallel kernel)
+        self._installs = {"calls": 0, "bytes": 0}  # install_pairs' host arrays (a device)
         models = [Model.from_scene(sc, j) for sc, j in zip(scenes, joints)]
         self.model = Model.concat(models)
         states = [State.from_scene(sc, m) for sc, m in zip(scenes, models)]
@@ -344,6 +346,7 @@ class Engine:
         if self._warped and self._overlap_wanted() != self._overlap:
             self._choose_launch()  # coherence.set_overlap_reuse switched the overlap reuse
         n_slots = self._n_slots()
+        self.n_chunks += 1
         self._to_device()
         if self.mode == "serial":
             self._advance(k, n_slots, self.dt)
@@ -414,6 +417,26 @@ class Engine:
         self._dev["control"].pull([f for f in self._dev["control"].dev if f != "loads"])
         self._stale["state"] = self._stale["contacts"] = True
 
+    def transfer_stats(self) -> dict:
+        """The host <-> device traffic since construction (benchmarks/batch_speed.py ``run``):
+        ``host_to_device`` / ``device_to_host``: ``copies`` (one per field moved), ``bytes``,
+        ``seconds`` (the host's wall time in them), in all and ``by_container`` (model, state,
+        contacts, control); ``install_pairs``: the rebuilds installed on the device (``calls``;
+        ``bytes``: the host's index arrays handed to each, which a GPU copies in, and back after
+        the kernel); ``chunks``: the chunks launched (each ends with the control's pull).  On
+        the CPU without device arrays every count but ``chunks`` is 0."""
+        ways = {"host_to_device": "push", "device_to_host": "pull"}
+        out = {}
+        for key, way in ways.items():
+            by = {name: dict(d.counts[way]) for name, d in getattr(self, "_dev", {}).items()}
+            out[key] = {"copies": sum(v["copies"] for v in by.values()),
+                        "bytes": sum(v["bytes"] for v in by.values()),
+                        "seconds": sum(v["seconds"] for v in by.values()),
+                        "by_container": by}
+        out["install_pairs"] = dict(self._installs)
+        out["chunks"] = self.n_chunks
+        return out
+
     def install_pairs(self, g: int, lists, has_history: bool) -> None:
         """Scene g's new pair lists (containers.pair_lists) into the device's contacts
         (dem.engine.device.install_pairs: the history carried on the device)."""
@@ -430,6 +453,9 @@ class Engine:
         src_full[: len(src)] = src
         sc = self._scratch
         _, st, c, _ = self.containers()
+        self._installs["calls"] += 1
+        self._installs["bytes"] += (lists.pairs.nbytes + lists.adj_ptr.nbytes + lists.adj.nbytes
+                                    + src_full.nbytes)
         install_pairs(g, lists.n, int(has_history), lists.pairs, lists.adj_ptr, lists.adj,
                       src_full, self._dev["model"].args, st, c, sc.code, sc.npts, sc.loc,
                       sc.shear)
