@@ -115,7 +115,8 @@ def digest(out_dir: Path) -> str:
 def since(now: dict, before: dict) -> dict:
     """Engine.transfer_stats ``now`` less ``before`` (every number, recursively)."""
     if isinstance(now, dict):
-        return {k: since(v, before[k]) for k, v in now.items()}
+        return {k: since(v, before.get(k, 0 if not isinstance(v, dict) else {}))
+                for k, v in now.items()}
     return now - before
 
 
@@ -162,7 +163,10 @@ def run_batch(k: int, steps: int, threads: int | None, device: bool, out_root: P
                     "MB_by_container": {n: v["bytes"] / 1e6
                                         for n, v in x["by_container"].items()},
                     "copies_by_container": {n: v["copies"]
-                                            for n, v in x["by_container"].items()}}
+                                            for n, v in x["by_container"].items()},
+                    "MB_by_field": {f"{n}.{f}": b / 1e6 for n, v in x["by_container"].items()
+                                    for f, b in sorted(v.get("fields", {}).items(),
+                                                       key=lambda fb: -fb[1]) if b}}
     rec["install_pairs"] = stats["install_pairs"]
     rec["chunks_per_sim_s"] = stats["chunks"] / sim_s
     return rec

@@ -454,14 +454,15 @@ class Engine:
         """The host <-> device traffic since construction (benchmarks/batch_speed.py ``run``):
         ``host_to_device`` / ``device_to_host``: ``copies`` (one per field moved), ``bytes``,
         ``seconds`` (the host's wall time in them), in all and ``by_container`` (model, state,
-        contacts, control); ``install_pairs``: the rebuilds installed on the device (``calls``;
+        contacts, control; each with ``fields``: the bytes of each field moved); ``install_pairs``: the rebuilds installed on the device (``calls``;
         ``bytes``: the host's index arrays handed to each, which a GPU copies in, and back after
         the kernel); ``chunks``: the chunks launched (each ends with the control's pull).  On
         the CPU without device arrays every count but ``chunks`` is 0."""
         ways = {"host_to_device": "push", "device_to_host": "pull"}
         out = {}
         for key, way in ways.items():
-            by = {name: dict(d.counts[way]) for name, d in getattr(self, "_dev", {}).items()}
+            by = {name: {**d.counts[way], "fields": dict(d.counts[way]["fields"])}
+                  for name, d in getattr(self, "_dev", {}).items()}
             out[key] = {"copies": sum(v["copies"] for v in by.values()),
                         "bytes": sum(v["bytes"] for v in by.values()),
                         "seconds": sum(v["seconds"] for v in by.values()),
