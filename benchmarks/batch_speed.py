@@ -157,7 +157,8 @@ def run_batch(k: int, steps: int, threads: int | None, device: bool, out_root: P
     for key in ("host_to_device", "device_to_host"):
         x = stats[key]
         rec[key] = {"copies": x["copies"], "MB": x["bytes"] / 1e6, "copy_s": x["seconds"],
-                    "copies_per_sim_s": x["copies"] / sim_s, "MB_per_sim_s": x["bytes"] / 1e6 / sim_s,
+                    "copies_per_sim_s": x["copies"] / sim_s,
+                    "MB_per_sim_s": x["bytes"] / 1e6 / sim_s,
                     "copies_per_1000_steps": 1e3 * x["copies"] / steps,
                     "MB_per_1000_steps": 1e3 * x["bytes"] / 1e6 / steps,
                     "MB_by_container": {n: v["bytes"] / 1e6

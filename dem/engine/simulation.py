@@ -454,10 +454,11 @@ class Engine:
         """The host <-> device traffic since construction (benchmarks/batch_speed.py ``run``):
         ``host_to_device`` / ``device_to_host``: ``copies`` (one per field moved), ``bytes``,
         ``seconds`` (the host's wall time in them), in all and ``by_container`` (model, state,
-        contacts, control; each with ``fields``: the bytes of each field moved); ``install_pairs``: the rebuilds installed on the device (``calls``;
-        ``bytes``: the host's index arrays handed to each, which a GPU copies in, and back after
-        the kernel); ``chunks``: the chunks launched (each ends with the control's pull).  On
-        the CPU without device arrays every count but ``chunks`` is 0."""
+        contacts, control; each with ``fields``: the bytes of each field moved);
+        ``install_pairs``: the rebuilds installed on the device (``calls``; ``bytes``: the
+        host's index arrays handed to each, which a GPU copies in, and back after the kernel);
+        ``chunks``: the chunks launched (each ends with the control's pull).  On the CPU without
+        device arrays every count but ``chunks`` is 0."""
         ways = {"host_to_device": "push", "device_to_host": "pull"}
         out = {}
         for key, way in ways.items():

@@ -367,9 +367,9 @@ def run_cases_in_one_engine(cases: Sequence[tuple[str, Case]], out_dirs: Sequenc
     (dem.engine.device) on the CPU too; None: where Taichi runs on a GPU, or on the CPU where the
     environment variable ``DEM_DEVICE_ARRAYS`` is 1 (a CPU proxy of a GPU batch's host traffic:
     benchmarks/batch_speed.py ``run``).  ``on_engine(engine)``: called once the engine is made
-    (its counters: Engine.transfer_stats).  Raises BatchInputError before anything runs when the cases' ``solver:``
-    sections differ (naming the field), KeyboardInterrupt when stopped (every point written
-    first)."""
+    (its counters: Engine.transfer_stats).  Raises BatchInputError before anything runs when
+    the cases' ``solver:`` sections differ (naming the field), KeyboardInterrupt when stopped
+    (every point written first)."""
     from dem.rundir import claim
     from dem.run.build import case_joint_law, scene_from_case, step_options
     from dem.loading import loading_from_case
