@@ -5,6 +5,7 @@ separate single-threaded processes, with the error of the batch against the scen
     python benchmarks/batch_speed.py cuda --ks 1,16,64,100,256 --steps 2000
     python benchmarks/batch_speed.py lone --steps 400          # one scene, serial, 1 thread
     python benchmarks/batch_speed.py cuda --ks 16,64 --steps 300 --profile   # + each task's time
+    python benchmarks/batch_speed.py run --ks 8,16 --steps 32000 --threads 1  # host traffic
 
 The scenes: Model II shaken along y at 2.8 Hz, 1.53 m/s^2 (cases/shake/model-ii/
 group-3-y-1.53.yaml: 217 bodies, 212 blocks), each with the frozen imperfection set
@@ -23,6 +24,19 @@ on the GPU, one process runs one arch): the largest |position difference| (m) an
 difference|.  ``--save DIR``: the states of every scene after the timed steps of each K <= 16
 (states_K<k>.npz: pos, quat, steps, dt), to compare a GPU's with the CPU's elsewhere
 (``compare DIR``: runs scenes 0 and K-1 alone on this machine's CPU and prints the difference).
+
+``run``: the host <-> device traffic of a real batched run, measured on the CPU (no GPU needed):
+K realisations (the same scenes, 3 cycles: ``case_of``) run through
+dem.run.batched.run_cases_in_one_engine as ``dem ensemble --batch`` runs them (settling, the
+table-frame start, 500 Hz instruments, frames every 0.02 s), for ``--steps`` steps each
+(--max-steps), with the engine's device arrays on the CPU (``device_arrays=True``: the code a
+GPU runs, dem.engine.device; ``--host-arrays``: the numpy path, for the digest only).  The
+wall-clock checkpoints (frames.npz / restart.npz every 30 s of wall time) are switched off, so
+that the counts depend on the simulated steps only, not on the machine's speed.  Prints the
+copies and bytes each way (Engine.transfer_stats) per simulated second (the batch's: steps x dt)
+and per 1000 steps, the chunks (Engine.advance's launches), the wall time (all counted after the
+engine's construction) and a digest of every point's frames and instruments (sha256 of their arrays:
+equal digests, the same outputs bit for bit).
 
 The time for 100 realisations of 50 cycles is extrapolated from the K=100 step time (the
 loading phase only: 50 / 2.8 Hz + 1 s = 18.86 s of simulated time at the batch's dt).
@@ -64,6 +78,99 @@ def realisation(seed: int, mode: str, dt: float | None = None):
     scene = scene_from_case(case)
     return scene, case_joint_law(case, scene), step_options(case.solver), \
         loading_from_case(case)
+
+
+def case_of(seed: int, cycles: int = 3):
+    """The Case of realisation ``seed`` as a batched ensemble runs it (tools/device/
+    gpu_batch_check.py's case_of: settling, instruments, frames every 0.02 s, no VTK)."""
+    from dem.case import parse_case
+
+    doc = yaml.safe_load(CASE.read_text())
+    doc["name"] = f"model-ii-y-2.8-seed{seed}"
+    doc["imperfections"] = {**yaml.safe_load(FROZEN.read_text())["imperfections"], "seed": seed}
+    doc["loading"]["cycles"] = cycles
+    doc["run"]["duration"] = cycles / 2.8 + 1.0
+    doc["run"]["vtk"] = False
+    doc["run"]["snapshot"] = False
+    return parse_case(doc)
+
+
+def digest(out_dir: Path) -> str:
+    """sha256 of a run directory's frames and instruments (every array, in key order)."""
+    import hashlib
+
+    h = hashlib.sha256()
+    for name in ("frames.npz", "instruments.npz"):
+        f = out_dir / name
+        if not f.exists():
+            h.update(f"no {name}".encode())
+            continue
+        with np.load(f) as z:
+            for k in sorted(z.files):
+                h.update(k.encode())
+                h.update(np.ascontiguousarray(z[k]).tobytes())
+    return h.hexdigest()[:16]
+
+
+def since(now: dict, before: dict) -> dict:
+    """Engine.transfer_stats ``now`` less ``before`` (every number, recursively)."""
+    if isinstance(now, dict):
+        return {k: since(v, before.get(k, 0 if not isinstance(v, dict) else {}))
+                for k, v in now.items()}
+    return now - before
+
+
+def run_batch(k: int, steps: int, threads: int | None, device: bool, out_root: Path) -> dict:
+    """One batched run of realisations 0..k-1 (module docstring, ``run``); its counts."""
+    import dem.run.write
+    from dem.run.batched import run_cases_in_one_engine
+
+    dem.run.write.CHECKPOINT_SECONDS = float("inf")  # counts per step, not per wall second
+    cases = [(f"seed{s}", case_of(s)) for s in range(k)]
+    dirs = [out_root / f"K{k}" / name for name, _ in cases]
+    held: dict = {}
+
+    def on_engine(engine) -> None:  # the counts of the construction are left out
+        held["engine"], held["t"] = engine, time.perf_counter()
+        held["before"] = engine.transfer_stats()
+
+    t0 = time.perf_counter()
+    records = run_cases_in_one_engine(cases, dirs, max_steps=steps, resume=False,
+                                      threads=threads, device_arrays=device or None,
+                                      on_engine=on_engine)
+    t1 = time.perf_counter()
+    engine = held["engine"]
+    stats = since(engine.transfer_stats(), held["before"])
+    summaries = [r.get("summary") or {} for r in records]
+    done = [s.get("steps") for s in summaries]
+    dt = float(engine.dt)
+    sim_s = steps * dt
+    rec = {"arch": "run", "K": k, "device_arrays": engine.on_device, "threads": threads,
+           "mode": engine.mode, "steps": steps, "steps_done": done, "dt_s": dt,
+           "dt_changes": len(engine.dt_changes), "sim_s": sim_s,
+           "status": [r["status"] for r in records],
+           "settling_steps": [(s.get("settling") or {}).get("steps") for s in summaries],
+           "rebuilds": sum(s.n_rebuilds for s in engine.simulations),
+           "chunks": stats["chunks"], "build_s": held["t"] - t0, "wall_s": t1 - held["t"],
+           "wall_per_1000_steps_s": 1e3 * (t1 - held["t"]) / steps,
+           "digests": [digest(d) for d in dirs]}
+    for key in ("host_to_device", "device_to_host"):
+        x = stats[key]
+        rec[key] = {"copies": x["copies"], "MB": x["bytes"] / 1e6, "copy_s": x["seconds"],
+                    "copies_per_sim_s": x["copies"] / sim_s,
+                    "MB_per_sim_s": x["bytes"] / 1e6 / sim_s,
+                    "copies_per_1000_steps": 1e3 * x["copies"] / steps,
+                    "MB_per_1000_steps": 1e3 * x["bytes"] / 1e6 / steps,
+                    "MB_by_container": {n: v["bytes"] / 1e6
+                                        for n, v in x["by_container"].items()},
+                    "copies_by_container": {n: v["copies"]
+                                            for n, v in x["by_container"].items()},
+                    "MB_by_field": {f"{n}.{f}": b / 1e6 for n, v in x["by_container"].items()
+                                    for f, b in sorted(v.get("fields", {}).items(),
+                                                       key=lambda fb: -fb[1]) if b}}
+    rec["install_pairs"] = stats["install_pairs"]
+    rec["chunks_per_sim_s"] = stats["chunks"] / sim_s
+    return rec
 
 
 _BUILT: dict = {}
@@ -138,7 +245,7 @@ def emit(rec: dict, path: str | None) -> None:
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("arch", choices=["cpu", "cuda", "lone", "compare"])
+    ap.add_argument("arch", choices=["cpu", "cuda", "lone", "compare", "run"])
     ap.add_argument("states", nargs="?", help="compare: a --save directory")
     ap.add_argument("--ks", default="1,4,16,64")
     ap.add_argument("--steps", type=int, default=400)
@@ -151,11 +258,28 @@ def main() -> int:
     ap.add_argument("--error", action="store_true", help="also the error against lone runs")
     ap.add_argument("--json", default=None)
     ap.add_argument("--save", default=None)
+    ap.add_argument("--host-arrays", action="store_true",
+                    help="run: the numpy path instead of the device arrays (digests only)")
+    ap.add_argument("--out", default=None,
+                    help="run: where the points' directories go (default: a temporary one)")
     ap.add_argument("--profile", action="store_true",
                     help="Taichi's kernel profiler: each task's time, printed after each K")
     args = ap.parse_args()
     if args.arch == "compare":
         return compare_saved(Path(args.states), args.json)
+    if args.arch == "run":
+        import shutil
+        import tempfile
+
+        root = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix="batch-run-"))
+        try:
+            for k in [int(x) for x in args.ks.split(",")]:
+                emit(run_batch(k, args.steps, args.threads, not args.host_arrays, root),
+                     args.json)
+        finally:
+            if not args.out:
+                shutil.rmtree(root, ignore_errors=True)
+        return 0
     if args.arch == "lone" and args.procs > 1:
         cmd = [sys.executable, __file__, "lone", "--steps", str(args.steps), "--repeats",
                str(args.repeats)]

@@ -46,3 +46,72 @@ def test_host_writes_reach_the_device():
         e.advance(300, [shake(3.0, 1.0)])
     assert_same(dev.simulations[0], host.simulations[0])
     assert np.abs(dev.simulations[0].state.vel[:-1, 0]).max() > 0.01
+
+
+# --- what moves between host and device (issue 35: the host's copies of a batched run) -------
+def _copies(engine) -> tuple[int, int, int, int]:
+    """(pulls, bytes pulled, pushes, bytes pushed) so far (Engine.transfer_stats)."""
+    s = engine.transfer_stats()
+    return (s["device_to_host"]["copies"], s["device_to_host"]["bytes"],
+            s["host_to_device"]["copies"], s["host_to_device"]["bytes"])
+
+
+def test_read_only_accessors_copy_only_the_stale_fields_asked_for_and_nothing_back():
+    """read_state / read_contacts copy the fields asked for (of every scene, once), none that
+    the host keeps itself (the broad phase's pairs), mark nothing to go back, and give views
+    that cannot be written; sim.state still copies all and sends all back (a writer)."""
+    loads = [shake(4.0, 7.0), shake(6.0, 8.0, axis=1)]
+    e = Engine([wall() for _ in loads], JOINTS, options(), device_arrays=True)
+    a, b = e.simulations
+    e.advance(300, loads)
+    n_state = len(a.engine_fields("state"))
+    control_pushes = len(e._dev["control"].dev)  # the control goes to the device every chunk
+
+    p0, pb0, q0, qb0 = _copies(e)
+    st = a.read_state("pos", "vel")
+    p1, pb1, q1, qb1 = _copies(e)
+    assert p1 - p0 == 2 and pb1 - pb0 == e.state.pos.nbytes + e.state.vel.nbytes
+    assert (q1, qb1) == (q0, qb0)
+    assert not hasattr(st, "quat")  # what was not asked for is not there
+    with pytest.raises(ValueError):
+        st.pos[0, 0] = 1.0  # read only
+    b.read_state("pos")  # the batch-mate's: copied already
+    a.read_state("vel", "pos")
+    c = a.read_contacts("pairs", "wrench")  # the pairs are the host's: only wrench is copied
+    p2, pb2, _, _ = _copies(e)
+    assert p2 - p1 == 1 and pb2 - pb1 == e.contacts.wrench.nbytes
+    assert c.n_pairs == a._contacts.n_pairs > 0
+    a.kinetic_energy()
+    a.unbalanced_force_ratio((0.0, 0.0, -9.81))
+    assert _copies(e)[0] - p2 == 2  # omega, angmom (vel and wrench are current)
+    assert not e._dirty["state"] and not e._dirty["contacts"]
+
+    _, _, q3, qb3 = _copies(e)
+    e.advance(DEVICE_CHUNK, loads)  # one chunk (a rebuild would push nothing either)
+    _, _, q4, qb4 = _copies(e)
+    assert q4 - q3 == control_pushes  # nothing of the state or contacts went back
+
+    p4 = _copies(e)[0]
+    a.state  # a writer: every field copied, every field back before the next launch
+    assert _copies(e)[0] - p4 == n_state
+    e.advance(DEVICE_CHUNK, loads)
+    assert _copies(e)[2] - q4 == control_pushes + n_state
+    assert e.n_chunks >= 3
+
+
+def test_a_field_read_then_written_whole_goes_to_the_device():
+    """A velocity read read-only (not marked), then written through sim.state, reaches the
+    kernels; so does one written without a read (Engine.host with write and fields)."""
+    opts = options()
+    dev = Engine([wall()], JOINTS, opts, device_arrays=True)
+    host = Engine([wall()], JOINTS, opts)
+    for e in (dev, host):
+        e.advance(300, [shake(3.0, 1.0)])
+        sim = e.simulations[0]
+        sim.read_state("vel")
+        sim.state.vel[:-1, 0] += 0.05
+        e.advance(300, [shake(3.0, 1.0)])
+        e.host("state", write=True, fields=("angmom",))  # a no-op on the numpy path
+        sim._state.angmom[:-1, 2] += 1e-4
+        e.advance(300, [shake(3.0, 1.0)])
+    assert_same(dev.simulations[0], host.simulations[0])

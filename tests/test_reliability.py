@@ -250,8 +250,9 @@ def test_a_stop_signal_inside_a_frame_is_raised_after_the_frame_is_whole():
 
     z = np.zeros((1, 3))
     rec = object.__new__(Recording)
-    rec.sim = SimpleNamespace(t=0.1, state=SimpleNamespace(
-        pos=SignalsWhenCopied(), quat=np.zeros((1, 4)), vel=z, omega=z))
+    state = SimpleNamespace(pos=SignalsWhenCopied(), quat=np.zeros((1, 4)), vel=z, omega=z)
+    # a frame reads the state read-only (Simulation.read_state)
+    rec.sim = SimpleNamespace(t=0.1, state=state, read_state=lambda *fields: state)
     rec.n, rec.vtk, rec.listeners = 1, None, []
     rec.loading = SimpleNamespace(base_disp=lambda t: np.zeros((1, 3)))
     rec.frames = FrameRecorder(None)
@@ -259,7 +260,7 @@ def test_a_stop_signal_inside_a_frame_is_raised_after_the_frame_is_whole():
         with pytest.raises(Interrupted):
             rec.frame()
         # the stop path records the last frame with the signal already received: not raised again
-        rec.sim.state.pos = z
+        state.pos = z
         rec.sim.t = 0.2
         rec.frame()
     lengths = {k: len(v) for k, v in rec.frames.cols.items()}

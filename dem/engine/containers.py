@@ -590,8 +590,12 @@ class Contacts(_Container):
         mask = np.arange(MAXP)[None, :] < self.npts[:n, None]
         return float(self.depth[:n][mask].max(initial=0.0))
 
+    # the fields active_points reads (besides n_pairs)
+    POINT_FIELDS = ("npts", "normal", "pairs", "point", "fn", "ft", "area", "depth")
+
     def active_points(self) -> dict[str, np.ndarray]:
-        """All current contact points (table frame): point, normal, fn, ft, area, depth, pair."""
+        """All current contact points (table frame): point, normal, fn, ft, area, depth, pair.
+        (Also called on a Simulation.read_contacts view of POINT_FIELDS.)"""
         n = self.n_pairs
         npts = self.npts[:n]
         mask = np.arange(MAXP)[None, :] < npts[:, None]

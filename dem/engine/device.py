@@ -10,16 +10,26 @@ hands the kernels the device arrays, and moves data only where the host needs it
 * Control: all but the loads copied back after each launch (the status bits, steps done,
   deepest penetration, energy sums: a few kB); all copied to the device before each launch
   (the loads of the chunk's steps, the reset diagnostics, local damping, active scenes).
-* State: copied back only when the host reads it (a neighbour-list rebuild, a recorded frame:
-  ``stale``), copied to the device only after the host may have written it (``dirty``).
-* Contacts: the same, lazily; a neighbour-list rebuild does not copy them at all: the host
-  computes the new index arrays of the rebuilt scene (it wrote the old ones, so it still has
-  them) and :func:`install_pairs` installs them on the device and carries the shear history
-  there (the same arithmetic as Contacts.write_pairs: the same results).
+* State: per field, copied back only when the host reads it (a neighbour-list rebuild: pos,
+  rot, quat; a recorded frame: pos, quat, vel, omega) and only where the kernels wrote it since
+  (``stale``), copied to the device only after the host may have written it (``dirty``:
+  ``sim.state``, the writers' access; the read-only ``sim.read_state(...)`` marks nothing).
+  Engine.host keeps the two sets.
+* Contacts: the same, lazily and per field; the broad phase's index arrays (pairs, adj_ptr,
+  adj, scene_pairs) are never copied back (only the host writes them).  A neighbour-list
+  rebuild does not copy the contacts at all: the host computes the new index arrays of the
+  rebuilt scene (it wrote the old ones, so it still has them) and :func:`install_pairs`
+  installs them on the device and carries the shear history there (the same arithmetic as
+  Contacts.write_pairs: the same results).
+
+Each copy is counted (``DeviceArrays.counts``, Engine.transfer_stats): benchmarks/batch_speed.py
+``run`` measures a real batched run's traffic on the CPU.
 
 The same code runs on the CPU with ``device_arrays=True`` (Taichi's ndarrays in host memory):
 tests/test_engine_device.py checks it against the numpy path, with no GPU.
 """
+
+import time
 
 import numpy as np
 import taichi as ti
@@ -36,7 +46,13 @@ ti_runtime.quick_front_end()  # before this module's kernels are decorated
 class DeviceArrays:
     """Device copies of one container's fields (``box``: Model, State, Contacts or Control),
     with ``push`` (host -> device) and ``pull`` (device -> host, into the host arrays in
-    place) by field name, and the argpack of the device arrays for the kernels."""
+    place) by field name, and the argpack of the device arrays for the kernels.
+
+    ``counts``: the copies made each way since construction, ``{"push" | "pull": {"copies",
+    "bytes", "seconds", "fields": {name: bytes}}}`` (one copy per field moved: a Taichi
+    from_numpy / to_numpy, on a GPU a kernel launch, a copy and a synchronisation each; seconds:
+    the host's wall time in them), for benchmarks/batch_speed.py's ``run`` mode
+    (Engine.transfer_stats)."""
 
     def __init__(self, box):
         self.box = box
@@ -47,14 +63,30 @@ class DeviceArrays:
             shape = host.shape[: host.ndim - len(elem_shape)]
             self.dev[f.name] = ti.ndarray(dtype=dtype, shape=shape)
         self.args = box.ARGS(**self.dev)
+        self.counts = {way: {"copies": 0, "bytes": 0, "seconds": 0.0, "fields": {}}
+                       for way in ("push", "pull")}
 
     def push(self, names=None) -> None:
+        t0 = time.perf_counter()
+        c = self.counts["push"]
         for name in names or self.dev:
-            self.dev[name].from_numpy(np.ascontiguousarray(getattr(self.box, name)))
+            a = np.ascontiguousarray(getattr(self.box, name))
+            self.dev[name].from_numpy(a)
+            c["copies"] += 1
+            c["bytes"] += a.nbytes
+            c["fields"][name] = c["fields"].get(name, 0) + a.nbytes
+        c["seconds"] += time.perf_counter() - t0
 
     def pull(self, names=None) -> None:
+        t0 = time.perf_counter()
+        c = self.counts["pull"]
         for name in names or self.dev:
-            getattr(self.box, name)[...] = self.dev[name].to_numpy()
+            a = self.dev[name].to_numpy()
+            getattr(self.box, name)[...] = a
+            c["copies"] += 1
+            c["bytes"] += a.nbytes
+            c["fields"][name] = c["fields"].get(name, 0) + a.nbytes
+        c["seconds"] += time.perf_counter() - t0
 
     def nbytes(self) -> int:
         return self.box.nbytes()

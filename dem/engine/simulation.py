@@ -104,6 +104,8 @@ class Engine:
         self.options = options
         self.fast_launch = fast_launch
         self.hub = None  # with several scenes: what Simulation.advance calls (dem.run.batched)
+        self.n_chunks = 0  # chunks launched (_launch: one launch, or k of the parallel kernel)
+        self._installs = {"calls": 0, "bytes": 0}  # install_pairs' host arrays (a device)
         models = [Model.from_scene(sc, j) for sc, j in zip(scenes, joints)]
         self.model = Model.concat(models)
         states = [State.from_scene(sc, m) for sc, m in zip(scenes, models)]
@@ -237,8 +239,7 @@ class Engine:
         capped = np.isfinite(area_cap)
         if not capped.any():
             return
-        if self.on_device:  # the patches' areas (the kernels wrote them)
-            self._dev["contacts"].pull(["area", "npts"])
+        self.host("contacts", write=False, fields=("area", "npts"))  # the patches' areas
         patch = np.zeros(self.model.n_bodies)
         over_any = False
         for g, sim in enumerate(self.simulations):
@@ -344,6 +345,7 @@ class Engine:
         if self._warped and self._overlap_wanted() != self._overlap:
             self._choose_launch()  # coherence.set_overlap_reuse switched the overlap reuse
         n_slots = self._n_slots()
+        self.n_chunks += 1
         self._to_device()
         if self.mode == "serial":
             self._advance(k, n_slots, self.dt)
@@ -384,55 +386,112 @@ class Engine:
             d.push()
         real = ti.f32 if ti_runtime.real_dtype() == np.float32 else ti.f64
         self._scratch = HistoryScratch(self.contacts.capacity, real)
-        self._stale = {"state": False, "contacts": False}   # the device's are newer
-        self._dirty = {"state": False, "contacts": False}   # the host's may be newer
+        self._fields = {name: tuple(f.name for f in box.FIELDS) for name, box in (
+            ("state", self.state), ("contacts", self.contacts))}
+        self._stale = {"state": set(), "contacts": set()}   # fields whose device copy is newer
+        self._dirty = {"state": set(), "contacts": set()}   # fields the host may have written
 
-    def host(self, name: str, write: bool = True) -> None:
-        """Make the host's ``name`` ("state" or "contacts") current before the host reads it
-        (a copy from the device where the kernels wrote since), and, with ``write``, copy it
-        to the device before the next launch (the host may write it).  A no-op on the CPU."""
+    # Contacts fields that only the host writes between launches (the broad phase's index
+    # arrays: the stepping kernels read them, install_pairs writes on the device the values the
+    # host wrote on its own copy): current on the host after any launch, never copied back
+    HOST_KEPT = {"state": frozenset(),
+                 "contacts": frozenset({"pairs", "adj_ptr", "adj", "scene_pairs"})}
+    # Contacts fields that install_pairs writes on the device from the device's history (a
+    # rebuild): stale on the host after it
+    INSTALLED = ("code", "npts", "loc", "shear", "patch_shape")
+
+    def host(self, name: str, write: bool = True, fields=None) -> None:
+        """Make the host's ``name`` ("state" or "contacts") current before the host reads it,
+        and, with ``write``, copy it to the device before the next launch (the host may write
+        it).  ``fields``: only these fields of it (names of the container's FIELDS; None: all).
+        A no-op on the CPU without device arrays.
+
+        Per field: a field is *stale* where the kernels wrote it since the host last copied it
+        (every field but :attr:`HOST_KEPT` after a launch; :attr:`INSTALLED` after a rebuild's
+        install): only the stale fields asked for are copied back (one copy per field, of every
+        scene of the engine), once.  ``write`` marks the fields asked for *dirty* (whether the
+        host then writes them or not, and whether they were stale or not: a field the host
+        writes whole without reading it still goes to the device); the dirty fields are copied
+        to the device before the next launch (or install) and are never stale meanwhile, so a
+        copy back never overwrites what the host wrote.  ``sim.state`` / ``sim.contacts`` ask for
+        every field with ``write`` (a writer gets what it always got); the read-only accessors
+        (Simulation.read_state / read_contacts) ask for their fields without it."""
         if not self.on_device:
             return
-        if self._stale[name]:
-            self._dev[name].pull()
-            self._stale[name] = False
+        names = self._fields[name] if fields is None else tuple(fields)
+        unknown = set(names) - set(self._fields[name])
+        if unknown:
+            raise KeyError(f"{name} has no field(s) {sorted(unknown)}")
+        stale = self._stale[name]
+        pull = [f for f in names if f in stale]
+        if pull:
+            self._dev[name].pull(pull)
+            stale.difference_update(pull)
         if write:
-            self._dirty[name] = True
+            self._dirty[name].update(names)
+
+    def _push_dirty(self, name: str) -> None:
+        dirty = self._dirty[name]
+        if dirty:
+            self._dev[name].push([f for f in self._fields[name] if f in dirty])
+            dirty.clear()
 
     def _to_device(self) -> None:
         if not self.on_device:
             return
         self._dev["control"].push()
         for name in ("state", "contacts"):
-            if self._dirty[name]:
-                self._dev[name].push()
-                self._dirty[name] = False
+            self._push_dirty(name)
 
     def _from_device(self) -> None:
         if not self.on_device:
             return
         self._dev["control"].pull([f for f in self._dev["control"].dev if f != "loads"])
-        self._stale["state"] = self._stale["contacts"] = True
+        for name in ("state", "contacts"):  # nothing is dirty: _to_device pushed it
+            self._stale[name] = set(self._fields[name]) - self.HOST_KEPT[name]
+
+    def transfer_stats(self) -> dict:
+        """The host <-> device traffic since construction (benchmarks/batch_speed.py ``run``):
+        ``host_to_device`` / ``device_to_host``: ``copies`` (one per field moved), ``bytes``,
+        ``seconds`` (the host's wall time in them), in all and ``by_container`` (model, state,
+        contacts, control; each with ``fields``: the bytes of each field moved);
+        ``install_pairs``: the rebuilds installed on the device (``calls``; ``bytes``: the
+        host's index arrays handed to each, which a GPU copies in, and back after the kernel);
+        ``chunks``: the chunks launched (each ends with the control's pull).  On the CPU without
+        device arrays every count but ``chunks`` is 0."""
+        ways = {"host_to_device": "push", "device_to_host": "pull"}
+        out = {}
+        for key, way in ways.items():
+            by = {name: {**d.counts[way], "fields": dict(d.counts[way]["fields"])}
+                  for name, d in getattr(self, "_dev", {}).items()}
+            out[key] = {"copies": sum(v["copies"] for v in by.values()),
+                        "bytes": sum(v["bytes"] for v in by.values()),
+                        "seconds": sum(v["seconds"] for v in by.values()),
+                        "by_container": by}
+        out["install_pairs"] = dict(self._installs)
+        out["chunks"] = self.n_chunks
+        return out
 
     def install_pairs(self, g: int, lists, has_history: bool) -> None:
         """Scene g's new pair lists (containers.pair_lists) into the device's contacts
         (dem.engine.device.install_pairs: the history carried on the device)."""
         from dem.engine.device import install_pairs
 
-        if self._dirty["contacts"]:  # the host wrote contacts since: the device gets them first
-            self._dev["contacts"].push()
-            self._dirty["contacts"] = False
-        if self._dirty["state"]:
-            self._dev["state"].push()
-            self._dirty["state"] = False
+        # what the host wrote since goes to the device first
+        self._push_dirty("contacts")
+        self._push_dirty("state")
         src = lists.src if lists.src is not None else np.zeros(0, dtype=np.int32)
         src_full = np.full(self.contacts.capacity, -1, dtype=np.int32)
         src_full[: len(src)] = src
         sc = self._scratch
         _, st, c, _ = self.containers()
+        self._installs["calls"] += 1
+        self._installs["bytes"] += (lists.pairs.nbytes + lists.adj_ptr.nbytes + lists.adj.nbytes
+                                    + src_full.nbytes)
         install_pairs(g, lists.n, int(has_history), lists.pairs, lists.adj_ptr, lists.adj,
                       src_full, self._dev["model"].args, st, c, sc.code, sc.npts, sc.loc,
                       sc.shear)
+        self._stale["contacts"].update(self.INSTALLED)  # the history, moved on the device
 
     def _warm_up(self) -> None:
         """Compile every kernel (or load it from Taichi's offline cache) with zero work, and
@@ -475,13 +534,33 @@ class Engine:
             self._advance = lambda *sc: kernel(*sc, *self.containers(), *variants)
 
 
+class FieldView:
+    """Named read-only views of some fields of a container (Simulation.read_state /
+    read_contacts): ``view.pos`` is the container's ``pos`` array, not writeable."""
+
+    def __init__(self, box, names):
+        for name in names:
+            a = getattr(box, name).view()
+            a.flags.writeable = False
+            setattr(self, name, a)
+
+
 class Simulation:
     """One scene of an :class:`Engine`: the run loop's handle on it.
 
     ``Simulation(scene, joints, options, gravity)`` builds an engine of that one scene (the
     common case); an engine of several scenes makes one per scene (``engine.simulations``).
     Either way its state, contacts and control are that scene's (dem.engine.containers:
-    slices of the engine's arrays), its clock (t, step_count) its own."""
+    slices of the engine's arrays), its clock (t, step_count) its own.
+
+    Reading and writing the arrays: ``sim.state`` / ``sim.contacts`` are the containers
+    themselves, to read and write; on a device (dem.engine.device) each use copies every field
+    the kernels changed to the host and every field back to the device before the next launch.
+    What only reads asks for its fields with ``sim.read_state("pos", "vel")`` /
+    ``sim.read_contacts("wrench")``: read-only views of those fields, copied to the host only
+    where stale, never back (Engine.host).  On the CPU without device arrays both are the
+    host's arrays, nothing is copied.  The run loop's reads (frames, instruments, settling,
+    energies, the summary) use the read-only accessors."""
 
     def __init__(self, scene: Scene, joints: JointLaw, options: StepOptions,
                  gravity=(0.0, 0.0, -9.81), fast_launch: bool = True):
@@ -521,16 +600,49 @@ class Simulation:
     # ------------------------------------------------------------------------------------
     @property
     def state(self) -> State:
-        """This scene's State (on a device: copied to the host first, and back before the
-        next launch: the caller may write it)."""
+        """This scene's State, to read and write (on a device: every field copied to the host
+        where the kernels changed it, and every field back before the next launch: the caller
+        may write it).  To read only: :meth:`read_state`."""
         self.engine.host("state")
         return self._state
 
     @property
     def contacts(self) -> Contacts:
-        """This scene's Contacts (on a device: as :attr:`state`)."""
+        """This scene's Contacts, to read and write (on a device: as :attr:`state`).  To read
+        only: :meth:`read_contacts`."""
         self.engine.host("contacts")
         return self._contacts
+
+    def read_state(self, *fields: str) -> FieldView:
+        """This scene's State fields ``fields`` (names of State.FIELDS; none given: all) to read
+        only, as attributes of a :class:`FieldView` (read-only views of the arrays, no copy: a
+        write raises; a field not asked for is not there).  On a device only the fields asked
+        for are copied to the host, and only where the kernels changed them since (for every
+        scene of the engine at once: the batch-mates' reads after it copy nothing), and nothing
+        goes back to the device.  Valid until the next advance."""
+        names = fields or self.engine_fields("state")
+        self.engine.host("state", write=False, fields=names)
+        return FieldView(self._state, names)
+
+    def read_contacts(self, *fields: str) -> FieldView:
+        """This scene's Contacts fields ``fields`` (none given: all) to read only, as
+        :meth:`read_state`; the view also has ``n_pairs``.  The broad phase's index arrays
+        (pairs, adj_ptr, adj, scene_pairs: Engine.HOST_KEPT) are current on the host and never
+        copied."""
+        names = fields or self.engine_fields("contacts")
+        self.engine.host("contacts", write=False, fields=names)
+        view = FieldView(self._contacts, names)
+        view.n_pairs = self._contacts.n_pairs
+        return view
+
+    @staticmethod
+    def engine_fields(name: str) -> tuple[str, ...]:
+        """The field names of the container ``name`` ("state" or "contacts")."""
+        return tuple(f.name for f in (State if name == "state" else Contacts).FIELDS)
+
+    def active_contact_points(self) -> dict[str, np.ndarray]:
+        """Contacts.active_points of this scene, read only (:meth:`read_contacts`)."""
+        return Contacts.active_points(self.read_contacts(*Contacts.POINT_FIELDS))
 
     @property
     def t(self) -> float:
@@ -618,7 +730,7 @@ class Simulation:
     def rebuild(self) -> None:
         """Broad phase of this scene: new neighbour list, history carried over for pairs that
         stay."""
-        self.engine.host("state", write=False)
+        self.engine.host("state", write=False, fields=("pos", "rot", "quat"))
         st = self._state
         m = self.model
         pairs = candidate_pairs(st.pos, st.rot, m.half_np, m.radius_np, m.fixed_np, m.table,
@@ -699,7 +811,7 @@ class Simulation:
         m_i (gravity - base_accel) (m/s^2, table frame), before any local damping, r_i the
         bounding radius.  Zero in static equilibrium; -.  Computed on the host from
         Contacts.wrench, so the kernels are untouched."""
-        m, c = self.model, self.contacts
+        m, c = self.model, self.read_contacts("pairs", "wrench")
         n = c.n_pairs
         F = np.zeros((m.n_bodies, 3))
         T = np.zeros((m.n_bodies, 3))
@@ -732,8 +844,9 @@ class Simulation:
         """Copies of everything that evolves: State, Contacts (neighbour list, shear history),
         the energy sums.  :meth:`restore_point` puts them back in place (the arrays the kernels
         hold do not move); time and step count go on."""
-        return {"state": {k: a.copy() for k, a in self.state.arrays().items()},
-                "contacts": {k: a.copy() for k, a in self.contacts.arrays().items()},
+        return {"state": {k: a.copy() for k, a in self._read_all("state").arrays().items()},
+                "contacts": {k: a.copy()
+                             for k, a in self._read_all("contacts").arrays().items()},
                 "energy": self.control.energy_sums.copy()}
 
     def restore_point(self, point: dict) -> None:
@@ -759,9 +872,11 @@ class Simulation:
         same scene and options goes on bit for bit as this one would (tests/test_resume.py),
         alone or as a scene of an engine of several.  The Model is static, rebuilt from the
         scene, never saved."""
-        out = {f"{name}.{k}": a.copy() for name, box in self._boxes()
+        boxes = (("state", self._read_all("state")), ("contacts", self._read_all("contacts")),
+                 ("control", self.control))
+        out = {f"{name}.{k}": a.copy() for name, box in boxes
                for k, a in box.arrays().items() if (name, k) not in self.TRANSIENT}
-        out["contacts.n_pairs"] = np.array(self.contacts.n_pairs)
+        out["contacts.n_pairs"] = np.array(self._contacts.n_pairs)
         out.update({f"sim.{k}": np.array(getattr(self, k)) for k in self.EVOLVING})
         out["sim.dt_changes"] = np.array(json.dumps(self.dt_changes))
         out["sim.mode"] = np.array(self.mode)
@@ -800,6 +915,12 @@ class Simulation:
         if not self.engine.batched:
             self.dt_changes = json.loads(str(snap["sim.dt_changes"]))
 
+    def _read_all(self, name: str):
+        """The container ``name`` ("state" or "contacts") itself, every field current on the
+        host, to read only (copied, never written: nothing goes back to the device)."""
+        self.engine.host(name, write=False)
+        return self._state if name == "state" else self._contacts
+
     def _boxes(self) -> tuple:
         return (("state", self.state), ("contacts", self.contacts), ("control", self.control))
 
@@ -815,7 +936,7 @@ class Simulation:
 
     def _instability(self) -> InstabilityError:
         b = int(self.control.bad_body[0])
-        st = self.state
+        st = self.read_state("pos", "vel")
         v = st.vel[b]
         x = st.pos[b]
         what = "became NaN/inf" if self.control.status[0] & NONFINITE else (
@@ -827,7 +948,7 @@ class Simulation:
 
     # ------------------------------------------------------------------------------------
     def kinetic_energy(self) -> float:
-        st, m = self.state, self.model
+        st, m = self.read_state("vel", "omega", "angmom"), self.model
         v = st.vel
         w = st.omega
         L = st.angmom

@@ -38,6 +38,7 @@ and ``arch`` (Taichi's arch: cpu or cuda).
 from __future__ import annotations
 
 import json
+import os
 import threading
 import time
 import traceback
@@ -349,8 +350,9 @@ class Hub:
 def run_cases_in_one_engine(cases: Sequence[tuple[str, Case]], out_dirs: Sequence[str | Path],
                             max_steps: int | None = None, analyses: Sequence = (),
                             resume: bool = True, arch: str = "cpu",
-                            post: Callable | None = None, threads: int | None = None
-                            ) -> list[dict]:
+                            post: Callable | None = None, threads: int | None = None,
+                            device_arrays: bool | None = None,
+                            on_engine: Callable | None = None) -> list[dict]:
     """Run the (name, case) pairs in one engine (module docstring), each into its own
     ``out_dirs[g]``; returns one record per case, in order, as dem.batch's task body returns it:
     ``{"name", "status": "ok", "out_dir", "summary"[, "post"]}`` or ``{"name", "status":
@@ -361,9 +363,13 @@ def run_cases_in_one_engine(cases: Sequence[tuple[str, Case]], out_dirs: Sequenc
     unfinished run of the same case with a restart point goes on from it (dem.rundir.claim and
     run_case with resume=True), else it is cleared.  ``arch``: Taichi's arch, "cpu" or "cuda"
     (CudaUnavailable where CUDA is absent); ``threads``: Taichi's CPU threads (None: DEM_THREADS
-    or all cores).  Raises BatchInputError before anything runs when the cases' ``solver:``
-    sections differ (naming the field), KeyboardInterrupt when stopped (every point written
-    first)."""
+    or all cores).  ``device_arrays``: keep the engine's arrays as on a device
+    (dem.engine.device) on the CPU too; None: where Taichi runs on a GPU, or on the CPU where the
+    environment variable ``DEM_DEVICE_ARRAYS`` is 1 (a CPU proxy of a GPU batch's host traffic:
+    benchmarks/batch_speed.py ``run``).  ``on_engine(engine)``: called once the engine is made
+    (its counters: Engine.transfer_stats).  Raises BatchInputError before anything runs when
+    the cases' ``solver:`` sections differ (naming the field), KeyboardInterrupt when stopped
+    (every point written first)."""
     from dem.rundir import claim
     from dem.run.build import case_joint_law, scene_from_case, step_options
     from dem.loading import loading_from_case
@@ -406,8 +412,11 @@ def run_cases_in_one_engine(cases: Sequence[tuple[str, Case]], out_dirs: Sequenc
             except Exception as err:  # noqa: BLE001 - a failed point is reported, never fatal
                 records[g] = failed(g, err)
         if members:
+            if device_arrays is None and os.environ.get("DEM_DEVICE_ARRAYS") == "1":
+                device_arrays = True
             _run_members(cases, out_dirs, members, scenes, joints, gravity, options, records,
-                         failed, max_steps, analyses, resume, arch, post, t0)
+                         failed, max_steps, analyses, resume, arch, post, t0, device_arrays,
+                         on_engine)
     finally:
         for rd in held:
             rd.release()
@@ -415,7 +424,8 @@ def run_cases_in_one_engine(cases: Sequence[tuple[str, Case]], out_dirs: Sequenc
 
 
 def _run_members(cases, out_dirs, members, scenes, joints, gravity, options, records, failed,
-                 max_steps, analyses, resume, arch, post, t0) -> None:
+                 max_steps, analyses, resume, arch, post, t0, device_arrays=None,
+                 on_engine=None) -> None:
     """The engine of the points ``members`` (indices into cases) and their runs."""
     from dem.engine.simulation import Engine
     from dem.run.loop import run_case
@@ -423,12 +433,14 @@ def _run_members(cases, out_dirs, members, scenes, joints, gravity, options, rec
     bind = cuda_context_binder() if running_arch() == "cuda" else None
     t1 = time.perf_counter()
     try:
-        engine = Engine(scenes, joints, options, gravity=gravity)
+        engine = Engine(scenes, joints, options, gravity=gravity, device_arrays=device_arrays)
     except Exception as err:  # noqa: BLE001 - the engine could not be made: every point fails
         for g in members:
             records[g] = failed(g, err)
         return
     engine_seconds = time.perf_counter() - t1
+    if on_engine is not None:
+        on_engine(engine)
     sims = engine.simulations
     k = len(members)
     hub = Hub(engine, k, bind) if k > 1 else None

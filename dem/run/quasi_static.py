@@ -99,7 +99,7 @@ class QuasiStaticTilt:
         run.duration or the step limit runs out first, the angle is undecided:
         ``self.undecided`` is set and the search ends there."""
         sim, sp = self.sim, self.spec
-        st = sim.state
+        st = sim.read_state("pos", "quat")
         pos0, quat0 = st.pos[: self.n].copy(), st.quat[: self.n].copy()
         t0, steps0 = sim.t, sim.step_count
         self.loading.turn(t0, angle, sp.ramp_time)
@@ -110,6 +110,7 @@ class QuasiStaticTilt:
         while True:
             sim.advance(self._chunk(CHECK_STEPS), self.loading)
             ratio = sim.unbalanced_force_ratio(self.loading.gravity(np.array([sim.t]))[0])
+            st = sim.read_state("pos", "quat")  # after the advance (on a device: copied now)
             moved = float(motion_measure(pos0, quat0, st.pos[: self.n], st.quat[: self.n],
                                          self.radius).max())
             if moved >= self.collapse.confirm and failed_at is None:
@@ -175,7 +176,7 @@ class QuasiStaticTilt:
 
     def _speed(self) -> float:
         """Largest block speed bound |v| + r |omega|, m/s."""
-        st = self.sim.state
+        st = self.sim.read_state("vel", "omega")
         return float((np.linalg.norm(st.vel[: self.n], axis=1)
                       + self.radius * np.linalg.norm(st.omega[: self.n], axis=1)).max())
 
@@ -231,7 +232,7 @@ class QuasiStaticTilt:
         sim, rec, col = self.sim, self.recording, self.collapse
         sim.set_local_damping(0.0)
         self.loading.turn(sim.t, to_angle, self.spec.ramp_time)
-        st = sim.state
+        st = sim.read_state("pos", "quat")
         pos0, quat0 = st.pos[: self.n].copy(), st.quat[: self.n].copy()
         t0 = sim.t
         first_moving = None
@@ -242,6 +243,7 @@ class QuasiStaticTilt:
             while sim.t < window_end and not self._out_of_time():
                 sim.advance(self._chunk(rec.steps_to_next(window_end)), self.loading)
                 rec.after_advance(last=sim.t >= window_end)
+                st = sim.read_state("pos", "quat")  # after the advance
                 m = motion_measure(pos0, quat0, st.pos[: self.n], st.quat[: self.n],
                                    self.radius)
                 if first_moving is None and m.max() >= col.confirm:
@@ -256,6 +258,7 @@ class QuasiStaticTilt:
             turns += 1
             window_end = sim.t + col.after
         rec.frame_at_stop()
+        st = sim.read_state("pos", "quat")
         m = motion_measure(pos0, quat0, st.pos[: self.n], st.quat[: self.n], self.radius)
         moved = np.flatnonzero(m >= 0.5 * col.confirm)
         out = self._result(True, fail, eq, eq_ratio, None)

@@ -24,6 +24,9 @@ from dem.signals import deferred
 from dem.units import FRAMES_UNITS, npz_units
 
 FRAME_KEYS = ("t", "pos", "quat", "vel", "omega", "base_disp")
+# the State fields a frame and an instrument sample read (Simulation.read_state: on a device,
+# copied to the host only where stale, never back)
+RECORDED = ("pos", "quat", "vel", "omega")
 
 
 class FrameRecorder:
@@ -138,14 +141,14 @@ class Recording:
 
     def _frame(self) -> None:
         sim, n, loading = self.sim, self.n, self.loading
-        st, t = sim.state, sim.t
+        st, t = sim.read_state(*RECORDED), sim.t
         extra = {}
         if isinstance(loading, Tilt):
             extra["tilt_angle"] = float(loading.angle(t)[0])
         base = loading.base_disp(np.array([t]))[0]
         if self.vtk is not None and self.frames.n_frames % self.run.vtk_every == 0:
             self.vtk.add_frame(t, st.pos[:n], st.quat[:n], st.vel[:n], base,
-                               contacts=sim.contacts.active_points() if self.run.contacts
+                               contacts=sim.active_contact_points() if self.run.contacts
                                else None)
         self.frames.add(t, st.pos[:n], st.quat[:n], st.vel[:n], st.omega[:n], base, **extra)
         for listen in self.listeners:
@@ -158,7 +161,7 @@ class Recording:
 
     def _sample(self) -> None:
         sim, loading = self.sim, self.loading
-        st = sim.state
+        st = sim.read_state(*RECORDED)
         tt = np.array([sim.t])
         self.instruments.sample(sim.t, st.pos, st.quat, st.vel, st.omega,
                                 loading.base_disp(tt)[0], loading.base_vel(tt)[0])

@@ -47,7 +47,7 @@ def settle(sim, loading, local_damping: float, max_steps: int | None = None,
 
     n = sim.n_blocks
     movable = ~sim.model.fixed_np[:n]
-    pos0 = sim.state.pos[:n].copy()
+    pos0 = sim.read_state("pos").pos[:n].copy()
     radius = sim.model.radius_np[:n]
     sim.set_local_damping(ALPHA)
     calm = 0
@@ -60,7 +60,7 @@ def settle(sim, loading, local_damping: float, max_steps: int | None = None,
             if k <= 0:
                 break
         sim.advance(k, loads)
-        st = sim.state
+        st = sim.read_state("vel", "omega")
         speed = float((np.linalg.norm(st.vel[:n], axis=1)
                        + radius * np.linalg.norm(st.omega[:n], axis=1))[movable].max(initial=0.0))
         ratio = sim.unbalanced_force_ratio(g0)
@@ -71,7 +71,7 @@ def settle(sim, loading, local_damping: float, max_steps: int | None = None,
             break
     sim.set_local_damping(local_damping)
     energy = sim.energy_report()
-    moved = sim.state.pos[:n] - pos0
+    moved = sim.read_state("pos").pos[:n] - pos0
     drop = -moved[:, 2]
     elapsed = sim.restart_clock()
     return {"at_rest": calm >= CALM_CHECKS, "time_s": elapsed, "steps": sim.step_count - steps0,

@@ -104,8 +104,9 @@ def engine_results(sim, n_blocks: int, wall0: float, compile_seconds: float) -> 
     out["neighbour_rebuilds"] = sim.n_rebuilds
     out["dt"] = sim.dt
     out["dt_changes"] = sim.dt_changes
-    out["n_pairs"] = sim.contacts.n_pairs
-    out["n_contact_points"] = int(sim.contacts.npts[: sim.contacts.n_pairs].sum())
+    c = sim.read_contacts("npts")
+    out["n_pairs"] = c.n_pairs
+    out["n_contact_points"] = int(c.npts[: c.n_pairs].sum())
     out["energy"] = sim.energy_report()
     out["max_penetration_m"], out["max_penetration_time_s"] = sim.deepest_penetration()
     return out
