@@ -115,3 +115,38 @@ def test_a_field_read_then_written_whole_goes_to_the_device():
         sim._state.angmom[:-1, 2] += 1e-4
         e.advance(300, [shake(3.0, 1.0)])
     assert_same(dev.simulations[0], host.simulations[0])
+
+
+def test_the_device_counts_the_patches_over_their_caps_as_the_host_would():
+    """Engine._check_caps copies every patch area to the host only where the device counts a
+    patch over (or within CAP_CHECK_MARGIN of) its bodies' smaller area cap
+    (dem.engine.device.patches_over_caps): the count must be the host's own count from the
+    copied areas, for caps that no patch reaches and for caps that some exceed."""
+    from dem.engine.device import patches_over_caps
+
+    loads = [shake(4.0, 7.0), shake(6.0, 8.0, axis=1)]
+    dev = Engine([wall() for _ in loads], JOINTS, options(mode="parallel"), device_arrays=True)
+    dev.advance(300, loads)
+    c = dev.contacts
+    dev.host("contacts", write=False, fields=("area", "npts"))  # what the host check reads
+    P = c.capacity
+    slots, areas = [], []
+    for g, sim in enumerate(dev.simulations):
+        b0 = int(dev.model.scene_bodies[g][0])
+        for p in range(sim.contacts.n_pairs):
+            slot = g * P + p
+            slots.append(c.pairs[slot] + b0)
+            areas.append(c.area[slot, : c.npts[slot]].sum())
+    slots, areas = np.array(slots), np.array(areas)
+    assert (areas > 0).sum() > 10  # closed joints to count
+    m, _, cd, ctl = dev.containers()
+    import taichi as ti
+
+    for cap_value in (np.inf, 10 * areas.max(), np.median(areas[areas > 0]), 0.0):
+        cap = np.full(dev.model.n_bodies, cap_value)
+        cap_dev = ti.ndarray(ti.f64, shape=(dev.model.n_bodies,))
+        cap_dev.from_numpy(cap)
+        on_device = patches_over_caps(dev._n_slots(), cap_dev, 1.0, m, cd, ctl, dev.batched)
+        on_host = int((areas > np.minimum(cap[slots[:, 0]], cap[slots[:, 1]])).sum())
+        assert on_device == on_host, (cap_value, on_device, on_host)
+    assert on_host > 0  # the last caps are exceeded

@@ -35,10 +35,10 @@ import numpy as np
 import taichi as ti
 
 from dem import ti_runtime
-from dem.engine.containers import ContactArgs, ModelArgs, StateArgs, element_type
+from dem.engine.containers import ContactArgs, ControlArgs, ModelArgs, StateArgs, element_type
 from dem.engine.geometry import MAXP
 from dem.engine.mathutil import vec3
-from dem.engine.step import slots_per_scene
+from dem.engine.step import pair_bodies, slot_live, slots_per_scene
 
 ti_runtime.quick_front_end()  # before this module's kernels are decorated
 
@@ -155,3 +155,24 @@ def install_pairs(g: ti.i32, n_new: ti.i32, has_history: ti.i32,
         contacts.ref_pos[b] = state.pos[b]
         contacts.ref_quat[b] = state.quat[b]
     contacts.scene_pairs[g] = n_new
+
+
+@ti.kernel
+def patches_over_caps(n_slots: ti.i32, cap: ti.types.ndarray(ndim=1), margin: float,
+                      model: ModelArgs, contacts: ContactArgs, control: ControlArgs,
+                      batched: ti.template()) -> ti.i32:
+    """The number of live pair slots whose contact patch (the sum of its points' areas, m^2)
+    exceeds ``margin`` x the smaller area cap of its two bodies (``cap``: per body, m^2, inf
+    where uncapped).  Engine._check_caps asks it before copying every patch area to the host:
+    with ``margin`` just below 1 (CAP_CHECK_MARGIN) a count of 0 means the host's own check,
+    whose sums differ from these by round-off only, would find no patch over its cap."""
+    over = 0
+    for p in range(n_slots):
+        if slot_live(p, contacts, control, batched) == 1:
+            i, j = pair_bodies(p, model, contacts, batched)
+            patch = 0.0
+            for q in range(contacts.npts[p]):
+                patch += contacts.area[p, q]
+            if patch > margin * ti.min(cap[i], cap[j]):
+                over += 1
+    return over

@@ -61,6 +61,11 @@ PARALLEL_MIN_BODIES = {2: 2500, 4: 500}  # threads (at most) -> bodies
 # device before it; the host reads the status back after it)
 DEVICE_CHUNK = 256
 
+# an engine on a device: a patch is counted as possibly over its area cap from (1 - this) x the
+# cap (Engine._patches_over_caps); the device's and the host's sums of a patch's <= 9 point
+# areas differ by ~1e-15 relative, so 1e-9 never hides a patch the host would find over
+CAP_CHECK_MARGIN = 1e-9
+
 
 def parallel_min_bodies(threads: int) -> int | float:
     """Bodies from which auto mode takes the parallel kernel with ``threads`` threads."""
@@ -104,6 +109,7 @@ class Engine:
         self.options = options
         self.fast_launch = fast_launch
         self.hub = None  # with several scenes: what Simulation.advance calls (dem.run.batched)
+        self._cap_dev = None  # on a device: the area caps, for _patches_over_caps
         self.n_chunks = 0  # chunks launched (_launch: one launch, or k of the parallel kernel)
         self._installs = {"calls": 0, "bytes": 0}  # install_pairs' host arrays (a device)
         models = [Model.from_scene(sc, j) for sc, j in zip(scenes, joints)]
@@ -239,6 +245,8 @@ class Engine:
         capped = np.isfinite(area_cap)
         if not capped.any():
             return
+        if self.on_device and not self._patches_over_caps():
+            return  # no patch near its cap: the areas need not come to the host
         self.host("contacts", write=False, fields=("area", "npts"))  # the patches' areas
         patch = np.zeros(self.model.n_bodies)
         over_any = False
@@ -317,6 +325,23 @@ class Engine:
             self._check_caps()
             if on_chunk is not None:
                 on_chunk(done)
+
+    def _patches_over_caps(self) -> bool:
+        """On a device: whether any live pair's patch may exceed its bodies' area cap, counted
+        on the device (dem.engine.device.patches_over_caps) so that the patches' areas of every
+        scene (most of the bytes a chunk end brings back) are copied only when one may.  The
+        margin (CAP_CHECK_MARGIN) is far above the round-off between the device's sum of a
+        patch's point areas and the host's: where it says no, _check_caps would find none."""
+        from dem.engine.device import patches_over_caps
+
+        if self._cap_dev is None:
+            real = ti.f32 if ti_runtime.real_dtype() == np.float32 else ti.f64
+            self._cap_dev = ti.ndarray(real, shape=(self.model.n_bodies,))
+        self._cap_dev.from_numpy(np.ascontiguousarray(self.clock.area_cap,
+                                                      dtype=ti_runtime.real_dtype()))
+        m, _, c, ctl = self.containers()
+        return patches_over_caps(self._n_slots(), self._cap_dev, 1.0 - CAP_CHECK_MARGIN, m, c,
+                                 ctl, self.batched) > 0
 
     def _n_slots(self) -> int:
         """The pair slots the kernels loop over: a lone scene's pairs, else up to the last

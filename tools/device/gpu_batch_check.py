@@ -29,13 +29,12 @@ import threading
 import time
 from pathlib import Path
 
-import yaml
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "benchmarks"))
+from batch_speed import case_of  # noqa: E402 - the realisations the benchmarks run
 OUT = Path(os.environ.get("OUT", "/tmp/out"))
-CASE = ROOT / "cases/shake/model-ii/group-3-y-1.53.yaml"
-FROZEN = ROOT / "studies/calibration/frozen.yaml"
 T0 = time.time()
 ARCH = os.environ.get("ARCH", "cuda")  # cpu: a dry run of this script on any machine
 TAG = os.environ.get("TAG", "")  # suffix of part 1's files (points_gpu<TAG>.json ...)
@@ -43,18 +42,6 @@ TAG = os.environ.get("TAG", "")  # suffix of part 1's files (points_gpu<TAG>.jso
 
 def say(*a):
     print(f"[{time.time() - T0:6.1f} s]", *a, flush=True)
-
-
-def case_of(seed: int, cycles: int):
-    from dem.case import parse_case
-
-    doc = yaml.safe_load(CASE.read_text())
-    doc["name"] = f"model-ii-y-2.8-seed{seed}"
-    doc["imperfections"] = {**yaml.safe_load(FROZEN.read_text())["imperfections"], "seed": seed}
-    doc["loading"]["cycles"] = cycles
-    doc["run"]["duration"] = cycles / 2.8 + 1.0
-    doc["run"]["vtk"] = False
-    return parse_case(doc)
 
 
 SUMMARY_KEYS = ("steps", "dt", "sim_time", "wall_seconds", "neighbour_rebuilds",
