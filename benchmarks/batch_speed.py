@@ -63,14 +63,21 @@ FROZEN = ROOT / "studies/calibration/frozen.yaml"
 SIM_SECONDS_50_CYCLES = 50 / 2.8 + 1.0
 
 
+def realisation_doc(seed: int) -> dict:
+    """The case document of realisation ``seed``: the case file with the frozen imperfection
+    set and that seed."""
+    doc = yaml.safe_load(CASE.read_text())
+    doc["imperfections"] = {**yaml.safe_load(FROZEN.read_text())["imperfections"], "seed": seed}
+    return doc
+
+
 def realisation(seed: int, mode: str, dt: float | None = None):
     """(scene, joints, options, loading) of one realisation."""
     from dem.case import parse_case
     from dem.loading import loading_from_case
     from dem.run.build import case_joint_law, scene_from_case, step_options
 
-    doc = yaml.safe_load(CASE.read_text())
-    doc["imperfections"] = {**yaml.safe_load(FROZEN.read_text())["imperfections"], "seed": seed}
+    doc = realisation_doc(seed)
     doc["solver"] = {**doc.get("solver", {}), "mode": mode}
     if dt is not None:
         doc["solver"]["dt"] = dt
@@ -81,13 +88,12 @@ def realisation(seed: int, mode: str, dt: float | None = None):
 
 
 def case_of(seed: int, cycles: int = 3):
-    """The Case of realisation ``seed`` as a batched ensemble runs it (tools/device/
-    gpu_batch_check.py's case_of: settling, instruments, frames every 0.02 s, no VTK)."""
+    """The Case of realisation ``seed`` as a batched ensemble runs it (settling, instruments,
+    frames every 0.02 s, no VTK, no snapshot; tools/device/gpu_batch_check.py runs these)."""
     from dem.case import parse_case
 
-    doc = yaml.safe_load(CASE.read_text())
+    doc = realisation_doc(seed)
     doc["name"] = f"model-ii-y-2.8-seed{seed}"
-    doc["imperfections"] = {**yaml.safe_load(FROZEN.read_text())["imperfections"], "seed": seed}
     doc["loading"]["cycles"] = cycles
     doc["run"]["duration"] = cycles / 2.8 + 1.0
     doc["run"]["vtk"] = False

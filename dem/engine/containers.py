@@ -250,6 +250,11 @@ class _Container:
     def arrays(self) -> dict[str, np.ndarray]:
         return {f.name: getattr(self, f.name) for f in self.FIELDS}
 
+    @classmethod
+    def field_names(cls) -> tuple[str, ...]:
+        """The names of the container's fields, in FIELDS order."""
+        return tuple(f.name for f in cls.FIELDS)
+
     def nbytes(self) -> int:
         return sum(a.nbytes for a in self.arrays().values())
 

@@ -68,25 +68,25 @@ class DeviceArrays:
 
     def push(self, names=None) -> None:
         t0 = time.perf_counter()
-        c = self.counts["push"]
         for name in names or self.dev:
             a = np.ascontiguousarray(getattr(self.box, name))
             self.dev[name].from_numpy(a)
-            c["copies"] += 1
-            c["bytes"] += a.nbytes
-            c["fields"][name] = c["fields"].get(name, 0) + a.nbytes
-        c["seconds"] += time.perf_counter() - t0
+            self._count("push", name, a.nbytes)
+        self.counts["push"]["seconds"] += time.perf_counter() - t0
 
     def pull(self, names=None) -> None:
         t0 = time.perf_counter()
-        c = self.counts["pull"]
         for name in names or self.dev:
             a = self.dev[name].to_numpy()
             getattr(self.box, name)[...] = a
-            c["copies"] += 1
-            c["bytes"] += a.nbytes
-            c["fields"][name] = c["fields"].get(name, 0) + a.nbytes
-        c["seconds"] += time.perf_counter() - t0
+            self._count("pull", name, a.nbytes)
+        self.counts["pull"]["seconds"] += time.perf_counter() - t0
+
+    def _count(self, way: str, name: str, nbytes: int) -> None:
+        c = self.counts[way]
+        c["copies"] += 1
+        c["bytes"] += nbytes
+        c["fields"][name] = c["fields"].get(name, 0) + nbytes
 
     def nbytes(self) -> int:
         return self.box.nbytes()

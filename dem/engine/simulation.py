@@ -411,8 +411,7 @@ class Engine:
             d.push()
         real = ti.f32 if ti_runtime.real_dtype() == np.float32 else ti.f64
         self._scratch = HistoryScratch(self.contacts.capacity, real)
-        self._fields = {name: tuple(f.name for f in box.FIELDS) for name, box in (
-            ("state", self.state), ("contacts", self.contacts))}
+        self._fields = {"state": State.field_names(), "contacts": Contacts.field_names()}
         self._stale = {"state": set(), "contacts": set()}   # fields whose device copy is newer
         self._dirty = {"state": set(), "contacts": set()}   # fields the host may have written
 
@@ -645,7 +644,7 @@ class Simulation:
         for are copied to the host, and only where the kernels changed them since (for every
         scene of the engine at once: the batch-mates' reads after it copy nothing), and nothing
         goes back to the device.  Valid until the next advance."""
-        names = fields or self.engine_fields("state")
+        names = fields or State.field_names()
         self.engine.host("state", write=False, fields=names)
         return FieldView(self._state, names)
 
@@ -654,16 +653,11 @@ class Simulation:
         :meth:`read_state`; the view also has ``n_pairs``.  The broad phase's index arrays
         (pairs, adj_ptr, adj, scene_pairs: Engine.HOST_KEPT) are current on the host and never
         copied."""
-        names = fields or self.engine_fields("contacts")
+        names = fields or Contacts.field_names()
         self.engine.host("contacts", write=False, fields=names)
         view = FieldView(self._contacts, names)
         view.n_pairs = self._contacts.n_pairs
         return view
-
-    @staticmethod
-    def engine_fields(name: str) -> tuple[str, ...]:
-        """The field names of the container ``name`` ("state" or "contacts")."""
-        return tuple(f.name for f in (State if name == "state" else Contacts).FIELDS)
 
     def active_contact_points(self) -> dict[str, np.ndarray]:
         """Contacts.active_points of this scene, read only (:meth:`read_contacts`)."""
