@@ -279,6 +279,25 @@ def test_a_joint_closing_beyond_the_limit_stops_the_run():
     assert closure(p) == pytest.approx(0.6 * DMAX)
 
 
+def test_a_capped_law_goes_on_along_its_tangent_beyond_the_limit():
+    """The same load with ``beyond_closure_limit: tangent``: the run goes on, and the block
+    settles where the capped law p(d_lim) + kt(d_lim)(d - d_lim) carries it: d_lim = d_max/2,
+    p(d_lim) = kn0 d_max, kt(d_lim) = 4 kn0, so d = d_max/2 + (p - kn0 d_max) / (4 kn0) =
+    0.625 d_max (the uncapped law: 0.6 d_max).  The patch bears uniformly (exact quadrature) and
+    the damped settling has died out by 0.3 s, as in the settling test above: 1e-12 m allowed
+    (1e-8 of d).  summary.json's deepest closure is the engine's deepest_penetration."""
+    p = 1.5 * KN0 * DMAX
+    size = 0.1
+    sim = make_sim([{"size": [size] * 3, "position": [0, 0, 0.05], "mass": p * size**2 / G}],
+                   friction=0.8, **_hyper(beyond_closure_limit="tangent"))
+    sim.advance(int(round(0.3 / sim.dt)), constant_loads())
+    d = 0.05 - sim.state.pos[0, 2]
+    expect = 0.5 * DMAX + (p - KN0 * DMAX) / (4.0 * KN0)
+    assert abs(d - expect) < 1e-12, (d / DMAX, expect / DMAX)
+    assert abs(closure(p) - expect) > 0.02 * DMAX  # the cap, not the hyperbolic law, holds it
+    assert sim.deepest_penetration()[0] >= d - 1e-12  # the overshoot of the release included
+
+
 def _case(material):
     return {"name": "x", "scene": {"blocks": [{"size": [0.1] * 3, "position": [0, 0, 0.05],
                                                "mass": 1.0}]},
@@ -293,6 +312,9 @@ def _case(material):
     ({"normal_law": "hyperbolic", "max_closure": 1e-4, "closure_limit": 1.0}, "less than 1"),
     ({"normal_law": "hyperbolic", "max_closure": -1e-4}, "greater than 0"),
     ({"normal_law": "cubic"}, "'linear' or 'hyperbolic'"),
+    ({"beyond_closure_limit": "tangent"}, "applies to normal_law: hyperbolic only"),
+    ({"normal_law": "hyperbolic", "max_closure": 1e-4, "beyond_closure_limit": "go"},
+     "'stop' or 'tangent'"),
 ])
 def test_case_file_checks_the_law_fields(material, message):
     with pytest.raises(CaseError, match=message):

@@ -99,7 +99,14 @@ class Material(_Strict):
         default=0.5, gt=0.0, lt=1.0, exclude_if=lambda v: v == 0.5,
         description="hyperbolic law: the time step is made stable for closures up to this "
         "fraction of max_closure (tangent stiffness kn0 / (1 - closure_limit)^2: 4 kn0 at 0.5); "
-        "a joint that closes further stops the run, -")
+        "a joint that closes further stops the run (beyond_closure_limit: stop), -")
+    beyond_closure_limit: Literal["stop", "tangent"] = Field(
+        default="stop", exclude_if=lambda v: v == "stop",
+        description="hyperbolic law: what a joint closing beyond closure_limit x max_closure "
+        "does: 'stop' ends the run with an error; 'tangent' goes on along the law's tangent "
+        "there (p = p(d_lim) + kt(d_lim) (d - d_lim): a capped hyperbolic law, the stiffness "
+        "of the closed joint frozen at kt(d_lim); summary.json's max_penetration_m says how "
+        "deep a joint went; docs/engine.md section 4.2)")
     materials: list[MaterialName] = Field(
         default_factory=list, exclude_if=lambda v: not v,
         description="names of block materials besides 'brick' (every block's default) and "
@@ -123,6 +130,9 @@ class Material(_Strict):
         elif self.max_closure is not None:
             errs.append((("max_closure",), "applies to normal_law: hyperbolic only (the "
                          "default law is linear)", self.max_closure))
+        if self.normal_law != "hyperbolic" and self.beyond_closure_limit != "stop":
+            errs.append((("beyond_closure_limit",), "applies to normal_law: hyperbolic only "
+                         "(the default law is linear)", self.beyond_closure_limit))
         seen: set[str] = set()
         for k, name in enumerate(self.materials):
             if name in BUILTIN_MATERIALS or name in seen:

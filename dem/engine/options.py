@@ -40,6 +40,8 @@ class JointLaw:
                       (dem.engine.laws)
     max_closure       d_max of the hyperbolic law, m
     closure_limit     the step is made for closures up to closure_limit x d_max, -
+    beyond_closure_limit  "stop": a joint closing beyond closure_limit x d_max stops the run;
+                      "tangent": the law goes on along its tangent there (a capped law)
     pairs             PairLaw per pair of named materials (later entries win); every other
                       pair takes the values above (with the table: base_friction)
     """
@@ -52,6 +54,7 @@ class JointLaw:
     normal_law: Literal["linear", "hyperbolic"] = "linear"
     max_closure: float | None = None
     closure_limit: float = 0.5
+    beyond_closure_limit: Literal["stop", "tangent"] = "stop"
     pairs: tuple[PairLaw, ...] = ()
 
     def step_stiffness(self) -> tuple[float, float, float]:
@@ -75,6 +78,9 @@ class JointLaw:
                 raise ValueError("the hyperbolic normal law needs max_closure > 0 (m)")
             if not 0.0 < self.closure_limit < 1.0:
                 raise ValueError(f"closure_limit must lie in (0, 1), got {self.closure_limit}")
+        if self.beyond_closure_limit not in ("stop", "tangent"):
+            raise ValueError("beyond_closure_limit is 'stop' or 'tangent', got "
+                             f"{self.beyond_closure_limit!r}")
 
 
 @dataclass(frozen=True)

@@ -169,9 +169,13 @@ class Engine:
         stiff = [m.stiffest() for m in models]
         self._kn_step, self._ks_step, self._zeta_step = (max(x[k] for x in stiff)
                                                          for k in range(3))
-        # per scene, the closure its hyperbolic pairs may reach (None: linear); the step is made
-        # for the stiffest tangent of them all, so each scene's own limit holds in the batch
-        self._closure_limits = [m.closure_limit() for m in models]
+        # per scene, the closure its hyperbolic pairs may reach before the run stops (None:
+        # linear, or a capped law that goes on along its tangent: JointLaw.beyond_closure_limit);
+        # the step is made for the stiffest tangent of them all, so each scene's own limit holds
+        # in the batch
+        self._closure_limits = [
+            None if getattr(j, "beyond_closure_limit", "stop") == "tangent" else m.closure_limit()
+            for m, j in zip(models, joints)]
         self.clock.face_area, self.clock.area_cap = face_area_caps(
             2 * self.model.half_np, self.model.mass_np, self.model.inertia_np, self._movable,
             self._kn_step, self._ks_step, options.safety, patch)

@@ -95,7 +95,8 @@ def joint_law(material: Material, scene: Scene | None = None, direction=None,
     extra = {}
     if material.normal_law != "linear":
         extra = dict(normal_law=material.normal_law, max_closure=material.max_closure,
-                     closure_limit=material.closure_limit)
+                     closure_limit=material.closure_limit,
+                     beyond_closure_limit=material.beyond_closure_limit)
     return JointLaw(friction=material.friction, base_friction=material.mu_base,
                     normal_stiffness=kn, shear_stiffness=material.ks(kn),
                     damping=material.damping, pairs=pairs, **extra)
@@ -139,6 +140,7 @@ def joint_summary(case: Case, scene: Scene, joints: JointLaw) -> dict:
         out["normal_law"] = {
             "law": joints.normal_law, "kn0_Pa_m": joints.normal_stiffness,
             "max_closure_m": joints.max_closure, "closure_limit": joints.closure_limit,
+            "beyond_closure_limit": joints.beyond_closure_limit,
             "note": "elastic_offset is computed at kn0, the softest stiffness of the law: an "
                     "upper bound"}
     if joints.pairs:

@@ -26,9 +26,18 @@ unevenly between models (stress-dependent stiffness, joint geometry) can move th
 
 Candidates (CANDIDATES: a patch of the first prediction's case each; the baseline is the first
 prediction's own rows at 2.0 Hz, kn = 5e9 Pa/m, planar 0.1 mm beds): linear kn 1e9 and 2e8
-Pa/m; planar beds of 0.2 and 0.3 mm; twisted (bilinear) faces of 0.1 mm.  The hyperbolic
-closure law at literature kn0 / d_max is not among them: no measured values could be read
-(results/diagnosis/README.md, E1).
+Pa/m; planar beds of 0.2 and 0.3 mm; twisted (bilinear) faces of 0.1 mm; and the stress-dependent
+joint: the hyperbolic closure law p = kn0 d / (1 - d/d_max) (docs/engine.md 4.2) with
+d_max = 0.05, 0.1, 0.2 mm (the issue's values).  No literature kn0 could be read (docs/engine.md
+4.2), so kn0 = 1e8 Pa/m, the project's illustrative value, chosen before any run: its tangent
+kt(p) = kn0 (1 + p / (kn0 d_max))^2 is 1.4-5.8e8 (d_max 0.05 mm), 1.2-2.9e8 (0.1 mm) and 1.1-1.8e8
+Pa/m (0.2 mm) between the 1 kPa under a top course and the 7 kPa at a base: a joint 4.0, 2.4 and
+1.65 x stiffer at the base than at the top, around the kn 2e8 candidate's stiffness.  ks is that
+candidate's 8e7 Pa/m (0.4 x 2e8), so the kn 2e8 candidate is the control: the two differ in the
+normal law only.  closure_limit 0.8 (the step for kt = 25 kn0 = 2.5e9 Pa/m) with
+beyond_closure_limit: tangent (a capped law): the patches that carry a wall on an edge or a
+corner close past 0.8 d_max (the pilot, results/diagnosis/e1-pilot) and go on at kt(0.8 d_max),
+where the beds (p(0.8 d_max) = 4 kn0 d_max = 20-80 kPa) stay on the hyperbolic law.
 """
 
 from __future__ import annotations
@@ -59,6 +68,12 @@ CANDIDATES = (
             {"imperfections": {"bed_unevenness": 0.0003}}),
     Variant("twisted", "twisted (bilinear) faces, 0.1 mm",
             {"imperfections": {"face_shape": "bilinear"}}),
+    *(Variant(f"hyperbolic-{dm:g}", f"hyperbolic joint, kn0 1e8 Pa/m, d_max {dm:g} mm "
+              "(ks 8e7 Pa/m, capped at 0.8 d_max)",
+              {"material": {"normal_law": "hyperbolic", "normal_stiffness": 1e8,
+                            "max_closure": dm * 1e-3, "closure_limit": 0.8,
+                            "beyond_closure_limit": "tangent", "shear_stiffness": 8e7}})
+      for dm in (0.05, 0.1, 0.2)),
 )
 
 GRIDS = tuple(Grid(key=f"e1-{s}", title=f"E1 fingerprint run: {s} at {FREQUENCY:g} Hz",
