@@ -154,10 +154,32 @@ def plot(table: dict, path: Path) -> None:
     plt.close(fig)
 
 
+def deepest_closures(variant: Variant, before: dict) -> dict:
+    """A capped hyperbolic candidate's deepest closure per run, over d_max ({sweep: {seed:
+    x}}): read from each run's summary.json (``max_penetration_m``, the deepest contact point
+    of the run); a run whose directory is gone keeps the value ``before`` recorded.  Above
+    the closure_limit a joint ran on the cap's tangent, not on the hyperbolic law."""
+    mat = variant.patch.get("material") or {}
+    if mat.get("normal_law") != "hyperbolic":
+        return {}
+    out = {}
+    for g in GRIDS:
+        got = dict((before.get(g.sweep) or {}))
+        for seed in SEEDS:
+            summ = read_json(g.runs / variant.name / f"seed-{seed}" / f"f{FREQUENCY:.3f}Hz"
+                             / "summary.json") or {}
+            if summ.get("status") == "ok" and summ.get("max_penetration_m") is not None:
+                got[str(seed)] = summ["max_penetration_m"] / mat["max_closure"]
+        if got:
+            out[g.sweep] = got
+    return out
+
+
 def report(log=print) -> dict:
     """summary.json and fingerprint.png: the baseline's and each candidate's fingerprint."""
     from dem.output.atomic import write_json
 
+    before = (read_json(OUT / "summary.json") or {}).get("candidates") or {}
     table = {"first prediction (kn 5e9, planar 0.1 mm)": fingerprint_of(
         {g.sweep: baseline_rows(g) for g in GRIDS})}
     for v in CANDIDATES:
@@ -166,6 +188,10 @@ def report(log=print) -> dict:
             data = read_json(g.out / "points.json") or {}
             rows[g.sweep] = ((data.get("variants") or {}).get(v.name) or {}).get("rows", [])
         table[v.name] = {"label": v.label, **fingerprint_of(rows)}
+        deep = deepest_closures(v, (before.get(v.name) or {}).get("deepest_closure_over_dmax")
+                                or {})
+        if deep:
+            table[v.name]["deepest_closure_over_dmax"] = deep
     cpu = sum((read_json(g.out / "cpu.json") or {}).get(g.key, 0.0) for g in GRIDS)
     summary = {"experiment": "E1", "frequency_hz": FREQUENCY, "seeds": list(SEEDS),
                "cycles": CYCLES, "ratio_tolerance": RATIO_TOLERANCE,
