@@ -143,7 +143,7 @@ def plot(table: dict, path: Path) -> None:
 
     names = list(table)
     keys = [k for k in next(iter(table.values()))["ratios"]]
-    fig, ax = plt.subplots(figsize=(7.0, 3.8))
+    fig, ax = plt.subplots(figsize=(9.0, 3.8))
     x = np.arange(len(keys))
     w = 0.8 / (len(names) + 1)
     for i, k in enumerate(keys):
@@ -158,8 +158,9 @@ def plot(table: dict, path: Path) -> None:
     ax.set_xticks(x, [k.replace(" / ", "\n/ ") for k in keys], fontsize=7)
     ax.set_ylabel("ratio of natural frequencies")
     ax.set_title(f"E1 fingerprint at {FREQUENCY:g} Hz: thesis' f_c ratio (line) +- "
-                 f"{RATIO_TOLERANCE:g} (grey)", fontsize=8)
-    ax.legend(fontsize=6, ncol=2)
+                 f"{RATIO_TOLERANCE:g} (grey); no bar: that model rocks at "
+                 f"{FREQUENCY:g} Hz (no f_n)", fontsize=8)
+    ax.legend(fontsize=6, loc="center left", bbox_to_anchor=(1.0, 0.5))
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
