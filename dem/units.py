@@ -60,6 +60,7 @@ SUMMARY_UNITS: dict[str, str] = {
     "*shear_stiffness": "Pa/m",
     "*max_closure": "m",
     "*closure_limit": "-",             # a fraction of max_closure
+    "*closure_fraction": "-",          # summary.json hyperbolic_closure: a fraction of d_max
     "loading.axis[]": "-",
     "loading.direction[]": "-",
     "loading.load_direction[]": "-",

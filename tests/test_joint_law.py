@@ -298,6 +298,28 @@ def test_a_capped_law_goes_on_along_its_tangent_beyond_the_limit():
     assert sim.deepest_penetration()[0] >= d - 1e-12  # the overshoot of the release included
 
 
+def test_summary_says_how_deep_the_capped_law_went(tmp_path):
+    """summary.json's hyperbolic_closure: the deepest closure over d_max and whether it passed
+    closure_limit.  The capped block above (a 0.1 m cube loaded to 1.5 kn0 d_max, settled at
+    0.625 d_max on the cap's tangent) reports a fraction of at least 0.625 and beyond: true; a
+    light block (p = 0.2 kn0 d_max, d = 0.167 d_max) reports under 0.5 and beyond: false."""
+    from dem.run import run_case
+
+    out = {}
+    for name, load in (("heavy", 1.5), ("light", 0.2)):
+        mass = load * KN0 * DMAX * 0.1**2 / G
+        case = parse_case({"name": name, "scene": {"blocks": [
+            {"size": [0.1] * 3, "position": [0, 0, 0.05], "mass": mass}]},
+            "material": {"friction": 0.8, **_hyper(beyond_closure_limit="tangent")},
+            "run": {"duration": 0.3, "output_interval": 0.1}})
+        out[name] = run_case(case, tmp_path / name).summary["hyperbolic_closure"]
+    heavy, light = out["heavy"], out["light"]
+    assert heavy["beyond_closure_limit"] and heavy["deepest_closure_fraction"] >= 0.625 - 1e-9
+    assert heavy["law_beyond_it"] == "tangent" and heavy["closure_limit"] == 0.5
+    assert not light["beyond_closure_limit"]
+    assert closure(0.2 * KN0 * DMAX) / DMAX <= light["deepest_closure_fraction"] < 0.5
+
+
 def _case(material):
     return {"name": "x", "scene": {"blocks": [{"size": [0.1] * 3, "position": [0, 0, 0.05],
                                                "mass": 1.0}]},

@@ -105,8 +105,8 @@ class Material(_Strict):
         description="hyperbolic law: what a joint closing beyond closure_limit x max_closure "
         "does: 'stop' ends the run with an error; 'tangent' goes on along the law's tangent "
         "there (p = p(d_lim) + kt(d_lim) (d - d_lim): a capped hyperbolic law, the stiffness "
-        "of the closed joint frozen at kt(d_lim); summary.json's max_penetration_m says how "
-        "deep a joint went; docs/engine.md section 4.2)")
+        "of the closed joint frozen at kt(d_lim); summary.json's hyperbolic_closure says how "
+        "deep the deepest joint went; docs/engine.md section 4.2)")
     materials: list[MaterialName] = Field(
         default_factory=list, exclude_if=lambda v: not v,
         description="names of block materials besides 'brick' (every block's default) and "

@@ -109,6 +109,18 @@ def engine_results(sim, n_blocks: int, wall0: float, compile_seconds: float) -> 
     out["n_contact_points"] = int(c.npts[: c.n_pairs].sum())
     out["energy"] = sim.energy_report()
     out["max_penetration_m"], out["max_penetration_time_s"] = sim.deepest_penetration()
+    joints = sim.joints
+    if getattr(joints, "normal_law", "linear") == "hyperbolic":
+        # the hyperbolic law: how far the deepest joint closed, as a fraction of d_max, and
+        # whether it went past the closure the law holds to (a capped law then ran on its
+        # tangent there; docs/engine.md 4.2).  The deepest contact point of any pair, so a
+        # pair given another law (material.pairs) may set it
+        frac = out["max_penetration_m"] / joints.max_closure
+        out["hyperbolic_closure"] = {
+            "deepest_closure_fraction": frac,
+            "closure_limit": joints.closure_limit,
+            "beyond_closure_limit": bool(frac > joints.closure_limit),
+            "law_beyond_it": joints.beyond_closure_limit}
     return out
 
 
