@@ -90,6 +90,22 @@ SURVIVAL_II_X = Grid(
     hypothesis="the first prediction's survival at 20 cycles missed a local collapse",
     sweep="model-ii-x", variants=(AS_PREDICTED,), frequencies=(2.5,), seeds=SEEDS, cycles=50.0)
 
+from studies.diagnosis.e1 import CANDIDATES as E1_CANDIDATES  # noqa: E402
 from studies.diagnosis.e1 import GRIDS as E1_GRIDS  # noqa: E402 - E1's runs are grids too
 
-GRIDS = {g.key: g for g in (E3, E5, E6, SURVIVAL_I_Y, SURVIVAL_II_X, *E1_GRIDS)}
+# E1's joints at the thesis' level inside its range (added 2026-11-27, after E1's seed 0): E1 ran
+# them at 2.0 Hz only, for the fingerprint; E4 found the DEM's rocking branch 1.24-1.5 x above the
+# thesis' level, and "softer joints at low stress" was one way a lower threshold could put the
+# laboratory's specimens on it.  Model II y at 1.53 m/s2 and 2.8 Hz from rest with the uniform
+# soft joint (kn 2e8) and two stress-dependent ones (d_max 0.1 mm; half closed at 1 kPa): does
+# any of them start the rocking branch where the first prediction's joints do not?
+E1_AT_THE_THESIS_LEVEL = Grid(
+    key="e1-threshold", title="E1's joints on Model II y at 1.53 m/s2, 2.8 Hz, from rest",
+    hypothesis="joints softer at low stress lower the onset of rocking into the thesis' range",
+    sweep="model-ii-y",
+    variants=tuple(v for v in E1_CANDIDATES
+                   if v.name in ("kn-2e8", "hyperbolic-0.1", "hyperbolic-1kPa")),
+    frequencies=(2.8,), seeds=SEEDS, cycles=CYCLES)
+
+GRIDS = {g.key: g for g in (E3, E5, E6, SURVIVAL_I_Y, SURVIVAL_II_X, *E1_GRIDS,
+                            E1_AT_THE_THESIS_LEVEL)}
