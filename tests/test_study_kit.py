@@ -66,6 +66,16 @@ def test_should_stop_on_a_drain_file_or_at_the_stop_time(tmp_path, monkeypatch):
     assert child.stopped()            # the stop time requests the stop: later checks agree
 
 
+def test_a_stop_time_past_midnight_lies_ahead():
+    """--stop-at 00:05 given at 23:49 UTC is 16 minutes ahead, not passed; 23:45 given at 23:49
+    has passed; the nearest occurrence within 12 hours either way counts."""
+    day = 86400.0 * 20000  # a UTC midnight
+    at_2349 = day + 23 * 3600.0 + 49 * 60.0
+    assert session.stop_deadline("00:05", now=at_2349) == day + 86400.0 + 5 * 60.0
+    assert session.stop_deadline("23:45", now=at_2349) == day + 23 * 3600.0 + 45 * 60.0
+    assert session.stop_deadline("11:00", now=day + 600.0) == day + 11 * 3600.0
+
+
 def test_one_entry_point_lists_every_study_and_hands_over_the_arguments():
     runner = CliRunner()
     res = runner.invoke(app, ["--help"])

@@ -28,12 +28,33 @@ def start(runs: Path, drain_file: Path | None = None, log=log_err) -> Path:
     return drain
 
 
+_DEADLINES: dict[str, float] = {}  # stop_at -> the epoch second it stands for (first look)
+
+
+def stop_deadline(stop_at: str, now: float | None = None) -> float:
+    """The epoch second of the UTC time ``stop_at`` (HH:MM) nearest to ``now`` (default: the
+    first call for this ``stop_at``, then kept): within the last 12 hours it has passed, within
+    the next 12 it is ahead, so a session started at 23:50 with --stop-at 00:05 runs for 15
+    minutes, where comparing the clock's HH:MM with it would stop at once."""
+    if stop_at in _DEADLINES and now is None:
+        return _DEADLINES[stop_at]
+    hh, mm = (int(x) for x in stop_at.split(":"))
+    t = time.time() if now is None else now
+    midnight = t - t % 86400.0
+    at = midnight + 3600.0 * hh + 60.0 * mm
+    best = min((at - 86400.0, at, at + 86400.0), key=lambda c: abs(c - t))
+    if now is None:
+        _DEADLINES[stop_at] = best
+    return best
+
+
 def should_stop(drain: Path | None = None, stop_at: str | None = None, log=print) -> bool:
     """Start nothing new: a stop signal came, the drain file exists, or the UTC time ``stop_at``
-    (HH:MM) is reached (then the stop is requested, so that later checks agree)."""
+    (HH:MM; :func:`stop_deadline`: the one nearest to the first look, so past midnight works)
+    is reached (then the stop is requested, so that later checks agree)."""
     if child.stopped() or (drain is not None and Path(drain).exists()):
         return True
-    if stop_at and time.strftime("%H:%M", time.gmtime()) >= stop_at:
+    if stop_at and time.time() >= stop_deadline(stop_at):
         log(f"--stop-at {stop_at} UTC reached: nothing new starts")
         child.request_stop()
         return True
