@@ -74,6 +74,8 @@ def test_a_stop_time_past_midnight_lies_ahead():
     assert session.stop_deadline("00:05", now=at_2349) == day + 86400.0 + 5 * 60.0
     assert session.stop_deadline("23:45", now=at_2349) == day + 23 * 3600.0 + 45 * 60.0
     assert session.stop_deadline("11:00", now=day + 600.0) == day + 11 * 3600.0
+    with pytest.raises(ValueError, match="HH:MM"):
+        session.stop_deadline("25:00", now=day)
 
 
 def test_one_entry_point_lists_every_study_and_hands_over_the_arguments():

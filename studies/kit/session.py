@@ -38,7 +38,12 @@ def stop_deadline(stop_at: str, now: float | None = None) -> float:
     minutes, where comparing the clock's HH:MM with it would stop at once."""
     if stop_at in _DEADLINES and now is None:
         return _DEADLINES[stop_at]
-    hh, mm = (int(x) for x in stop_at.split(":"))
+    try:
+        hh, mm = (int(x) for x in stop_at.split(":"))
+        if not (0 <= hh < 24 and 0 <= mm < 60):
+            raise ValueError
+    except ValueError:
+        raise ValueError(f"--stop-at wants a UTC time HH:MM, got {stop_at!r}") from None
     t = time.time() if now is None else now
     midnight = t - t % 86400.0
     at = midnight + 3600.0 * hh + 60.0 * mm
