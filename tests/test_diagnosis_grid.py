@@ -177,6 +177,32 @@ def test_e1_fingerprint_ratios_and_verdict():
     assert e1.fingerprint_of({"model-ii-y": rows(8.0)})["fingerprint"] == "pending"
 
 
+def test_e1_corner_motion_compares_model_i_with_model_ii_seed_medians():
+    """Medians over seeds of the corner bricks' mean twist and peak-to-peak ds, Model I y over
+    Model II y; rows at another frequency, failed rows and rows without the record are left
+    out."""
+    from studies.diagnosis import e1
+
+    def row(seed, tw, pp, f=e1.FREQUENCY, status="ok"):
+        return {"seed": seed, "frequency_hz": f, "run_status": status,
+                "mechanism": {"corner_twist_h1_deg": tw,
+                              "pp_corner_m": None if pp is None else
+                              {"corner_a": pp, "corner_b": pp}}}
+    rows = {"model-i-y": [row(0, [0.5, 0.7], 3e-3), row(1, [0.9, 0.9], 4e-3),
+                          row(2, [0.2, 0.4], 2e-3), row(3, [9.0, 9.0], 9.0, f=2.8),
+                          row(4, [9.0, 9.0], 9.0, status="failed")],
+            "model-ii-y": [row(0, [0.3, 0.3], 1e-3), row(1, None, None),
+                           row(2, [0.5, 0.5], 3e-3)]}
+    cm = e1.corner_motion_of(rows)
+    assert cm["models"]["model-i-y"] == {"runs": 3, "median_twist_h1_deg": pytest.approx(0.6),
+                                         "median_pp_corner_m": pytest.approx(3e-3)}
+    assert cm["models"]["model-ii-y"]["runs"] == 2
+    r = cm["model-i-y / model-ii-y"]
+    assert r["median_twist_h1_deg"] == pytest.approx(0.6 / 0.4)
+    assert r["median_pp_corner_m"] == pytest.approx(3e-3 / 2e-3)
+    assert e1.corner_motion_of({})["model-i-y / model-ii-y"]["median_twist_h1_deg"] is None
+
+
 def test_run_order_is_seed_then_variant_then_grid(tmp_path, monkeypatch):
     """Within a seed, one variant on every grid before the next variant (E1: one candidate on
     every model first), so that a cut session leaves whole candidates of a seed."""

@@ -918,3 +918,18 @@ def test_iii_below_ii_needs_both_characteristic_frequencies():
     v = verdict(None, None)
     assert v["status"] == "fail" and "none" in v["why"]
     assert verdict(2.8, 2.4, status="running")["status"] == "pending"
+
+
+def test_row_from_point_keeps_the_corner_bricks_motion():
+    """The instrumented corner bricks' peak-to-peak ds and twist (postprocess.excited's
+    mechanism record) reach the committed row, so that models can be compared by their corners
+    (issue 33, E1: do Model I's corner bricks move more than Model II's?)."""
+    mech = {"response": "global rocking dominated", "corners": "B2-like", "line": "stepped",
+            "pp_corner_m": {"corner_a": 0.0027, "corner_b": 0.0030},
+            "corner_twist": {"blocks": [154, 159], "h1_amplitude_deg": [0.6, 0.56],
+                             "max_abs_deg": [0.97, 0.70]}}
+    row = pts.row_from_point(0, {"frequency_hz": 2.0, "status": "ok", "mechanism": mech})
+    assert row["mechanism"]["pp_corner_m"] == mech["pp_corner_m"]
+    assert row["mechanism"]["corner_twist_h1_deg"] == [0.6, 0.56]
+    row = pts.row_from_point(0, {"frequency_hz": 2.0, "status": "ok", "mechanism": {}})
+    assert row["mechanism"]["corner_twist_h1_deg"] is None

@@ -50,7 +50,8 @@ def grid(keys: list[str] = typer.Argument(..., help="experiments to run together
                                           "fingerprint runs)"),
          workers: int = typer.Option(1, help="dem sweep workers (one single-threaded run each)"),
          stop_at: str = typer.Option(None, help="UTC HH:MM after which no new sweep starts"),
-         report: bool = typer.Option(False, "--report", help="only rebuild the reports")) -> None:
+         report: bool = typer.Option(False, "--report", help="only rebuild the reports (the rows again "
+                                     "from the run directories kept here)")) -> None:
     """E1 / E3 / E5 / E6 and the survival points: case variants x frequencies x 3 seeds, each
     run judged rocking or not and standing or not (resumable; touch runs/diagnosis/DRAIN to end
     softly).  studies/diagnosis/experiments.py."""
@@ -65,6 +66,8 @@ def grid(keys: list[str] = typer.Argument(..., help="experiments to run together
     if not report:
         exp.run(grids, workers=workers, stop_at=stop_at)
     for g in grids:
+        if report:
+            exp.refresh(g)   # the rows again from the runs kept here
         exp.report(g)
 
 

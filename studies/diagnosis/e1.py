@@ -136,6 +136,37 @@ def fingerprint_of(rows_by_sweep: dict) -> dict:
     return {"sweeps": per, "ratios": ratios, "fingerprint": verdict}
 
 
+CORNER_PAIR = ("model-i-y", "model-ii-y")   # the same box but for the four corner masses
+
+
+def corner_motion_of(rows_by_sweep: dict) -> dict:
+    """What the corner masses do to the corner bricks (the thesis' account of Model I, lines
+    752-776 and 923-929: its corner bricks "slide and rotate separately", and Model II's masses
+    were added "to constrain individual brick movements"): per model of CORNER_PAIR the median
+    over seeds of the two instrumented corner bricks' (penultimate course, postprocess.excited)
+    mean first-harmonic twist about z (deg) and mean peak-to-peak ds (m), and Model I's over
+    Model II's.  Runs without the record (rows collected before it existed, whose run directory
+    is gone) are left out."""
+    per = {}
+    for s in CORNER_PAIR:
+        tw, pp = [], []
+        for r in rows_by_sweep.get(s) or []:
+            mech = r.get("mechanism") or {}
+            if r.get("run_status") != "ok" or abs(r["frequency_hz"] - FREQUENCY) > 1e-9:
+                continue
+            if mech.get("corner_twist_h1_deg"):
+                tw.append(float(np.mean(mech["corner_twist_h1_deg"])))
+            if mech.get("pp_corner_m"):
+                pp.append(float(np.mean(list(mech["pp_corner_m"].values()))))
+        per[s] = {"runs": len(tw),
+                  "median_twist_h1_deg": float(np.median(tw)) if tw else None,
+                  "median_pp_corner_m": float(np.median(pp)) if pp else None}
+    a, b = (per[s] for s in CORNER_PAIR)
+    ratio = {k: (a[k] / b[k] if a[k] and b[k] else None)
+             for k in ("median_twist_h1_deg", "median_pp_corner_m")}
+    return {"models": per, f"{CORNER_PAIR[0]} / {CORNER_PAIR[1]}": ratio}
+
+
 def plot(table: dict, path: Path) -> None:
     import matplotlib
     matplotlib.use("Agg")
@@ -199,7 +230,8 @@ def report(log=print) -> dict:
         for g in GRIDS:
             data = read_json(g.out / "points.json") or {}
             rows[g.sweep] = ((data.get("variants") or {}).get(v.name) or {}).get("rows", [])
-        table[v.name] = {"label": v.label, **fingerprint_of(rows)}
+        table[v.name] = {"label": v.label, **fingerprint_of(rows),
+                         "corner_motion": corner_motion_of(rows)}
         deep = deepest_closures(v, (before.get(v.name) or {}).get("deepest_closure_over_dmax")
                                 or {})
         if deep:
@@ -217,5 +249,14 @@ def report(log=print) -> dict:
         fns = ", ".join(f"{s} {p['median_fn_hz']:.2f}" for s, p in t["sweeps"].items()
                         if p["median_fn_hz"])
         rats = ", ".join(f"{r['dem']:.2f}" if r["dem"] else "-" for r in t["ratios"].values())
-        log(f"E1 {n}: f_n (Hz) {fns or '-'}; ratios {rats} -> {t['fingerprint']}")
+        cm = t.get("corner_motion")
+        corners = ""
+        if cm:
+            r = cm[f"{CORNER_PAIR[0]} / {CORNER_PAIR[1]}"]
+            tw = [cm["models"][s]["median_twist_h1_deg"] for s in CORNER_PAIR]
+            if None not in tw:
+                corners = (f"; corner twist I y {tw[0]:.2f} / II y {tw[1]:.2f} deg "
+                           f"(x {r['median_twist_h1_deg']:.2f}), corner ds x "
+                           f"{r['median_pp_corner_m']:.2f}")
+        log(f"E1 {n}: f_n (Hz) {fns or '-'}; ratios {rats} -> {t['fingerprint']}{corners}")
     return summary

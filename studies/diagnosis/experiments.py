@@ -117,5 +117,19 @@ E1_AROUND_THE_RANGE = Grid(
     sweep="model-ii-y", variants=E1_AT_THE_THESIS_LEVEL.variants,
     frequencies=(2.4, 3.2, 3.6), seeds=SEEDS, cycles=CYCLES)
 
+# ... and the same joints on Model I y (added 2026-11-28, before any of its runs): Models I and II
+# differ only by the four 0.5 kg corner masses, and the thesis' Model I y rocks in 1.8-2.5 Hz
+# (f_c 2.0 Hz, lag 0.18 s), below Model II y's 2.4-3.2 Hz.  E1 found the DEM's Model I and Model
+# II alike on the quiet branch (I / II 0.95-0.99); does the rocking branch from rest tell them
+# apart, i.e. do the corner masses move where these joints start rocking?  Model I y at the
+# thesis' 1.53 m/s2 (its constant-acceleration group 2), 1.8 / 2.4 / 2.8 Hz (2.0 Hz: E1's runs).
+E1_MODEL_I_BAND = Grid(
+    key="e1-band-model-i-y",
+    title="E1's joints on Model I y at 1.53 m/s2, 1.8 / 2.4 / 2.8 Hz, from rest",
+    hypothesis="the corner masses move the band: without them (Model I) the soft joints rock "
+               "in the thesis' Model I range (1.8-2.5 Hz), not in Model II's (2.4-3.2 Hz)",
+    sweep="model-i-y", variants=E1_AT_THE_THESIS_LEVEL.variants,
+    frequencies=(1.8, 2.4, 2.8), seeds=SEEDS, cycles=CYCLES)
+
 GRIDS = {g.key: g for g in (E3, E5, E6, SURVIVAL_I_Y, SURVIVAL_II_X, *E1_GRIDS,
-                            E1_AT_THE_THESIS_LEVEL, E1_AROUND_THE_RANGE)}
+                            E1_AT_THE_THESIS_LEVEL, E1_AROUND_THE_RANGE, E1_MODEL_I_BAND)}

@@ -136,6 +136,26 @@ def merge_variant(grid: Grid, variant: Variant, case_file: Path, fp: str) -> dic
     return merge_json(grid.out / "points.json", change)
 
 
+def prepare(grid: Grid, variant: Variant, frozen: dict) -> tuple[Path, str]:
+    """Write the variant's case file (runs/diagnosis/<key>/<variant>.yaml); (its path, the
+    fingerprint its rows must carry)."""
+    case = variant_case(grid, variant, frozen["parameters"])
+    case_file = grid.runs / f"{variant.name}.yaml"
+    case_file.parent.mkdir(parents=True, exist_ok=True)
+    case_file.write_text(yaml.safe_dump(case.model_dump(mode="json"), sort_keys=False))
+    return case_file, fingerprint(grid, case)
+
+
+def refresh(grid: Grid) -> None:
+    """Merge every variant's rows from this machine's run directories into points.json again
+    (what a run does after each sweep): a field added to the rows since reaches the finished
+    runs whose directories are here; rows whose directories are gone stay as committed."""
+    frozen = load_frozen(DEFAULT_FROZEN)
+    for variant in grid.variants:
+        case_file, fp = prepare(grid, variant, frozen)
+        merge_variant(grid, variant, case_file, fp)
+
+
 def run(grids, workers: int = 1, stop_at: str | None = None, log=print) -> None:
     """Run every unfinished (grid, variant, seed) as one ``dem sweep`` over its unfinished
     frequencies, seed by seed, and within a seed the first variant of every grid, then the
@@ -151,12 +171,7 @@ def run(grids, workers: int = 1, stop_at: str | None = None, log=print) -> None:
         variant = grid.variants[i]
         if session.should_stop(drain, stop_at, log):
             return
-        case = variant_case(grid, variant, frozen["parameters"])
-        fp = fingerprint(grid, case)
-        case_file = grid.runs / f"{variant.name}.yaml"
-        case_file.parent.mkdir(parents=True, exist_ok=True)
-        case_file.write_text(yaml.safe_dump(case.model_dump(mode="json"),
-                                            sort_keys=False))
+        case_file, fp = prepare(grid, variant, frozen)
         done = finished(merge_variant(grid, variant, case_file, fp), variant.name, fp)
         todo = [f for f in grid.frequencies if (seed, round(f, 9)) not in done]
         if not todo:

@@ -54,7 +54,12 @@ def row_from_point(seed: int, p: dict) -> dict:
             "excited": {k: exc.get(k) for k in ("n_excited", "n_upper", "n_lower",
                                                 "excited_courses_from_top")},
             "collapse_suspected": p.get("collapse_suspected"),
-            "mechanism": {k: mech.get(k) for k in ("response", "corners", "line")},
+            "mechanism": {**{k: mech.get(k) for k in ("response", "corners", "line")},
+                          # the instrumented corner bricks' motion (postprocess.excited):
+                          # peak-to-peak ds of each (m), first-harmonic twist about z (deg)
+                          "pp_corner_m": mech.get("pp_corner_m"),
+                          "corner_twist_h1_deg":
+                              (mech.get("corner_twist") or {}).get("h1_amplitude_deg")},
             "note": p.get("note")})
         surv = p.get("survival")
         if surv:   # postprocess.survival's verdict (points analysed since issue 32 item 3)
