@@ -131,5 +131,23 @@ E1_MODEL_I_BAND = Grid(
     sweep="model-i-y", variants=E1_AT_THE_THESIS_LEVEL.variants,
     frequencies=(1.8, 2.4, 2.8), seeds=SEEDS, cycles=CYCLES)
 
+# The corners on the rocking branch (added 2026-11-28, before any of its runs).  E1's runs show
+# the DEM's Model I corner bricks moving about as Model II's at 2.0 Hz and 1.53 m/s2, on the
+# quiet branch.  The thesis saw Model I's corners slide, rotate and fall at its group 1's 12 mm
+# amplitude (2.2 Hz: "corner bricks at all layers slide and rotate separately"; 2.5 Hz: "the
+# corner collapses from the top", lines 764-770), 2.3 and 3.0 m/s2, where E4 found the DEM's
+# Model II y on its rocking branch.  With the first prediction's joints, Models I y and II y at
+# 12 mm, 2.2 and 2.5 Hz, from rest, 10 cycles: do Model I's corners twist more, or fall, where
+# Model II's hold, once the model rocks?
+TWELVE_MM = Variant("12mm", "12 mm amplitude (thesis group 1: 2.29 / 2.96 m/s2)",
+                    {"loading": {"amplitude": 0.012, "peak_acceleration": None}})
+CORNERS_I_Y, CORNERS_II_Y = (
+    Grid(key=f"corners-{sweep}", title=f"corner bricks of {sweep} at 12 mm, 2.2 / 2.5 Hz",
+         hypothesis="the corner masses hold the corners once the model rocks: at 12 mm Model "
+                    "I's corner bricks twist more and fall where Model II's hold",
+         sweep=sweep, variants=(TWELVE_MM,), frequencies=(2.2, 2.5), seeds=SEEDS, cycles=CYCLES)
+    for sweep in ("model-i-y", "model-ii-y"))
+
 GRIDS = {g.key: g for g in (E3, E5, E6, SURVIVAL_I_Y, SURVIVAL_II_X, *E1_GRIDS,
-                            E1_AT_THE_THESIS_LEVEL, E1_AROUND_THE_RANGE, E1_MODEL_I_BAND)}
+                            E1_AT_THE_THESIS_LEVEL, E1_AROUND_THE_RANGE, E1_MODEL_I_BAND,
+                            CORNERS_I_Y, CORNERS_II_Y)}
