@@ -73,6 +73,16 @@ def _row(seed, f, ds, phase_deg, status="ok"):
             "amplification": {"ds": ds}, "lag_s": {"ds": phase_deg / (360.0 * f)}}
 
 
+def test_a_judged_run_carries_its_corner_bricks_motion_where_recorded():
+    row = _row(0, 2.5, 2.0, 140.0)
+    assert G.judged(row)["corner_twist_deg"] is None and G.judged(row)["corner_pp_m"] is None
+    row["mechanism"] = {"corner_twist_h1_deg": [0.2, 0.6],
+                        "pp_corner_m": {"corner_a": 1e-3, "corner_b": 3e-3}}
+    j = G.judged(row)
+    assert j["corner_twist_deg"] == pytest.approx(0.4)
+    assert j["corner_pp_m"] == pytest.approx(2e-3)
+
+
 def test_finished_rows_need_the_fingerprint_and_an_ok_run():
     data = {"variants": {"v": {"fingerprint": "abc", "rows": [
         _row(0, 2.8, 2.0, 140.0), _row(1, 2.8, 0.2, 12.0, status="pending")]}}}

@@ -202,14 +202,20 @@ def baseline_rows(grid: Grid) -> list[dict]:
 
 
 def judged(row: dict) -> dict:
-    """One run's verdicts: branch, ds, phase (response_branch), lag (s), collapse flag."""
+    """One run's verdicts: branch, ds, phase (response_branch), lag (s), collapse flag,
+    survival, and the instrumented corner bricks' mean twist about z (first harmonic, deg) and
+    mean peak-to-peak ds (m) where the row has them."""
     b = response_branch(row)
+    mech = row.get("mechanism") or {}
+    tw, pp = mech.get("corner_twist_h1_deg"), mech.get("pp_corner_m")
     return {"seed": row["seed"], "frequency_hz": row["frequency_hz"], **b,
             "lag_s": (row.get("lag_s") or {}).get("ds"),
             "collapse_suspected": row.get("collapse_suspected"),
             "survival": (row.get("survival") or {}).get("verdict"),
             "n_fallen": (row.get("survival") or {}).get("n_fallen"),
-            "first_fall_cycle": (row.get("survival") or {}).get("first_fall_cycle")}
+            "first_fall_cycle": (row.get("survival") or {}).get("first_fall_cycle"),
+            "corner_twist_deg": float(np.mean(tw)) if tw else None,
+            "corner_pp_m": float(np.mean(list(pp.values()))) if pp else None}
 
 
 def cells(rows: list[dict]) -> list[dict]:
