@@ -32,7 +32,7 @@ def _tilted(t):
     return np.tile(g, (len(t), 1)), base
 
 
-def _run(mode, fast, steps=4000):
+def _run(mode, fast, steps=2500):   # 2500: 5 rebuilds, 2.4 mm moved (serial)
     sim = _wall_sim(build_wall("small", length=3, courses=4), mode, fast_launch=fast)
     sim.advance(steps, _tilted)
     return sim
