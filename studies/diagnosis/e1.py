@@ -50,7 +50,7 @@ from pathlib import Path
 import numpy as np
 
 from postprocess.verdicts import response_branch
-from studies.diagnosis.grid import Grid, RESULTS, Variant, baseline_rows
+from studies.diagnosis.grid import Grid, RESULTS, Variant, baseline_rows, judged
 from studies.kit.records import read_json
 
 FREQUENCY = 2.0
@@ -149,15 +149,10 @@ def corner_motion_of(rows_by_sweep: dict) -> dict:
     is gone) are left out."""
     per = {}
     for s in CORNER_PAIR:
-        tw, pp = [], []
-        for r in rows_by_sweep.get(s) or []:
-            mech = r.get("mechanism") or {}
-            if r.get("run_status") != "ok" or abs(r["frequency_hz"] - FREQUENCY) > 1e-9:
-                continue
-            if mech.get("corner_twist_h1_deg"):
-                tw.append(float(np.mean(mech["corner_twist_h1_deg"])))
-            if mech.get("pp_corner_m"):
-                pp.append(float(np.mean(list(mech["pp_corner_m"].values()))))
+        runs = [judged(r) for r in rows_by_sweep.get(s) or []
+                if r.get("run_status") == "ok" and abs(r["frequency_hz"] - FREQUENCY) < 1e-9]
+        tw = [j["corner_twist_deg"] for j in runs if j["corner_twist_deg"] is not None]
+        pp = [j["corner_pp_m"] for j in runs if j["corner_pp_m"] is not None]
         per[s] = {"runs": len(tw),
                   "median_twist_h1_deg": float(np.median(tw)) if tw else None,
                   "median_pp_corner_m": float(np.median(pp)) if pp else None}
