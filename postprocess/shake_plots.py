@@ -10,7 +10,7 @@ from postprocess.shake_signals import KIND_OF, ShakeSignals
 from postprocess.signal_analysis import SteadyWindow, spectral_peaks, spectrum
 
 
-def _plt():
+def agg_pyplot():
     import matplotlib
 
     matplotlib.use("Agg")
@@ -35,7 +35,7 @@ def shaken(sig: ShakeSignals, q: dict) -> tuple:
 def plot_time_histories(path, sig: ShakeSignals, q: dict, win: SteadyWindow | None, title=""):
     """Absolute quantities (left, with the table's input) and relative ones (right), over the
     shaking only (:func:`shaken`)."""
-    plt = _plt()
+    plt = agg_pyplot()
     fig, axs = plt.subplots(3, 2, figsize=(13, 8), sharex=True)
     t, q, m = shaken(sig, q)
     rows = [("displacement (mm)", 1e3, "displacement", ["da", "da_front"], ["ds", "dsr", "dar"]),
@@ -65,7 +65,7 @@ def plot_time_histories(path, sig: ShakeSignals, q: dict, win: SteadyWindow | No
 
 
 def plot_spectrum(path, sig: ShakeSignals, q: dict, win: SteadyWindow, title=""):
-    plt = _plt()
+    plt = agg_pyplot()
     names = [n for n in ("ds", "dsr", "da", "a") if n in q]
     fig, axs = plt.subplots(len(names), 1, figsize=(8, 2.2 * len(names)), squeeze=False)
     for ax, nm in zip(axs[:, 0], names):
@@ -87,7 +87,7 @@ def plot_spectrum(path, sig: ShakeSignals, q: dict, win: SteadyWindow, title="")
 
 
 def plot_hysteresis(path, t, disp, force, win: SteadyWindow, title=""):
-    plt = _plt()
+    plt = agg_pyplot()
     m = win.mask(t)
     fig, ax = plt.subplots(figsize=(6, 5))
     ax.plot(1e3 * disp[m], force[m], lw=0.7)
@@ -101,7 +101,7 @@ def plot_hysteresis(path, t, disp, force, win: SteadyWindow, title=""):
 
 
 def plot_energy(path, t, e44, t_blocks, e_blocks, win, title=""):
-    plt = _plt()
+    plt = agg_pyplot()
     fig, ax = plt.subplots(figsize=(9, 4))
     ax.plot(t, e44, lw=0.8, label="eq 4-4 from ds")
     if e_blocks is not None:

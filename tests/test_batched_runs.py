@@ -29,14 +29,13 @@ import dem.run.write
 from dem.case import Case
 from dem.cli import app
 from dem.commands.exit_codes import ExitCode
-from dem.run import run_case
 from dem.run.batched import BatchInputError, cuda_present, run_cases_in_one_engine
 from dem.run.resume import RESTART_FILE
-from dem.run.sweep import realisation_cases, sweep_cases
+from dem.run.sweep import realisation_cases
 from dem.run.write import RunWriter
 from tests.engine_helpers import ROUND_OFF_POS_M, ROUND_OFF_QUAT
 from tests.test_resume import STACK
-from tests.test_shake_analysis import BLOCK, SLIDER, _case_file, sequential_batch
+from tests.test_shake_analysis import BLOCK, SLIDER, case_file, sequential_batch
 
 REL = 1e-9  # summary numbers (module docstring)
 ABS_J = 1e-12  # energies near zero (the residual): 1e-9 of the ~1e-3 J of work done
@@ -108,7 +107,7 @@ def test_a_batched_sweep_equals_the_same_sweep_run_point_by_point(tmp_path, monk
     """The shaken block (moving with the table) at 6 and 8 Hz: one engine for the two points,
     each with its own frequency and amplitude, against the two runs alone.  Each
     point's frames, summary and sweep record agree to round-off; summary.json says batch."""
-    case = _case_file(tmp_path, BLOCK)
+    case = case_file(tmp_path, BLOCK)
     args = ["sweep", str(case), "--frequencies", "6,8", "--cycles", "2", "--margin", "0.05"]
     monkeypatch.setattr(dem.batch, "run_batch", sequential_batch())
     r = CliRunner().invoke(app, [*args, "--out", str(tmp_path / "alone")])
@@ -139,7 +138,7 @@ def test_a_point_that_fails_does_not_end_its_batch_mates(tmp_path):
     20 Hz and ~5 ms at 30 Hz (tests/test_shake_analysis.py, SLIDER) and those points fail
     alone; the 3 Hz point runs its 2 cycles to the end in the same engine as the 20 Hz one and
     gives the lone run's analysis (sliding: ds amplification pi)."""
-    case = _case_file(tmp_path, SLIDER)
+    case = case_file(tmp_path, SLIDER)
     out = tmp_path / "sweep"
     r = CliRunner().invoke(app, ["sweep", str(case), "--out", str(out), "--frequencies",
                                  "3,20,30", "--margin", "0", "--workers", "1", "--batch", "2"])
@@ -221,7 +220,7 @@ def test_cases_with_different_solver_options_are_refused_naming_the_field(tmp_pa
 
 
 def test_bad_batch_and_arch_options_exit_2_before_anything_runs(tmp_path):
-    case = _case_file(tmp_path, BLOCK)
+    case = case_file(tmp_path, BLOCK)
     base = ["sweep", str(case), "--out", str(tmp_path / "s"), "--frequencies", "2"]
     r = CliRunner().invoke(app, [*base, "--batch", "0"])
     assert r.exit_code == ExitCode.BAD_INPUT and "--batch must be >= 1" in r.output

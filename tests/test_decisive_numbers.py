@@ -17,7 +17,6 @@ from dem.run.build import scene_from_case
 from postprocess.limit_analysis import elastic_tipping_factor
 from postprocess.decisive import decisive_numbers
 from postprocess.lone_block import lone_block_limits
-from tests.view_runs import view_runs  # noqa: F401 - the session fixture
 
 
 def _case(blocks, mu=0.5, axis="y", **extra):

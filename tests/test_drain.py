@@ -16,15 +16,15 @@ from dem.case import load_case
 from dem.cli import app
 from dem.commands.exit_codes import ExitCode
 from dem.run.sweep import realisation_cases
-from tests.test_ensemble import _case
-from tests.test_shake_analysis import BLOCK, _case_file, sequential_batch
+from tests.test_ensemble import stack_case
+from tests.test_shake_analysis import BLOCK, case_file, sequential_batch
 
 
 def test_a_drained_batch_finishes_the_runs_in_flight_and_starts_no_new_one(tmp_path):
     """Two workers, four cases: both first cases are in flight when the first one lands and the
     drain check turns true; the second still finishes and is reported, the last two never start
     (no output directory)."""
-    cases = realisation_cases(load_case(_case(tmp_path)), 4, 0)
+    cases = realisation_cases(load_case(stack_case(tmp_path)), 4, 0)
     seen = []
     with pytest.raises(Drained) as info:
         run_batch(cases, tmp_path / "runs", n_workers=2, max_steps=50,
@@ -44,7 +44,7 @@ def test_dem_sweep_drained_keeps_the_finished_point_exits_1_and_a_rerun_resumes(
     # the user drains after the first point
     monkeypatch.setattr(dem.batch, "run_batch",
                         sequential_batch(lambda root: (root / "DRAIN").touch(), calls))
-    case = _case_file(tmp_path, BLOCK)
+    case = case_file(tmp_path, BLOCK)
     out = tmp_path / "sweep"
     out.mkdir()
     (out / "DRAIN").touch()                     # left by an earlier drain: removed at the start
@@ -80,7 +80,7 @@ def test_a_drain_ends_the_loop_over_realisations(tmp_path, monkeypatch):
 
     monkeypatch.setattr(cmd, "run_sweep", fake_run_sweep)
     drain = tmp_path / "sw" / "DRAIN"
-    code = cmd._run_sweep_realisations(_case(tmp_path), tmp_path / "sw", "2,3", None, 5.0, 1.0,
+    code = cmd.run_sweep_realisations(stack_case(tmp_path), tmp_path / "sw", "2,3", None, 5.0, 1.0,
                                        None, 1, None, 4, 0, drain)
     assert code == ExitCode.RUN_FAILED
     assert calls == [("seed-0", drain), ("seed-1", drain)]   # seed-2, seed-3 never started

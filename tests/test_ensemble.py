@@ -55,7 +55,7 @@ def test_realisation_scalars_of_tilt_and_shake_records():
                                           "survived": True}
 
 
-def _case(tmp_path, **imp):
+def stack_case(tmp_path, **imp):
     path = tmp_path / "case.yaml"
     path.write_text(yaml.safe_dump({
         "name": "stack",
@@ -72,7 +72,7 @@ def _case(tmp_path, **imp):
 
 @pytest.mark.slow
 def test_dem_ensemble_runs_resumes_and_reports_a_failed_realisation(tmp_path):
-    case = _case(tmp_path)
+    case = stack_case(tmp_path)
     out = tmp_path / "ens"
     out.mkdir()
     (out / "seed-6").write_text("in the way")  # the realisation of seed 6 cannot be written
@@ -110,7 +110,7 @@ def test_dem_ensemble_runs_resumes_and_reports_a_failed_realisation(tmp_path):
     (["--realisations", "2", "--workers", "0"], "--workers must be >= 1"),
 ])
 def test_bad_ensemble_options_exit_2_naming_the_option(tmp_path, args, message):
-    res = CliRunner().invoke(app, ["ensemble", str(_case(tmp_path)), "--out",
+    res = CliRunner().invoke(app, ["ensemble", str(stack_case(tmp_path)), "--out",
                                    str(tmp_path / "o"), *args])
     assert res.exit_code == 2
     assert message in res.output
@@ -126,7 +126,7 @@ def test_a_smoke_run_capped_by_max_steps_is_never_taken_for_a_finished_one(tmp_p
     from dem.commands.sweep import finished_point
     from dem.engine import RESULTS_REVISION
 
-    case = load_case(_case(tmp_path))
+    case = load_case(stack_case(tmp_path))
     run = tmp_path / "seed-0"
     run.mkdir()
     (run / "case.json").write_text(case.model_dump_json())
@@ -151,7 +151,7 @@ def test_a_run_of_an_engine_whose_results_moved_is_not_resumed(tmp_path):
     from dem.commands.sweep import finished_point
     from dem.engine import RESULTS_REVISION
 
-    case = load_case(_case(tmp_path))
+    case = load_case(stack_case(tmp_path))
     run = tmp_path / "seed-0"
     run.mkdir()
     (run / "case.json").write_text(case.model_dump_json())
@@ -185,7 +185,7 @@ def test_a_signal_stops_dem_sweep_realisations_instead_of_starting_the_next(tmp_
         return ExitCode.OK
 
     monkeypatch.setattr(cmd, "run_sweep", fake_run_sweep)
-    code = cmd._run_sweep_realisations(_case(tmp_path), tmp_path / "sw", "2,3", None, 5.0, 1.0,
+    code = cmd.run_sweep_realisations(stack_case(tmp_path), tmp_path / "sw", "2,3", None, 5.0, 1.0,
                                        None, 1, None, 4, 0)
     assert code == ExitCode.RUN_FAILED
     assert calls == [("seed-0", True), ("seed-1", True)]    # seed-2, seed-3 never started

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tests.test_ensemble import _case
+from tests.test_ensemble import stack_case
 
 DASK = Path(sys.executable).with_name("dask")
 DEM = [sys.executable, "-m", "dem.cli"]
@@ -52,7 +52,7 @@ def _landed(out: Path) -> int:
 @pytest.mark.skipif(not DASK.exists(), reason="the dask command line is not installed")
 @pytest.mark.slow
 def test_an_ensemble_survives_a_killed_worker_and_equals_the_serial_run(tmp_path):
-    case = _case(tmp_path)
+    case = stack_case(tmp_path)
     port = _free_port()
     address = f"tcp://127.0.0.1:{port}"
     procs = []

@@ -18,7 +18,6 @@ import numpy as np
 import pytest
 import taichi as ti
 from scipy.integrate import quad, solve_ivp
-from scipy.optimize import brentq
 
 from dem import ti_runtime
 from dem.case import CaseError, parse_case

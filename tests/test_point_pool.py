@@ -14,7 +14,7 @@ from studies.prediction import cycles as cyc
 from studies.prediction import plan as pl
 from studies.prediction import protocol as proto
 from studies.prediction import run as runner
-from tests.test_prediction_study import _repo
+from tests.test_prediction_study import frozen_repo
 
 
 def test_parse_points_names_the_bad_item():
@@ -25,7 +25,7 @@ def test_parse_points_names_the_bad_item():
 
 
 def test_points_outside_the_plan_are_refused(tmp_path, capsys):
-    _, path = _repo(tmp_path)
+    _, path = frozen_repo(tmp_path)
     out = tmp_path / "out"
     pl.write_plan(out, pl.make_plan(pl.load_frozen(path), ["model-ii-y"], 2, 50, None))
     for pts, what in (("5:2.8", "seed 5"), ("0:9.9", "9.9 Hz")):
@@ -37,7 +37,7 @@ def test_points_outside_the_plan_are_refused(tmp_path, capsys):
 
 def test_a_pooled_point_is_taken_by_the_study_without_a_rerun(tmp_path, monkeypatch):
     monkeypatch.setenv("DEM_THREADS", "1")
-    _, path = _repo(tmp_path)
+    _, path = frozen_repo(tmp_path)
     out = tmp_path / "out"
     plan = pl.make_plan(pl.load_frozen(path), ["model-ii-y"], 2, 50, 50)   # 50-step smoke runs
     plan["sweeps"]["model-ii-y"]["frequencies_hz"] = [2.8]
@@ -73,7 +73,7 @@ def test_a_stopped_pool_leaves_no_worker_holding_a_point(tmp_path):
     import sys
     import time
 
-    _, path = _repo(tmp_path)
+    _, path = frozen_repo(tmp_path)
     out = tmp_path / "out"
     plan = pl.make_plan(pl.load_frozen(path), ["model-ii-y"], 1, 50, 10 ** 6)  # a long run
     plan["sweeps"]["model-ii-y"]["frequencies_hz"] = [2.8]

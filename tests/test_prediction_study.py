@@ -38,7 +38,7 @@ def _git(repo, *args):
                            *args], capture_output=True, text=True, check=True).stdout.strip()
 
 
-def _repo(tmp_path, data=FROZEN, commit=True, rel="studies/calibration/frozen.yaml"):
+def frozen_repo(tmp_path, data=FROZEN, commit=True, rel="studies/calibration/frozen.yaml"):
     """A temporary git repository holding the frozen file at ``rel`` (committed or not)."""
     repo = tmp_path / "repo"
     path = repo / rel
@@ -63,7 +63,7 @@ def test_missing_frozen_file_exits_2_and_runs_nothing(tmp_path, capsys):
 
 
 def test_untracked_then_modified_frozen_file_is_refused_committed_one_is_read(tmp_path, capsys):
-    repo, path = _repo(tmp_path, commit=False)
+    repo, path = frozen_repo(tmp_path, commit=False)
     with pytest.raises(proto.PredictionInputError, match="not committed"):
         pl.load_frozen(path)
     assert cli.main(["--frozen", str(path), "--out", str(tmp_path / "out")]) == 2
@@ -88,7 +88,7 @@ def test_untracked_then_modified_frozen_file_is_refused_committed_one_is_read(tm
 
 
 def test_frozen_file_outside_studies_is_refused(tmp_path):
-    _, path = _repo(tmp_path, rel="frozen.yaml")
+    _, path = frozen_repo(tmp_path, rel="frozen.yaml")
     with pytest.raises(proto.PredictionInputError, match="under studies/"):
         pl.load_frozen(path)
 
@@ -97,7 +97,7 @@ def test_moving_the_frozen_file_keeps_the_commit_that_froze_it(tmp_path):
     """The freezing commit is the last one that changed the file's content: a commit that only
     moves it (cases/calibration/ -> studies/calibration/, issue 34) does not count, an edit
     after the move does."""
-    repo, path = _repo(tmp_path, rel="cases/calibration/frozen.yaml")
+    repo, path = frozen_repo(tmp_path, rel="cases/calibration/frozen.yaml")
     froze = _git(repo, "rev-parse", "HEAD")
     dest = repo / "studies" / "calibration" / "frozen.yaml"
     dest.parent.mkdir(parents=True)
@@ -130,14 +130,14 @@ def test_frozen_file_outside_git_is_refused(tmp_path):
     ("imperfections: [unclosed\n", "not valid YAML"),
 ])
 def test_malformed_frozen_file_is_refused_naming_the_problem(tmp_path, data, match):
-    _, path = _repo(tmp_path, data=data)
+    _, path = frozen_repo(tmp_path, data=data)
     with pytest.raises(proto.PredictionInputError, match=match):
         pl.load_frozen(path)
 
 
 # ---- plan: seeds before runs --------------------------------------------------------------------
 def test_seeds_are_written_before_the_first_run_model_ii_y_first(tmp_path, monkeypatch):
-    _, path = _repo(tmp_path)
+    _, path = frozen_repo(tmp_path)
     out = tmp_path / "out"
     calls = []
 
@@ -398,7 +398,7 @@ def test_an_edge_peak_fails_the_characteristic_frequency_criterion():
 def test_a_drain_file_ends_the_study_after_the_sweep_in_flight(tmp_path, monkeypatch):
     """The study hands its drain file (default <runs>/DRAIN) to every dem sweep, clears one left
     by an earlier drain at the start, and starts no further sweep once it exists."""
-    _, path = _repo(tmp_path)
+    _, path = frozen_repo(tmp_path)
     out = tmp_path / "out"
     drain = out / "runs" / "DRAIN"
     drain.parent.mkdir(parents=True)
@@ -418,7 +418,7 @@ def test_a_drain_file_ends_the_study_after_the_sweep_in_flight(tmp_path, monkeyp
 
 
 def test_a_finished_sweep_starts_nothing(tmp_path, monkeypatch):
-    _, path = _repo(tmp_path)
+    _, path = frozen_repo(tmp_path)
     fr = pl.load_frozen(path)
     out = tmp_path / "out"
     plan = pl.write_plan(out, pl.make_plan(fr, ["model-ii-y"], 2, 50, None))
@@ -448,7 +448,7 @@ def test_a_finished_sweep_starts_nothing(tmp_path, monkeypatch):
 
 def _planned(tmp_path, seeds=(0, 1, 2)):
     """A plan for Model II y with ``seeds`` and its fingerprint."""
-    _, path = _repo(tmp_path)
+    _, path = frozen_repo(tmp_path)
     fr = pl.load_frozen(path)
     out = tmp_path / "out"
     plan = pl.write_plan(out, pl.make_plan(fr, ["model-ii-y"], len(seeds), 50, None))
@@ -521,7 +521,7 @@ def test_committed_points_are_not_run_again_when_their_run_directories_are_gone(
 # tests/test_point_pool.py::test_a_pooled_point_is_taken_by_the_study_without_a_rerun
 def test_smoke_one_frequency_two_realisations_then_resume(tmp_path, monkeypatch):
     monkeypatch.setenv("DEM_THREADS", "1")
-    _, path = _repo(tmp_path)
+    _, path = frozen_repo(tmp_path)
     fr = pl.load_frozen(path)
     out = tmp_path / "out"
     plan = pl.make_plan(fr, ["model-ii-y"], 2, 50, 50)
@@ -700,7 +700,7 @@ def test_cycles_check_reanalyses_the_finished_runs_and_reports(tmp_path, monkeyp
     """--cycles-check N: no simulation; every finished row re-analysed (here a stand-in for
     postprocess.shake's analysis of the first N cycles), the verdict written next to
     points.json and shown in the README; N outside [2, the sweep's cycles) is refused."""
-    _, path = _repo(tmp_path)
+    _, path = frozen_repo(tmp_path)
     fr = pl.load_frozen(path)
     out = tmp_path / "out"
     pl.write_plan(out, pl.make_plan(fr, ["model-ii-y"], 5, 50, None))
@@ -799,7 +799,7 @@ def test_a_cut_in_cycles_needs_model_ii_y_in_full_and_its_cycles_check(tmp_path,
     """issue 13 step 3: fewer cycles only after Model II y ran in full and its cycles check says
     the answer is unchanged; the cut is recorded in the plan per sweep, a planned sweep's cycles
     never change, and the false-success check names the cut."""
-    _, path = _repo(tmp_path)
+    _, path = frozen_repo(tmp_path)
     out = tmp_path / "out"
     seen = []
 
@@ -860,7 +860,7 @@ def test_a_cut_in_cycles_needs_model_ii_y_in_full_and_its_cycles_check(tmp_path,
 def test_report_and_cycles_check_on_an_empty_out(tmp_path, capsys):
     """--cycles-check where no sweep has a points.json says so (exit 2) instead of writing an
     empty report; --report into a new directory creates it (it crashed on the missing folder)."""
-    _, path = _repo(tmp_path)
+    _, path = frozen_repo(tmp_path)
     out = tmp_path / "new" / "out"
     assert cli.main(["--frozen", str(path), "--out", str(out), "--only", "model-ii-y",
                     "--cycles-check", "10"]) == 2

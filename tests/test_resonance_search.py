@@ -11,7 +11,7 @@ import pytest
 from studies.prediction import plan as pl
 from studies.prediction import points as pred_points
 from studies.resonance import study as rs
-from tests.test_prediction_study import _repo
+from tests.test_prediction_study import frozen_repo
 
 
 def test_base_transfer_limits():
@@ -52,7 +52,7 @@ def _point(f, ds, collapse=False):
 
 
 def test_report_joins_the_prediction_curve_and_the_points_above_it(tmp_path, monkeypatch):
-    _, path = _repo(tmp_path)
+    _, path = frozen_repo(tmp_path)
     fr = pl.load_frozen(path)
     monkeypatch.setattr(rs, "FREQUENCIES", {"model-ii-y": (6.0, 8.0, 10.0)})
     pred_out, out = tmp_path / "pred", tmp_path / "res"

@@ -110,7 +110,7 @@ def test_spectrum_of_a_pure_sine_has_one_peak_at_its_frequency():
 def test_hysteresis_loop_energy_of_a_viscous_oscillator():
     """Linear oscillator in the table frame: m a_abs = -(k x + c x'), so F = m a_abs traced
     against x encloses -closed integral F dx = pi c w X^2 per cycle (the dissipated energy)."""
-    m, k, c = 15.0, 4000.0, 30.0
+    k, c = 4000.0, 30.0
     w = 2 * np.pi * F
     t = np.arange(0, 10 / F + 0.01, 0.002)
     X = 4e-3
@@ -308,7 +308,7 @@ def test_dem_post_rebuilds_the_analysis_of_a_run(bolted_run):
     assert r.exit_code == 2
 
 
-def _case_file(tmp_path, data, name="case.yaml"):
+def case_file(tmp_path, data, name="case.yaml"):
     p = tmp_path / name
     p.write_text(yaml.safe_dump(data))
     return p
@@ -317,15 +317,15 @@ def _case_file(tmp_path, data, name="case.yaml"):
 def test_dem_sweep_rejects_bad_input_with_exit_2(tmp_path):
     bad = json.loads(json.dumps(BLOCK))
     bad["loading"]["frequency"] = -1.0
-    r = CliRunner().invoke(app, ["sweep", str(_case_file(tmp_path, bad)), "--out",
+    r = CliRunner().invoke(app, ["sweep", str(case_file(tmp_path, bad)), "--out",
                                  str(tmp_path / "o"), "--frequencies", "2"])
     assert r.exit_code == 2 and "loading.frequency" in r.output
     tilt = json.loads(json.dumps(BLOCK))
     tilt["loading"] = {"type": "tilt", "axis": "x", "rate": 2.0}
-    r = CliRunner().invoke(app, ["sweep", str(_case_file(tmp_path, tilt, "t.yaml")), "--out",
+    r = CliRunner().invoke(app, ["sweep", str(case_file(tmp_path, tilt, "t.yaml")), "--out",
                                  str(tmp_path / "o"), "--frequencies", "2"])
     assert r.exit_code == 2 and "shake" in r.output
-    ok = _case_file(tmp_path, BLOCK, "ok.yaml")
+    ok = case_file(tmp_path, BLOCK, "ok.yaml")
     for args in (["--range", "3:2:0.1"], ["--frequencies", "2,x"], []):
         r = CliRunner().invoke(app, ["sweep", str(ok), "--out", str(tmp_path / "o"), *args])
         assert r.exit_code == 2, args
@@ -352,7 +352,7 @@ SLIDER = {
 
 
 def test_dem_sweep_survives_a_failed_point_and_dem_post_reaggregates(tmp_path):
-    case = _case_file(tmp_path, SLIDER)
+    case = case_file(tmp_path, SLIDER)
     out = tmp_path / "sweep"
     r = CliRunner().invoke(app, ["sweep", str(case), "--out", str(out), "--frequencies", "3,4",
                                  "--range", "20:20:1", "--margin", "0", "--workers", "2",
@@ -418,7 +418,7 @@ def test_sweep_at_constant_peak_acceleration_exits_0_and_aggregates(tmp_path, mo
     import dem.batch
 
     monkeypatch.setattr(dem.batch, "run_batch", sequential_batch())
-    case = _case_file(tmp_path, BLOCK)
+    case = case_file(tmp_path, BLOCK)
     out = tmp_path / "sweep"
     r = CliRunner().invoke(app, ["sweep", str(case), "--out", str(out), "--range", "2:4:1",
                                  "--cycles", "3", "--margin", "0.1"])

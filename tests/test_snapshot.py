@@ -6,7 +6,7 @@ import numpy as np
 from PIL import Image
 
 from dem.builders import build_box_model
-from dem.output.snapshot import _matplotlib, snapshot_png
+from dem.output.snapshot import matplotlib_snapshot, snapshot_png
 
 
 def _colours(path) -> int:
@@ -28,6 +28,6 @@ def test_snapshot_png_offscreen(tmp_path):
 
 def test_matplotlib_fallback(tmp_path):
     s = build_box_model("I", courses=2, roof=None)
-    _matplotlib(tmp_path / "c.png", s, s.position, s.quat, None, "fallback", (400, 300))
+    matplotlib_snapshot(tmp_path / "c.png", s, s.position, s.quat, None, "fallback", (400, 300))
     n, shape = _colours(tmp_path / "c.png")
     assert shape == (300, 400, 3) and n > 20

@@ -14,7 +14,6 @@ import pytest
 from typer.testing import CliRunner
 
 from dem.cli import app
-from tests.view_runs import view_runs  # noqa: F401 - the session fixture
 
 
 def _json(path):

@@ -4,7 +4,7 @@ faces, never below its patch at the start."""
 
 import numpy as np
 
-from dem.engine.timestep import _omega2, face_area_caps, full_face_areas
+from dem.engine.timestep import omega2_bound, face_area_caps, full_face_areas
 
 KN, KS, SAFETY = 5e9, 2e9, 0.3
 BRICK = [0.105, 0.05, 0.035]
@@ -22,8 +22,8 @@ def _scene(n_bricks=20):
 
 def _ratio(size, mass, inertia, cap):
     full = full_face_areas(size)
-    w_full = _omega2(size, mass, inertia, full, KN, KS)
-    w_cap = _omega2(size, mass, inertia, np.minimum(full, cap), KN, KS)
+    w_full = omega2_bound(size, mass, inertia, full, KN, KS)
+    w_cap = omega2_bound(size, mass, inertia, np.minimum(full, cap), KN, KS)
     return w_full / w_cap
 
 
@@ -60,10 +60,10 @@ def test_tighter_cap_lifts_the_beam_limited_step():
     smaller, and larger than before."""
     size, mass, inertia, movable = _scene()
     old_face = np.minimum(full_face_areas(size), BRICK[0] * BRICK[1])
-    w_old = _omega2(size, mass, inertia, old_face, KN, KS)
+    w_old = omega2_bound(size, mass, inertia, old_face, KN, KS)
     face, _ = face_area_caps(size, mass, inertia, movable, KN, KS, SAFETY,
                              np.full(len(size), 0.0015))
-    w_new = _omega2(size, mass, inertia, face, KN, KS)
+    w_new = omega2_bound(size, mass, inertia, face, KN, KS)
     assert np.argmax(w_old) == len(size) - 1  # the beam set the step
     assert w_new.max() < w_old.max()
     np.testing.assert_array_equal(w_new[:-1], w_old[:-1])

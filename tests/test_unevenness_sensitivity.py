@@ -9,11 +9,11 @@ import pytest
 
 from studies.prediction import plan as pl
 from studies.unevenness import study as us
-from tests.test_prediction_study import FROZEN, _repo
+from tests.test_prediction_study import FROZEN, frozen_repo
 
 
 def test_a_level_is_the_prediction_case_with_only_the_bed_unevenness_changed(tmp_path):
-    _, path = _repo(tmp_path)
+    _, path = frozen_repo(tmp_path)
     fr = pl.load_frozen(path)
     pred = pl.sweep_case(us.SWEEP, fr["parameters"]).model_dump()
     for b in us.LEVELS_M:
@@ -37,7 +37,7 @@ def _point(ds, collapse=False):
 
 
 def test_report_gives_the_medians_of_the_survivors_per_level(tmp_path):
-    _, path = _repo(tmp_path)
+    _, path = frozen_repo(tmp_path)
     fr = pl.load_frozen(path)
     out = tmp_path / "sens"
     ds = {us.LEVELS_M[0]: [0.1, 0.2, 0.3], us.LEVELS_M[-1]: [3.0, 4.0, 99.0]}

@@ -12,7 +12,6 @@ import pytest
 
 from dem.units import (FRAMES_UNITS, INSTRUMENTS_UNITS, npz_units, numeric_paths,
                        summary_units, unit_of)
-from tests.view_runs import view_runs  # noqa: F401 - the session fixture
 
 
 @pytest.mark.parametrize("kind", ["tilt", "shake"])

@@ -18,7 +18,6 @@ from dem import quaternion
 from dem.cli import app
 from dem.output import animation
 from dem.output.vtk import block_corners, rotation_angle_deg
-from tests.view_runs import view_runs  # noqa: F401 - the session fixture
 
 
 def _view(*args):

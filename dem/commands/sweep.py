@@ -99,7 +99,7 @@ def run_sweep(case_path, out, frequencies: str | None = None, rng: str | None = 
 
     out = Path(out)
     if realisations is not None or seed is not None:
-        return _run_sweep_realisations(case_path, out, frequencies, rng, cycles, margin,
+        return run_sweep_realisations(case_path, out, frequencies, rng, cycles, margin,
                                        scheduler, workers, max_steps, realisations, seed,
                                        drain_file, batch, arch)
     try:
@@ -229,7 +229,7 @@ def workers_text(scheduler: str | None, workers: int | None, batch: int | None,
     return where + (f", on {arch}" if arch != "cpu" else "")
 
 
-def _run_sweep_realisations(case_path, out: Path, frequencies, rng, cycles, margin, scheduler,
+def run_sweep_realisations(case_path, out: Path, frequencies, rng, cycles, margin, scheduler,
                             workers, max_steps, realisations, seed, drain_file=None,
                             batch=None, arch="cpu") -> int:
     """``dem sweep --realisations N``: one sweep per realisation, then their statistics."""

@@ -344,10 +344,10 @@ class Engine:
         self._cap_dev.from_numpy(np.ascontiguousarray(self.clock.area_cap,
                                                       dtype=ti_runtime.real_dtype()))
         m, _, c, ctl = self.containers()
-        return patches_over_caps(self._n_slots(), self._cap_dev, 1.0 - CAP_CHECK_MARGIN, m, c,
+        return patches_over_caps(self.n_pair_slots(), self._cap_dev, 1.0 - CAP_CHECK_MARGIN, m, c,
                                  ctl, self.batched) > 0
 
-    def _n_slots(self) -> int:
+    def n_pair_slots(self) -> int:
         """The pair slots the kernels loop over: a lone scene's pairs, else up to the last
         slot in use."""
         sp = self.contacts.scene_pairs
@@ -373,7 +373,7 @@ class Engine:
         ctl.steps_done[...] = 0
         if self._warped and self._overlap_wanted() != self._overlap:
             self._choose_launch()  # coherence.set_overlap_reuse switched the overlap reuse
-        n_slots = self._n_slots()
+        n_slots = self.n_pair_slots()
         self.n_chunks += 1
         self._to_device()
         if self.mode == "serial":

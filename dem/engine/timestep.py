@@ -37,7 +37,7 @@ from __future__ import annotations
 import numpy as np
 
 
-def _omega2(size, mass, inertia, face_area, kn, ks):
+def omega2_bound(size, mass, inertia, face_area, kn, ks):
     """omega^2 bound per block; face_area [N,3,2]: contact area of the -/+ faces of each axis."""
     omega2 = np.zeros(len(size))
     full = np.stack([size[:, 1] * size[:, 2], size[:, 0] * size[:, 2],
@@ -75,7 +75,7 @@ def critical_time_step(size: np.ndarray, mass: np.ndarray, inertia: np.ndarray,
     movable = np.asarray(movable, dtype=bool)
     if not movable.any():
         return np.inf
-    w2 = _omega2(size[movable], np.asarray(mass, float)[movable],
+    w2 = omega2_bound(size[movable], np.asarray(mass, float)[movable],
                  np.asarray(inertia, float)[movable], np.asarray(face_area)[movable], kn, ks)
     return float(2.0 / np.sqrt(w2.max()) * (np.sqrt(1.0 + zeta**2) - zeta))
 
@@ -93,10 +93,10 @@ def face_area_caps(size, mass, inertia, movable, kn, ks, safety,
         return full, cap
     typical = float(np.percentile(full[movable].max(axis=(1, 2)), 90))
     ratio = 0.5 / safety**2
-    w_full = _omega2(size, mass, inertia, full, kn, ks)
+    w_full = omega2_bound(size, mass, inertia, full, kn, ks)
 
     def allowed(c):  # [N] caps c: the capped bound is within `ratio` of the full one
-        return w_full <= ratio * _omega2(size, mass, inertia, np.minimum(full, c[:, None, None]),
+        return w_full <= ratio * omega2_bound(size, mass, inertia, np.minimum(full, c[:, None, None]),
                                          kn, ks)
 
     eligible = movable & (full.max(axis=(1, 2)) > typical)

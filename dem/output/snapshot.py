@@ -61,7 +61,7 @@ def snapshot_png(
         except OSError:
             raise
         except Exception:  # noqa: BLE001 - no OpenGL: draw with matplotlib instead
-            _matplotlib(tmp, scene, pos, quat, scalars, title, window_size, table)
+            matplotlib_snapshot(tmp, scene, pos, quat, scalars, title, window_size, table)
             return "matplotlib"
 
 
@@ -143,7 +143,7 @@ def _tab10(i: int) -> str:
     return matplotlib.colors.to_hex(matplotlib.colormaps["tab10"](i % 10))
 
 
-def _matplotlib(path, scene, pos, quat, scalars, title, window_size, table_pts=None) -> None:
+def matplotlib_snapshot(path, scene, pos, quat, scalars, title, window_size, table_pts=None) -> None:
     import matplotlib
 
     matplotlib.use("Agg")

@@ -39,7 +39,6 @@ import math
 from pathlib import Path
 from typing import Annotated, Literal, Union
 
-import yaml
 from pydantic import Field, ValidationError, field_validator, model_validator
 
 from dem.case import ShakeLoading as DemShakeLoading

@@ -26,7 +26,6 @@ Output: results/diagnosis/e7/summary.json and the table in results/diagnosis/REA
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 
