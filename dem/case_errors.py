@@ -59,7 +59,7 @@ def _no_duplicates(node) -> None:
             _no_duplicates(v)
 
 
-def _walk(node, data, loc, name_missing: bool = True) -> tuple[list[str], int | None]:
+def walk_yaml(node, data, loc, name_missing: bool = True) -> tuple[list[str], int | None]:
     """Follow ``loc`` through the YAML nodes and the loaded data.
 
     Returns the printable path (keys and list indices that exist, plus a final missing key) and the
@@ -114,7 +114,7 @@ def field_description(model: type[BaseModel], loc) -> str | None:
     return desc
 
 
-def _join(path: list[str]) -> str:
+def join_field_path(path: list[str]) -> str:
     out = ""
     for p in path:
         out += p if p.startswith("[") else (f".{p}" if out else p)
@@ -135,7 +135,7 @@ def format_errors(
         loc = tuple(e["loc"])
         # a last part that is not a key of the file is a missing / unknown key, or else a
         # union tag of a model-level check (loading.shake): dropped then
-        path, line = _walk(node, data, loc, e["type"] in ("missing", "extra_forbidden")) \
+        path, line = walk_yaml(node, data, loc, e["type"] in ("missing", "extra_forbidden")) \
             if data is not None else ([str(p) for p in loc], None)
         msg = e["msg"].removeprefix("Value error, ")
         if e["type"] in _NUMBER_ERRORS and isinstance(e.get("input"), str):
@@ -153,9 +153,9 @@ def format_errors(
             head, sep, rest = msg.partition(": ")
             parts = head.split(".")
             if sep and all(p.isidentifier() for p in parts) and parts[0] in data:
-                path, line = _walk(node, data, tuple(parts))
+                path, line = walk_yaml(node, data, tuple(parts))
                 msg = rest
-        key = (_join(path), line)
+        key = (join_field_path(path), line)
         if msg not in merged.setdefault(key, []):
             merged[key].append(msg)
     lines = []

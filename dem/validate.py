@@ -356,13 +356,13 @@ class _Where:
                 pass
 
     def __call__(self, loc: tuple) -> str:
-        from dem.case_errors import _join, _walk
+        from dem.case_errors import join_field_path, walk_yaml
 
-        field_path = _join([f"[{p}]" if isinstance(p, int) else p for p in loc])
+        field_path = join_field_path([f"[{p}]" if isinstance(p, int) else p for p in loc])
         line = None
         if self.data is not None:
-            path, line = _walk(self.node, self.data, loc)
-            field_path = _join(path) or field_path
+            path, line = walk_yaml(self.node, self.data, loc)
+            field_path = join_field_path(path) or field_path
         if self.source and line:
             return f"{self.source}:{line}: {field_path}"
         return f"{self.source}: {field_path}" if self.source else field_path

@@ -120,7 +120,7 @@ def lowpass(y: np.ndarray, t: np.ndarray, cutoff_hz: float = LOWPASS_HZ,
 def lowpass_resolved(t: np.ndarray, cutoff_hz: float = LOWPASS_HZ) -> bool:
     """Whether the record t (s) resolves the cutoff (Hz) and is long enough for the filter's
     padding.  Resolved: below 0.9 x the Nyquist frequency 1 / (2 dt): a cutoff at the Nyquist
-    frequency filters nothing, and the resampling of jittered frames (:func:`_uniform`) moves
+    frequency filters nothing, and the resampling of jittered frames (:func:`uniform_frames`) moves
     it by a fraction of a percent, so frames 10 ms apart never count as resolving 50 Hz."""
     return len(t) > 3 * (2 * ((LOWPASS_ORDER + 1) // 2) + 1) and \
         cutoff_hz < 0.9 * 0.5 / float(np.median(np.diff(t)))
@@ -203,7 +203,7 @@ def load_run(run_dir: Path):
     return case, scene_from_case(case, check=False)
 
 
-def _uniform(t, arrays):
+def uniform_frames(t, arrays):
     """Resample arrays (first axis = time) linearly onto a uniform grid if t is not uniform
     (frames are taken at the first step past each output time: jitter of one time step).
     A record of fewer than two samples (a run stopped in its settle phase) has no time grid:
@@ -268,7 +268,7 @@ def signals_from_instruments(npz, case) -> list[ShakeSignals]:
             raise ShakeAnalysisError(f"instruments.npz: no '{prefix}ds-centre' among {names}")
         e = np.asarray(npz["direction"][i_c], float)
         proj = lambda arr, i: None if i is None else np.asarray(arr)[:, i, :] @ e  # noqa: E731
-        tu, (disp, acc, tdisp, tacc) = _uniform(t, [np.asarray(npz["disp"]), np.asarray(npz["acc"]),
+        tu, (disp, acc, tdisp, tacc) = uniform_frames(t, [np.asarray(npz["disp"]), np.asarray(npz["acc"]),
                                                     np.asarray(npz["table_disp"]),
                                                     np.asarray(npz["table_acc"])])
         u = tdisp @ e
@@ -304,7 +304,7 @@ def signals_from_frames(frames, case, scene) -> list[ShakeSignals]:
 
     loading = loading_from_case(case)
     t0 = np.asarray(frames["t"], float)
-    t, (pos, quat) = _uniform(t0, [np.asarray(frames["pos"]), np.asarray(frames["quat"])])
+    t, (pos, quat) = uniform_frames(t0, [np.asarray(frames["pos"]), np.asarray(frames["quat"])])
     quat = quat / np.linalg.norm(quat, axis=-1, keepdims=True)
     table_disp = loading.base_disp(t)
     table_vel = loading.base_vel(t)

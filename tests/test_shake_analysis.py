@@ -531,12 +531,12 @@ def test_a_record_of_one_sample_is_a_shake_analysis_error():
     """A run stopped in its settle phase leaves one frame: the analysis says so
     (ShakeAnalysisError, which the sweep reports as a failed analysis), not a bare ValueError
     from the time grid."""
-    from postprocess.shake_signals import ShakeAnalysisError, _uniform
+    from postprocess.shake_signals import ShakeAnalysisError, uniform_frames
 
     with pytest.raises(ShakeAnalysisError, match="1 sample"):
-        _uniform(np.array([0.0]), [np.zeros((1, 3))])
+        uniform_frames(np.array([0.0]), [np.zeros((1, 3))])
     t = np.array([0.0, 0.01, 0.02])
-    tu, (a,) = _uniform(t, [np.ones((3, 2))])
+    tu, (a,) = uniform_frames(t, [np.ones((3, 2))])
     assert np.array_equal(tu, t) and a.shape == (3, 2)
 
 

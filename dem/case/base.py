@@ -9,12 +9,11 @@ from pydantic import BaseModel, ConfigDict, Field
 Vec3 = Annotated[list[float], Field(min_length=3, max_length=3)]
 
 
-class _Strict(BaseModel):
+class StrictModel(BaseModel):
+    """The base of every case-file model: unknown fields refused, assignments validated, NaN
+    and inf refused (the two-body case format, dem.rocking.schema, builds on it too)."""
+
     # NaN and inf are refused in every number ("Input should be a finite number"), before any
     # range check could give a misleading message about them
     model_config = ConfigDict(extra="forbid", validate_assignment=True, allow_inf_nan=False)
 
-
-# the public name of the base (the two-body case format, dem.rocking.schema, builds on it: one
-# dialect, issue 34 item 5)
-StrictModel = _Strict

@@ -9,7 +9,7 @@ from typing import Union
 import yaml
 from pydantic import Field, ValidationError, field_validator, model_validator
 
-from dem.case.base import Vec3, _Strict
+from dem.case.base import Vec3, StrictModel
 from dem.case.imperfections import MAX_FRACTION, Imperfections
 from dem.case.loadings import Loading, NoLoading, RecordLoading
 from dem.case.material import Material
@@ -17,7 +17,7 @@ from dem.case.scene import SceneSpec
 from dem.case.settings import RunSpec, SolverSpec
 
 
-class Case(_Strict):
+class Case(StrictModel):
     name: str = Field(min_length=1)
     description: str = ""
     scene: SceneSpec

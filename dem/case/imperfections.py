@@ -13,13 +13,13 @@ from typing import Literal
 
 from pydantic import Field, field_validator
 
-from dem.case.base import Vec3, _Strict
+from dem.case.base import Vec3, StrictModel
 
 #: an imperfection may be at most this fraction of the smallest brick dimension
 MAX_FRACTION = 0.10
 
 
-class Imperfections(_Strict):
+class Imperfections(StrictModel):
     bed_unevenness: float = Field(
         default=0.0, ge=0.0,
         description="m: standard deviation of independent random offsets of each face's four "

@@ -11,10 +11,10 @@ from typing import Annotated, Literal, Union
 
 from pydantic import Field, field_validator, model_serializer, model_validator
 
-from dem.case.base import Vec3, _Strict
+from dem.case.base import Vec3, StrictModel
 
 
-class CollapseSpec(_Strict):
+class CollapseSpec(StrictModel):
     """When a tilt run counts as collapsed and stops (see dem.collapse for the rule)."""
 
     enabled: bool = Field(default=True, description="detect collapse and stop the run after it")
@@ -35,7 +35,7 @@ class CollapseSpec(_Strict):
         return self
 
 
-class QuasiStaticSpec(_Strict):
+class QuasiStaticSpec(StrictModel):
     """How a quasi-static tilt finds the angle at which equilibrium is lost (dem.run.quasi_static).
 
     The angle advances by ``increment``; after each advance the scene relaxes with Cundall local
@@ -70,7 +70,7 @@ class QuasiStaticSpec(_Strict):
         "speed_error.md 'Quasi-static tilt of imperfect walls')")
 
 
-class TiltLoading(_Strict):
+class TiltLoading(StrictModel):
     """The table turns about a horizontal axis (pseudo-static collapse, thesis Chapter 3).
 
     Modelled in the table's frame: gravity turns, the table stays.  With the right-hand rule about
@@ -185,7 +185,7 @@ def _one_amplitude(amplitude, peak_acceleration) -> None:
         raise ValueError("give exactly one of amplitude (m) or peak_acceleration (m/s2)")
 
 
-class ShakeLoading(_Strict):
+class ShakeLoading(StrictModel):
     """Sinusoidal table displacement u(t) = A * direction * sin(2 pi f t) for ``cycles`` cycles.
 
     ``direction`` is used as given (not normalised): [1, 1, 0] moves x and y each by the amplitude
@@ -234,7 +234,7 @@ class ShakeLoading(_Strict):
         return self.displacement_amplitude * math.sqrt(sum(x * x for x in self.direction))
 
 
-class FrequencyStep(_Strict):
+class FrequencyStep(StrictModel):
     """One step of a stepped shake: a frequency and its cycles."""
 
     frequency: float = Field(gt=0.0, description="Hz")
@@ -242,7 +242,7 @@ class FrequencyStep(_Strict):
                           "displacement extreme: at most half a period more)")
 
 
-class SteppedShakeLoading(_Strict):
+class SteppedShakeLoading(StrictModel):
     """A sine whose frequency steps through ``steps`` on one specimen, never settled again
     between steps (issue 32 item 2; the table motion: dem.table_motion.SteppedSineMotion).
 
@@ -295,7 +295,7 @@ class SteppedShakeLoading(_Strict):
             start=self.start, ramp_cycles=self.ramp_cycles)
 
 
-class RecordLoading(_Strict):
+class RecordLoading(StrictModel):
     """Table acceleration from a record (an earthquake, a pulse), in the table's frame.
 
     Give either ``file`` (CSV with columns t, ax, ay and optionally az: s and m/s2; a header line
@@ -412,7 +412,7 @@ def _is_number(text: str) -> bool:
         return False
 
 
-class NoLoading(_Strict):
+class NoLoading(StrictModel):
     """Free motion from the initial state under gravity (e.g. a block released tilted)."""
 
     type: Literal["none"]

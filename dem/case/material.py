@@ -7,7 +7,7 @@ from typing import Annotated, Literal, Union
 from pydantic import Field, ValidationError, model_validator
 from pydantic_core import InitErrorDetails, PydanticCustomError
 
-from dem.case.base import _Strict
+from dem.case.base import StrictModel
 
 # Friction coefficients of dry masonry joints are 0.5-0.9 (thesis Section 4.2.3: 0.81), of the
 # stickiest dry solid pairs (rubber on rough concrete) about 1-2.  mu = 10 is a friction angle of
@@ -34,7 +34,7 @@ def _errors(title: str, errs: list[tuple[tuple, str, object]]) -> ValidationErro
         for loc, msg, value in errs])
 
 
-class PairMaterial(_Strict):
+class PairMaterial(StrictModel):
     """The joint constants of one pair of named materials; a field left out takes the default
     pair's (the ``material:`` section's own fields; pairs with the table: base_friction)."""
 
@@ -56,7 +56,7 @@ class PairMaterial(_Strict):
         default=None, gt=0.0, description="d_max of the hyperbolic law for this pair, m")
 
 
-class Material(_Strict):
+class Material(StrictModel):
     """Joint properties, given the way masonry engineers give them (3DEC style).
 
     Joint stiffness is per unit area of joint (Pa/m = N/m^3): a contact patch of area A closed by

@@ -7,10 +7,10 @@ import math
 from pydantic import Field, field_validator, model_validator
 
 from dem.builders.spec import BoxModelSpec, FacadeSpec, WallSpec
-from dem.case.base import Vec3, _Strict
+from dem.case.base import Vec3, StrictModel
 
 
-class BlockSpec(_Strict):
+class BlockSpec(StrictModel):
     """One rigid box given explicitly."""
 
     size: Vec3 = Field(description="full edge lengths [lx, ly, lz] in the block's own axes, m")
@@ -62,7 +62,7 @@ class BlockSpec(_Strict):
         return float(self.density) * self.size[0] * self.size[1] * self.size[2]
 
 
-class SceneSpec(_Strict):
+class SceneSpec(StrictModel):
     """The blocks of a scene: explicit ``blocks`` and/or builder entries (``wall``, ``facade``,
     ``box_model``; see :mod:`dem.builders`).  Order in every output array: explicit blocks first,
     then wall, facade, box_model."""

@@ -6,10 +6,10 @@ from typing import Literal
 
 from pydantic import Field
 
-from dem.case.base import _Strict
+from dem.case.base import StrictModel
 
 
-class RunSpec(_Strict):
+class RunSpec(StrictModel):
     """How long to run and what to write (frames.npz always holds every output frame)."""
 
     duration: float = Field(gt=0.0, description="simulated time, s")
@@ -32,7 +32,7 @@ class RunSpec(_Strict):
     )
 
 
-class SolverSpec(_Strict):
+class SolverSpec(StrictModel):
     """Numerical knobs.  Every default is justified by a measurement in benchmarks/RESULTS.md."""
 
     dt: float | None = Field(default=None, gt=0.0, description="time step, s (default: automatic)")
