@@ -183,9 +183,13 @@ def from_rest(sweep: str, seeds) -> dict:
     return out
 
 
+SEED_STYLES = ("-", "-.", ":")  # the line of seed 0, 1, 2 (then again)
+
+
 def plot(specimens: dict, path: Path) -> None:
-    """ds amplification against frequency, the down and the up pass of each specimen as lines
-    (filled markers: rocking branch), the first prediction's from-rest medians dashed."""
+    """ds amplification against frequency, the down (red) and the up (blue) pass of each
+    specimen as lines, one line style per seed (filled markers: rocking branch), the first
+    prediction's from-rest medians dashed black."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -202,8 +206,8 @@ def plot(specimens: dict, path: Path) -> None:
                     continue
                 f = [r["frequency_hz"] for r in pts]
                 a = [r["amplification"]["ds"] for r in pts]
-                ax.plot(f, a, "-", color=color, lw=1, alpha=0.7,
-                        label=f"seed {s['seed']} {pas}")
+                ax.plot(f, a, SEED_STYLES[s["seed"] % len(SEED_STYLES)], color=color, lw=1,
+                        alpha=0.7, label=f"seed {s['seed']} {pas}")
                 for r in pts:
                     rock = r.get("branch") == "rocking"
                     if r.get("fallen_by_end", 0) > 0:     # a ruin's response: a cross
