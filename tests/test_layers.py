@@ -190,8 +190,8 @@ TEST_MODULES = {f"tests.{p.stem}": p for p in sorted((ROOT / "tests").glob("*.py
 @pytest.mark.parametrize("name", sorted(TEST_MODULES))
 def test_no_test_module_uses_another_modules_private_names(name):
     """The tests too: a helper another test module needs, or an internal a test checks, has a
-    public name (the rule's last debts, dem.case's base class and dem.case_errors' path
-    helpers, were paid in the same change that extended it here)."""
+    public name in its module (private names of libraries outside the project, such as
+    Taichi's, are not the rule's)."""
     found = private_uses(name, TEST_MODULES[name])
     assert not found, (f"{name} uses private names of other modules (make them public): "
                        f"{found}")
