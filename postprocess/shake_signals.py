@@ -268,9 +268,8 @@ def signals_from_instruments(npz, case) -> list[ShakeSignals]:
             raise ShakeAnalysisError(f"instruments.npz: no '{prefix}ds-centre' among {names}")
         e = np.asarray(npz["direction"][i_c], float)
         proj = lambda arr, i: None if i is None else np.asarray(arr)[:, i, :] @ e  # noqa: E731
-        tu, (disp, acc, tdisp, tacc) = uniform_frames(t, [np.asarray(npz["disp"]), np.asarray(npz["acc"]),
-                                                    np.asarray(npz["table_disp"]),
-                                                    np.asarray(npz["table_acc"])])
+        tu, (disp, acc, tdisp, tacc) = uniform_frames(
+            t, [np.asarray(npz[k]) for k in ("disp", "acc", "table_disp", "table_acc")])
         u = tdisp @ e
         exc = {"displacement": u, "velocity": np.gradient(u, tu), "acceleration": tacc @ e}
         i_ca, i_cb = idx("ds-corner-a"), idx("ds-corner-b")

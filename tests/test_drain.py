@@ -80,8 +80,8 @@ def test_a_drain_ends_the_loop_over_realisations(tmp_path, monkeypatch):
 
     monkeypatch.setattr(cmd, "run_sweep", fake_run_sweep)
     drain = tmp_path / "sw" / "DRAIN"
-    code = cmd.run_sweep_realisations(stack_case(tmp_path), tmp_path / "sw", "2,3", None, 5.0, 1.0,
-                                       None, 1, None, 4, 0, drain)
+    code = cmd.run_sweep_realisations(stack_case(tmp_path), tmp_path / "sw", "2,3", None, 5.0,
+                                      1.0, None, 1, None, 4, 0, drain)
     assert code == ExitCode.RUN_FAILED
     assert calls == [("seed-0", drain), ("seed-1", drain)]   # seed-2, seed-3 never started
     assert not (tmp_path / "sw" / "ensemble.json").exists()

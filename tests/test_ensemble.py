@@ -185,8 +185,8 @@ def test_a_signal_stops_dem_sweep_realisations_instead_of_starting_the_next(tmp_
         return ExitCode.OK
 
     monkeypatch.setattr(cmd, "run_sweep", fake_run_sweep)
-    code = cmd.run_sweep_realisations(stack_case(tmp_path), tmp_path / "sw", "2,3", None, 5.0, 1.0,
-                                       None, 1, None, 4, 0)
+    code = cmd.run_sweep_realisations(stack_case(tmp_path), tmp_path / "sw", "2,3", None, 5.0,
+                                      1.0, None, 1, None, 4, 0)
     assert code == ExitCode.RUN_FAILED
     assert calls == [("seed-0", True), ("seed-1", True)]    # seed-2, seed-3 never started
     assert not (tmp_path / "sw" / "ensemble.json").exists()

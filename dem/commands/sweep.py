@@ -100,8 +100,8 @@ def run_sweep(case_path, out, frequencies: str | None = None, rng: str | None = 
     out = Path(out)
     if realisations is not None or seed is not None:
         return run_sweep_realisations(case_path, out, frequencies, rng, cycles, margin,
-                                       scheduler, workers, max_steps, realisations, seed,
-                                       drain_file, batch, arch)
+                                      scheduler, workers, max_steps, realisations, seed,
+                                      drain_file, batch, arch)
     try:
         case = load_case(case_path) if case is None else case
         freqs = parse_frequencies(frequencies, rng)
@@ -230,8 +230,8 @@ def workers_text(scheduler: str | None, workers: int | None, batch: int | None,
 
 
 def run_sweep_realisations(case_path, out: Path, frequencies, rng, cycles, margin, scheduler,
-                            workers, max_steps, realisations, seed, drain_file=None,
-                            batch=None, arch="cpu") -> int:
+                           workers, max_steps, realisations, seed, drain_file=None,
+                           batch=None, arch="cpu") -> int:
     """``dem sweep --realisations N``: one sweep per realisation, then their statistics."""
     from dem.batch import Drained
     from dem.case import CaseError, load_case

@@ -76,7 +76,7 @@ def critical_time_step(size: np.ndarray, mass: np.ndarray, inertia: np.ndarray,
     if not movable.any():
         return np.inf
     w2 = omega2_bound(size[movable], np.asarray(mass, float)[movable],
-                 np.asarray(inertia, float)[movable], np.asarray(face_area)[movable], kn, ks)
+                      np.asarray(inertia, float)[movable], np.asarray(face_area)[movable], kn, ks)
     return float(2.0 / np.sqrt(w2.max()) * (np.sqrt(1.0 + zeta**2) - zeta))
 
 
@@ -96,8 +96,8 @@ def face_area_caps(size, mass, inertia, movable, kn, ks, safety,
     w_full = omega2_bound(size, mass, inertia, full, kn, ks)
 
     def allowed(c):  # [N] caps c: the capped bound is within `ratio` of the full one
-        return w_full <= ratio * omega2_bound(size, mass, inertia, np.minimum(full, c[:, None, None]),
-                                         kn, ks)
+        capped = np.minimum(full, c[:, None, None])
+        return w_full <= ratio * omega2_bound(size, mass, inertia, capped, kn, ks)
 
     eligible = movable & (full.max(axis=(1, 2)) > typical)
     ok = eligible & allowed(np.full(len(size), typical))

@@ -143,7 +143,8 @@ def _tab10(i: int) -> str:
     return matplotlib.colors.to_hex(matplotlib.colormaps["tab10"](i % 10))
 
 
-def matplotlib_snapshot(path, scene, pos, quat, scalars, title, window_size, table_pts=None) -> None:
+def matplotlib_snapshot(path, scene, pos, quat, scalars, title, window_size,
+                        table_pts=None) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
