@@ -26,7 +26,6 @@ Output: results/diagnosis/e7/summary.json and the table in results/diagnosis/REA
 
 from __future__ import annotations
 
-
 import numpy as np
 
 from studies.kit.records import read_json
