@@ -21,6 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
+from dem.output.plotting import agg_pyplot
+
 QUANTILES = (0.1, 0.9)
 NOT_RESULTS = {"seed"}  # numbers of a realisation's row that are not results
 
@@ -120,10 +122,7 @@ def plot_lambda(scalars: list[dict], path: Path, title: str = "") -> bool:
     lam = [s["lambda"] for s in scalars if s.get("status") == "ok" and _finite(s.get("lambda"))]
     if not lam:
         return False
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = agg_pyplot()
 
     from dem.output.atomic import savefig
 
@@ -149,10 +148,7 @@ def plot_amplification_band(curves: dict[float, list[float]], path: Path, quanti
     freqs = sorted(f for f, v in curves.items() if any(_finite(x) for x in v))
     if not freqs:
         return False
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = agg_pyplot()
 
     from dem.output.atomic import savefig
 

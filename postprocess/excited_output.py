@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from dem.output.atomic import atomic_path, savefig
+from dem.output.plotting import agg_pyplot
 from postprocess.excited import ExcitedPortion, aabb, group_mask
 
 PART_COLOURS = {0: "#dddddd", 1: "#f4a259", 2: "#bc4b51"}
@@ -15,10 +16,7 @@ PART_COLOURS = {0: "#dddddd", 1: "#f4a259", 2: "#bc4b51"}
 
 def plot_elevation(path, scene, portion: ExcitedPortion, title: str = "") -> None:
     """Elevations of the facade and its side walls, bricks coloured by part."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = agg_pyplot()
     from matplotlib.patches import Rectangle
 
     lo, hi = aabb(scene)

@@ -6,17 +6,9 @@ The quantities are those of postprocess.shake_signals, the maths postprocess.sig
 from __future__ import annotations
 
 from dem.output.atomic import savefig
+from dem.output.plotting import agg_pyplot
 from postprocess.shake_signals import KIND_OF, ShakeSignals
 from postprocess.signal_analysis import SteadyWindow, spectral_peaks, spectrum
-
-
-def agg_pyplot():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
 
 
 #: the unit of each kind of quantity (SI, as analysis.json)

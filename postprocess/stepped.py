@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from dem.output.atomic import savefig, write_json
+from dem.output.plotting import agg_pyplot
 from postprocess.shake import analyze_signals, relative_to_table
 from postprocess.shake_signals import (ShakeAnalysisError, ShakeSignals, load_run,
                                        read_signals)
@@ -109,10 +110,7 @@ def analyze_steps(sig: ShakeSignals, steps: list[dict], scene=None, frames=None)
 def plot_passes(path, steps: list[dict], title: str = "") -> None:
     """stepped.png: amplification of ds and a_rel (where present) against frequency, the up
     pass and the down pass as separate lines (the hysteresis of the stepped test)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = agg_pyplot()
 
     names = [("ds", lambda s: s["amplification"].get("ds")),
              ("a_rel", lambda s: (s.get("relative_to_table") or {}).get("amplification",

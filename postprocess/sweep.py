@@ -35,6 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from dem.output.atomic import savefig as _atomic_savefig
+from dem.output.plotting import agg_pyplot
 from dem.run.sweep import DEFAULT_MARGIN, SweepInputError, point_name
 
 GAP_MIN = 1.5
@@ -244,10 +245,7 @@ def survival_by_point(points: list[dict]) -> dict | None:
 
 
 def plot_sweep(path, points: list[dict], agg: dict, title: str = "") -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = agg_pyplot()
 
     fig, (ax, ax2) = plt.subplots(2, 1, figsize=(8, 8), sharex=True)
     for n, cv in agg["curves"].items():

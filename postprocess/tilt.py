@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from dem.output.plotting import agg_pyplot
 from postprocess.limit_analysis import in_plane_limit
 from postprocess.mechanisms import (CRACK_ANGLE_DEFINITION, collapsed_portion,
                                      in_plane_mechanism, out_of_plane_mechanism)
@@ -270,10 +271,7 @@ def plot_lean(run_dir, collapse: dict | None = None) -> Path:
     Called by ``dem run`` after the run and by ``dem post``."""
     import json
 
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = agg_pyplot()
 
     from dem.loading import loading_from_case
     from dem.output.atomic import savefig

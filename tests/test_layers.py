@@ -209,3 +209,31 @@ def test_the_private_name_rule_catches_both_forms(tmp_path):
     path.write_text(src)
     found = private_uses("studies.fake", path)
     assert len(found) == 2 and "import _x" in found[0] and "pl._hidden" in found[1]
+
+
+#: the one module that chooses matplotlib's backend (Agg: plots are files, never a window)
+BACKEND_MODULE = "dem.output.plotting"
+
+
+def backend_choices(path: Path) -> list[int]:
+    """The lines of ``path`` that call ``matplotlib.use(...)``."""
+    return [node.lineno for node in ast.walk(ast.parse(path.read_text()))
+            if isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
+            and node.func.attr == "use" and isinstance(node.func.value, ast.Name)
+            and node.func.value.id == "matplotlib"]
+
+
+def test_matplotlib_backend_is_chosen_in_one_place():
+    """Every plot gets pyplot from dem.output.plotting.agg_pyplot, so a headless worker never
+    depends on which plot ran first; no other module calls ``matplotlib.use``."""
+    elsewhere = {name: lines for name, path in MODULES.items()
+                 if name != BACKEND_MODULE and (lines := backend_choices(path))}
+    assert not elsewhere, f"use dem.output.plotting.agg_pyplot instead: {elsewhere}"
+    assert backend_choices(MODULES[BACKEND_MODULE])  # the rule looks for the right call
+
+
+def test_agg_pyplot_selects_agg():
+    from dem.output.plotting import agg_pyplot
+
+    plt = agg_pyplot()
+    assert plt.get_backend().lower() == "agg"

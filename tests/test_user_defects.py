@@ -12,6 +12,7 @@ import yaml
 from typer.testing import CliRunner
 
 from dem.cli import app
+from dem.output.plotting import agg_pyplot
 
 CASES = __import__("pathlib").Path(__file__).resolve().parent.parent / "cases"
 
@@ -351,7 +352,7 @@ def test_a_two_cycle_run_is_analysed_with_a_caveat_and_plotted_over_the_shaking(
         original(fig, p, **kw)
 
     monkeypatch.setattr(sp, "savefig", keep)
-    monkeypatch.setattr(sp.agg_pyplot(), "close", lambda *a: None)
+    monkeypatch.setattr(agg_pyplot(), "close", lambda *a: None)
     res = analyze_run(out)
     assert res["steady_state"]["n_cycles"] == 1
     assert any("steady window holds only 1 cycle" in w for w in res["warnings"])

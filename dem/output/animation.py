@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from dem.output.plotting import agg_pyplot
 from dem.output.vtk import block_corners
 
 # hexahedron faces in the VTK corner numbering of block_corners
@@ -205,10 +206,7 @@ def write_animation(path, size, poses: Poses, title: str, fps: float = 10.0,
     """The drawn frames as an animation at ``path`` (.gif: Pillow; .mp4: ffmpeg, see
     :func:`ffmpeg_available`); returns the writer's name.  Written through a temporary file
     (dem.output.atomic): a failed write leaves no half file."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = agg_pyplot()
     from matplotlib.animation import FFMpegWriter, FuncAnimation, PillowWriter
 
     from dem.output.atomic import atomic_path
@@ -238,10 +236,7 @@ def write_strip(path, size, poses: Poses, title: str, panels: int = 6,
     """A row of ``panels`` drawings of frames spread evenly over the drawn ones (first and
     last included) into a PNG at ``path``, on one colour scale; returns the frame indices
     (into ``poses``) drawn."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = agg_pyplot()
 
     from dem.output.atomic import atomic_path
 

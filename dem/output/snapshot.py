@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from dem.output.plotting import agg_pyplot
 from dem.output.vtk import block_corners, blocks_grid
 from dem.scene import Scene
 
@@ -145,10 +146,8 @@ def _tab10(i: int) -> str:
 
 def matplotlib_snapshot(path, scene, pos, quat, scalars, title, window_size,
                         table_pts=None) -> None:
+    plt = agg_pyplot()
     import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
     corners = block_corners(scene.size, pos, quat)

@@ -24,6 +24,7 @@ import numpy as np
 
 from dem.output import atomic
 from dem.output.atomic import savefig as _atomic_savefig
+from dem.output.plotting import agg_pyplot
 from dem.rocking import analysis as an
 from dem.rocking.energy import energy_arrays
 from dem.rocking.integrate import RockingError, RockingResult, integrate_rocking
@@ -235,10 +236,7 @@ def write_outputs(out: Path, case: RockingCase, P, exc, res: RockingResult, wall
 
 
 def plot_results(out: Path, case, P, exc, res, d, arrays) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = agg_pyplot()
 
     t = res.t
     fig, ax = plt.subplots(4, 1, figsize=(11, 10), sharex=True)

@@ -49,6 +49,7 @@ from pathlib import Path
 
 import numpy as np
 
+from dem.output.plotting import agg_pyplot
 from postprocess.verdicts import response_branch
 from studies.diagnosis.grid import Grid, RESULTS, Variant, baseline_rows, judged
 from studies.kit.records import read_json
@@ -163,9 +164,7 @@ def corner_motion_of(rows_by_sweep: dict) -> dict:
 
 
 def plot(table: dict, path: Path) -> None:
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = agg_pyplot()
 
     names = list(table)
     keys = [k for k in next(iter(table.values()))["ratios"]]

@@ -39,6 +39,7 @@ import yaml
 
 from dem.case.identity import identity_json
 from dem.engine import RESULTS_REVISION
+from dem.output.plotting import agg_pyplot
 from postprocess.verdicts import BRANCH_AMPLIFICATION, BRANCH_PHASE_DEG, response_branch
 from studies.kit import child, session
 from studies.kit.provenance import rel, source_state
@@ -190,9 +191,7 @@ def plot(specimens: dict, path: Path) -> None:
     """ds amplification against frequency, the down (red) and the up (blue) pass of each
     specimen as lines, one line style per seed (filled markers: rocking branch), the first
     prediction's from-rest medians dashed black."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = agg_pyplot()
 
     sweeps = sorted({s["sweep"] for s in specimens.values()})
     fig, axes = plt.subplots(1, len(sweeps), figsize=(4.6 * len(sweeps), 3.8), squeeze=False)

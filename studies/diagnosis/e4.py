@@ -33,6 +33,7 @@ import numpy as np
 import yaml
 
 from dem.engine import RESULTS_REVISION
+from dem.output.plotting import agg_pyplot
 from postprocess.verdicts import BRANCH_AMPLIFICATION, BRANCH_PHASE_DEG, response_branch
 from studies.kit import child, session
 from studies.kit.provenance import rel, source_state
@@ -208,9 +209,7 @@ def onsets(recs: list[dict]) -> dict:
 def plot(recs: list[dict], path: Path) -> None:
     """The threshold map: each (frequency, acceleration) cell coloured by its share of seeds on
     the rocking branch, labelled with the median ds amplification and phase."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = agg_pyplot()
 
     fig, ax = plt.subplots(figsize=(6.4, 4.6))
     for r in recs:

@@ -36,6 +36,7 @@ import yaml
 
 from dem.case.identity import identity_json
 from dem.engine import RESULTS_REVISION
+from dem.output.plotting import agg_pyplot
 from postprocess.verdicts import BRANCH_AMPLIFICATION, BRANCH_PHASE_DEG, response_branch
 from studies.kit import child, session
 from studies.kit.provenance import rel, source_state
@@ -244,9 +245,7 @@ def plot(grid: Grid, table: dict, path: Path) -> None:
     """ds amplification of every run against frequency, one panel per variant (and the
     baseline): filled markers on the rocking branch, open ones off it; the branch threshold
     dashed."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = agg_pyplot()
 
     names = list(table)
     fig, axes = plt.subplots(1, len(names), figsize=(3.2 * len(names), 3.4), sharey=True,

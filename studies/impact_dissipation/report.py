@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from dem.output.plotting import agg_pyplot
 from studies.impact_dissipation.physics import amplitude_after_impact
 from studies.impact_dissipation.two_body import two_body_params
 
@@ -58,9 +59,7 @@ def housner_sequence(theta0: float, r: float, c: float, z: float, n: int) -> np.
 def plot_histories(hist: dict, summary: dict, path: Path) -> None:
     """Figure 1: DEM rotation histories against Housner's peaks (a, b) and the damping
     dependence of the per-impact amplitude ratio (d)."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = agg_pyplot()
 
     fig, ax = plt.subplots(2, 2, figsize=(13, 8.5))
     a = ax[0, 0]

@@ -54,6 +54,7 @@ import numpy as np
 import typer
 
 from dem.case import load_case
+from dem.output.plotting import agg_pyplot
 from dem.run.build import scene_from_case
 from postprocess.block_limit import (Blocks2D, crack_profile, leeward_wedges, lp_limit,
                                      rotation_factor, upward_closure)
@@ -180,10 +181,7 @@ def plot_layouts(res: dict, path: Path) -> None:
     overlap): the thesis' crack line from the leeward toe at tan = s/h (dashed), the blocks left
     of it that rest on the portion (hatched: they would have to be lifted), and the smallest
     portion that can turn about its toe (shaded), with its lambda_rot."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = agg_pyplot()
     from matplotlib.patches import Rectangle
 
     names = ["large-english-5x6", "large-stretcher-flat-5x6", "large-stretcher-on-edge-5x4"]

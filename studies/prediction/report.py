@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from dem.output.plotting import agg_pyplot
 from postprocess.shake_signals import LOWPASS_HZ, LOWPASS_ORDER, LOWPASS_SENSITIVITY_HZ
 from postprocess.verdicts import band_text, finite, fmt
 from studies.kit.records import read_json
@@ -228,10 +229,7 @@ def plot_sweep(path: Path, name: str, sw: dict) -> bool:
     fs = sorted(float(f) for f, st in ds.items() if st.get("n"))
     if not fs:
         return False
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = agg_pyplot()
 
     from dem.output.atomic import savefig
 

@@ -46,6 +46,7 @@ from types import SimpleNamespace
 import numpy as np
 import typer
 
+from dem.output.plotting import agg_pyplot
 from postprocess.ensemble import statistics
 from postprocess.sweep import effective_range
 from postprocess.verdicts import band_text, is_rocking
@@ -219,9 +220,7 @@ def report(out: Path, pred_out: Path, frozen: dict, seeds: int, cycles: float, c
 
 
 def _plot(path: Path, sweeps: dict) -> None:
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = agg_pyplot()
 
     fig, axes = plt.subplots(1, len(sweeps), figsize=(5.5 * len(sweeps), 4), squeeze=False)
     for ax, (name, v) in zip(axes[0], sweeps.items()):

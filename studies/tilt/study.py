@@ -27,6 +27,7 @@ import numpy as np
 import typer
 
 from dem.case import Case, load_case
+from dem.output.plotting import agg_pyplot
 from studies.kit import cli
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -231,10 +232,7 @@ def _converged_section(rate: dict, qs: dict) -> list[str]:
 
 
 def report(out: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = agg_pyplot()
 
     from postprocess.limit_analysis import in_plane_limit
 

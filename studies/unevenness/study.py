@@ -36,6 +36,7 @@ from types import SimpleNamespace
 
 import typer
 
+from dem.output.plotting import agg_pyplot
 from postprocess.ensemble import statistics
 from postprocess.verdicts import band_text, is_rocking
 from studies.kit import cli, session
@@ -143,9 +144,7 @@ def report(out: Path, frozen: dict, seeds: int, cycles: float, cpu: dict, comman
 
 
 def _plot(path: Path, levels: dict, frozen: dict) -> None:
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = agg_pyplot()
 
     fig, ax = plt.subplots(figsize=(6, 4))
     xs, med, lo, hi = [], [], [], []
