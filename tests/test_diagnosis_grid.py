@@ -158,6 +158,27 @@ def test_e2_step_rows_and_verdicts(tmp_path, monkeypatch):
     assert (tmp_path / "passes.png").stat().st_size > 0
 
 
+def test_e2_command_runs_only_the_specimens_asked_for(monkeypatch):
+    """--sweep / --seed choose the specimens (two processes can share E2); an unknown one is
+    refused before anything runs, naming it."""
+    from typer.testing import CliRunner
+
+    from studies.diagnosis import e2
+    from studies.diagnosis.cli import app
+
+    calls = []
+    monkeypatch.setattr(e2, "run", lambda **kw: calls.append(kw))
+    monkeypatch.setattr(e2, "report", lambda **kw: {})
+    res = CliRunner().invoke(app, ["e2", "--sweep", "model-iii-y", "--seed", "2"])
+    assert res.exit_code == 0, res.output
+    assert calls == [{"sweeps": ("model-iii-y",), "seeds": (2,), "stop_at": None}]
+    res = CliRunner().invoke(app, ["e2"])
+    assert calls[-1] == {"sweeps": e2.SWEEPS, "seeds": e2.SEEDS, "stop_at": None}
+    res = CliRunner().invoke(app, ["e2", "--sweep", "model-iv-y", "--seed", "5"])
+    assert res.exit_code != 0 and len(calls) == 2
+    assert "model-iv-y" in res.output and "5" in res.output
+
+
 # ---- E1: the frequency fingerprint --------------------------------------------------------------
 @pytest.mark.parametrize("r, phase", [(0.3, 5.0), (0.7, 20.0), (0.9, 60.0)])
 def test_e1_natural_frequency_inverts_the_base_excited_oscillator(r, phase):

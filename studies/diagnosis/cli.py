@@ -31,14 +31,26 @@ def e4(workers: int = typer.Option(1, help="dem sweep workers (one single-thread
 
 @app.command()
 def e2(stop_at: str = typer.Option(None, help="UTC HH:MM after which no new specimen starts"),
+       sweep: list[str] = typer.Option(None, help="only these models (repeatable; default: "
+                                       "model-ii-y and model-iii-y)"),
+       seed: list[int] = typer.Option(None, help="only these seeds (repeatable; default 0 1 2)"),
        report: bool = typer.Option(False, "--report", help="only rebuild the report")) -> None:
     """E2: one specimen per (model, seed) stepped down from 4.4 to 2.0 Hz and up again, 15 cycles
     a step: does a rocking specimen stay rocking where one from rest does not?  (resumable; a
-    killed run continues from its restart point; touch runs/diagnosis/e2/DRAIN to end softly)."""
+    killed run continues from its restart point; touch runs/diagnosis/e2/DRAIN to end softly).
+    Two processes may share the work if their --sweep / --seed choices do not overlap."""
     from studies.diagnosis import e2 as exp
 
     if not report:
-        exp.run(stop_at=stop_at)
+        sweeps = tuple(sweep) if sweep else exp.SWEEPS
+        seeds = tuple(seed) if seed else exp.SEEDS
+        unknown = [s for s in sweeps if s not in exp.SWEEPS] + \
+            [str(s) for s in seeds if s not in exp.SEEDS]
+        if unknown:
+            raise typer.BadParameter(f"not one of E2's specimens: {', '.join(unknown)} "
+                                     f"(models {', '.join(exp.SWEEPS)}; seeds "
+                                     f"{', '.join(map(str, exp.SEEDS))})")
+        exp.run(sweeps=sweeps, seeds=seeds, stop_at=stop_at)
     exp.report()
 
 
