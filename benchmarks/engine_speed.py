@@ -13,10 +13,11 @@ brick-steps per second (median of --repeats runs of --steps steps, after a warm-
 clock and per CPU-second of the process (the second is what to compare on a shared machine:
 other jobs stretch the wall clock, not the CPU time; for the serial kernel both are the same on
 an idle machine), contact pairs and points; the kernel compile time cold (empty offline cache)
-and warm (cache filled); and, for walls of ~50 / 200 / 800 / 1600 / 3200 bricks, throughput of
-both kernels (where the parallel one starts to win: PARALLEL_MIN_BODIES) and the bytes held by
-the engine's arrays (memory proportional to the number of blocks).  Every figure comes from a
-fresh process so the thread count and the cache state are what they say.
+and warm (cache filled); and, for walls of ~142 / 300 / 500 / 800 / 1600 / 3200 bricks
+(SCALING), throughput of both kernels (where the parallel one starts to win:
+PARALLEL_MIN_BODIES) and the bytes held by the engine's arrays (memory proportional to the
+number of blocks).  Every figure comes from a fresh process so the thread count and the cache
+state are what they say.
 
 --stages times the stages alone on the wall after 500 steps (one thread, CPU time, each stage
 function called in a serialized loop over all pairs or bodies, --repeats x 20 runs, median and
@@ -34,13 +35,14 @@ loading; solver on one thread, serial kernel), the imperfect ones settled as the
 scenes are timed interleaved (median of --repeats x 20 runs, CPU time), so the ratios
 warped / perfect come from one run on one machine state; the contact and integrate stages run
 on copies of the snapshot put back before every timed run.  Besides the stages above: the
-face frame + incident face + four rectangle clips alone (what a reuse of cut patches would
-keep).  (The comparisons with frozen copies of older engine code, the planar patch before
-geometry.planar_gap and its gap evaluation, are gone: git keeps them.)  A census kernel
-(``census``, mirroring geometry.face_contact) counts touching pairs, points, the face pairs
-that are whole (no vertex of the overlap polygon with gap <= 0: the last clip cuts nothing, as
-flat_patch's ``whole``), planar / twisted pairs and the largest difference between the gap and its affine form; ``_critical_step`` says which block
-and which mode set dt_crit (dem.engine.timestep's bound split into its terms), and
+face frame + incident face + four rectangle clips alone (what the overlap reuse keeps:
+dem.engine.coherence).  (The comparisons with frozen copies of older engine code, the planar
+patch before geometry.planar_gap and its gap evaluation, are gone: git keeps them.)  A census
+kernel (``census``, on the engine's geometry.face_contact up to its gap clip) counts touching
+pairs, points, the face pairs that are whole (no vertex of the overlap polygon with gap <= 0:
+the last clip cuts nothing, as flat_patch's ``whole``), planar / twisted pairs and the largest
+difference between the gap and its affine form; ``_critical_step`` says which block and which
+mode set dt_crit (dem.engine.timestep's bound split into its terms), and
 ``_rotating`` how many of the free rotation's five factors call sin / cos.
 """
 
@@ -102,9 +104,9 @@ def _kernels():
     ``warped`` (compile time) selects the imperfect kernels' code, as
     dem.engine.step.advance_serial(..., warped=True, ...) does; the perfect wall's figures use
     False, as before.
-    ``_overlap`` mirrors dem.engine.geometry.face_contact up to the four rectangle clips (the
-    patch before the gap clip: what a reuse of cut patches would keep), so that the census can
-    evaluate the gap at the overlap's vertices; it reads, never writes, the containers."""
+    ``_overlap`` is dem.engine.geometry.face_contact up to the four rectangle clips (the patch
+    before the gap clip: what the overlap reuse keeps, dem.engine.coherence), so that the census
+    can evaluate the gap at the overlap's vertices; it reads, never writes, the containers."""
     global _KERNELS
     if _KERNELS is not None:
         return _KERNELS
@@ -112,7 +114,7 @@ def _kernels():
 
     import taichi as ti
 
-    from dem.engine import geometry, step
+    from dem.engine import coherence, geometry, step
     from dem.engine.containers import ContactArgs, ControlArgs, ModelArgs, StateArgs
     from dem.engine.mathutil import vec3
 
@@ -168,49 +170,28 @@ def _kernels():
         ti.loop_config(serialize=True)
         for _ in range(reps):
             for b in range(n_bodies):
-                step.integrate_stage(b, 0, dt, model, state, contacts, control)
+                step.integrate_stage(b, 0, dt, model, state, contacts, control, False)
 
     @ti.func
     def _overlap(p, model: ti.template(), state: ti.template(), contacts: ti.template(),
                  xs: ti.template(), ys: ti.template(), xt: ti.template(), yt: ti.template()):
         """Pair p's face patch before the gap clip, at its stored axis (contacts.code):
-        the polygon (xs, ys, npoly; npoly = 0 for no face contact) and what the gap needs."""
+        the polygon (xs, ys, npoly; npoly = 0 for no face contact) and what the gap needs, by
+        the engine's own functions (the overlap reuse's coherence.warped_faces and
+        rectangle_clips)."""
         i, j = contacts.pairs[p][0], contacts.pairs[p][1]
         code = contacts.code[p]
-        rb, ib = i, j
-        if code >= 3:
-            rb, ib = j, i
-        pR, RR, hR = state.pos[rb], state.rot[rb], model.half[rb]
-        pI, RI, hI = state.pos[ib], state.rot[ib], model.half[ib]
-        k = ti.max(code, 0) % 3
-        sg = 1.0
-        if (pI - pR).dot(vec3(RR[0, k], RR[1, k], RR[2, k])) < 0.0:
-            sg = -1.0
-        k1 = (k + 1) % 3
-        k2 = (k + 2) % 3
-        n, u1, u2, c = geometry.face_frame(pR, RR, hR, k, sg)
-        e1 = hR[k1]
-        e2 = hR[k2]
-        m, sm, nI, b1, b2 = geometry.incident_face(n, RI, hI)
-        imperfect = model.imperfect[rb] + model.imperfect[ib]
-        if imperfect > 0:
-            m1 = (m + 1) % 3
-            m2 = (m + 2) % 3
-            e1 -= model.arris[rb]
-            e2 -= model.arris[rb]
-            b1 = vec3(RI[0, m1], RI[1, m1], RI[2, m1]) * (hI[m1] - model.arris[ib])
-            b2 = vec3(RI[0, m2], RI[1, m2], RI[2, m2]) * (hI[m2] - model.arris[ib])
-        ci = pI + nI * hI[m]
+        rb, ib, k, sg, n, u1, u2, c, e1, e2, m, sm, nI, b1, b2, ci, imperfect = \
+            coherence.warped_faces(ti.max(code, 0), i, j, model, state)
         npoly = 0
         if code >= 0 and code < 6:
             geometry.incident_corners(c, u1, u2, ci, b1, b2, xs, ys)
-            npoly = geometry.clip_halfplane(xs, ys, 4, 1.0, 0.0, e1, xt, yt)
-            npoly = geometry.clip_halfplane(xt, yt, npoly, -1.0, 0.0, e1, xs, ys)
-            npoly = geometry.clip_halfplane(xs, ys, npoly, 0.0, 1.0, e2, xt, yt)
-            npoly = geometry.clip_halfplane(xt, yt, npoly, 0.0, -1.0, e2, xs, ys)
+            npoly = coherence.rectangle_clips(e1, e2, 4, xs, ys, xt, yt)
+        hR = model.half[rb]
         oR = model.face_offset[rb, geometry.face_index(k, sg)]
         oI = model.face_offset[ib, geometry.face_index(m, sm)]
-        return npoly, imperfect, c, n, u1, u2, nI, ci, hR[k1], hR[k2], RI, hI, m, oR, oI
+        return (npoly, imperfect, c, n, u1, u2, nI, ci, hR[(k + 1) % 3], hR[(k + 2) % 3],
+                state.rot[ib], model.half[ib], m, oR, oI)
 
     @ti.func
     def _gap(x, y, cc, u1, u2, inv1, inv2, oR, d1, d2, invI1, invI2, oI, d0, gx, gy):
@@ -322,11 +303,11 @@ def _stages(repeats, patch_reuse=1e-7):
     m, c = sim.model, copy.deepcopy(sim.contacts)
     st = copy.deepcopy(sim.state)
     ctl = Control(sim.skin, 50.0, 0.0)
-    ctl.loads[0, 0] = g
+    ctl.loads[0, 0, 0] = g       # step 0, scene 0: (gravity, base acceleration 0)
     # the same contact stage with patch reuse (dem.engine.coherence): the poses do not change
     # between the timed calls, so every closed patch is reused, and a step with it
     ctl_reuse = Control(sim.skin, 50.0, 0.0, patch_reuse)
-    ctl_reuse.loads[0, 0] = g
+    ctl_reuse.loads[0, 0, 0] = g
     c_reuse = copy.deepcopy(sim.contacts)
     sim_reuse = Simulation(build_wall("small", length=9, courses=15),
                            joint_law(Material(friction=0.81)),
@@ -518,7 +499,7 @@ def _imperfect_stages(repeats, bed, shapes, seed=0, case_path=None, load_time=0.
         st, c = copy.deepcopy(sim.state), copy.deepcopy(sim.contacts)
         g, a = loading(np.array([sim.t]))
         ctl = Control(sim.skin, 50.0, 0.0)
-        ctl.loads[0, 0], ctl.loads[0, 1] = g[0], a[0]
+        ctl.loads[0, 0, 0], ctl.loads[0, 0, 1] = g[0], a[0]   # step 0, scene 0
         # the contact and integrate stages write (history, wrenches, poses): each gets its own
         # copies, put back to the snapshot before every timed launch (untimed), so that no
         # stage sees a state another one moved
@@ -721,16 +702,17 @@ def _launch_cost(repeats):
         return float(np.median(times))
 
     out = {}
-    out["serial, Taichi call"] = per_call(lambda: step.advance_serial(0, 0, 1e-5, *packs, False, False, False))
-    fast = CachedLaunch(step.advance_serial, (0, 0, 1e-5), *packs, False, False, False)
+    flags = (False, False, False, False)  # warped, hyperbolic, overlap, batched: a plain wall
+    out["serial, Taichi call"] = per_call(lambda: step.advance_serial(0, 0, 1e-5, *packs, *flags))
+    fast = CachedLaunch(step.advance_serial, (0, 0, 1e-5), *packs, *flags)
     out["serial, cached launch"] = per_call(lambda: fast(0, 0, 1e-5), 3000)
     # the parallel kernel with no pairs still integrates the bodies: give it none by launching
     # the probe kernel (one parallel loop over 0 pairs) instead
     depth = np.zeros(1)
     out["probe (1 parallel loop, 0 pairs), Taichi call"] = per_call(
-        lambda: step.probe_contacts(0, depth, depth, *packs[:3], False))
-    probe = CachedLaunch(step.probe_contacts, (0,), depth, depth, *packs[:3], False)
-    out["probe (1 parallel loop, 0 pairs), cached launch"] = per_call(lambda: probe(0), 3000)
+        lambda: step.probe_contacts(0, 0, depth, depth, *packs[:3], False, False))
+    probe = CachedLaunch(step.probe_contacts, (0, 0), depth, depth, *packs[:3], False, False)
+    out["probe (1 parallel loop, 0 pairs), cached launch"] = per_call(lambda: probe(0, 0), 3000)
     a = np.zeros(64)
 
     @ti.kernel
@@ -783,7 +765,8 @@ def main():
     ap.add_argument("--launch", action="store_true")
     ap.add_argument("--scaling", action="store_true")
     ap.add_argument("--threads", type=int, nargs="+", default=[1, 2])
-    ap.add_argument("--sizes", type=int, nargs="+", default=list(SCALING))
+    ap.add_argument("--sizes", type=int, nargs="+", default=list(SCALING), choices=list(SCALING),
+                    help="walls of --scaling, by their number of bricks")
     ap.add_argument("--patch-reuse", type=float, default=None,
                     help="solver.patch_reuse of the --quick and --scaling runs (m; 0 = off; "
                     "default: the case default); "

@@ -1,0 +1,44 @@
+"""The benchmark scripts still run against today's engine (their shortest modes).
+
+A benchmark calls the engine's kernels and containers directly, so a change of a kernel's
+signature or of an array's shape breaks it without breaking any other test: the batched engine
+(issue 35) added the scene axis to Control.loads and the ``batched`` flag to the stages, and
+``engine_speed.py --stages`` / ``--launch`` failed until this check existed.  Each case runs the
+script as a user would (a fresh interpreter) and looks for a figure it prints.  Slow (kernel
+compiles in fresh processes, ~3-5 min on the 2-core VM): ``pytest -m slow
+tests/test_benchmarks_run.py``.  Timings are not judged here (benchmarks/RESULTS.md)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+#: (script and arguments, a piece of text its output must hold)
+RUNS = [
+    (["engine_speed.py", "--stages", "--repeats", "1"], "| serial step |"),
+    (["engine_speed.py", "--stages", "--imperfections", "1e-4", "--face-shape", "planar",
+      "--repeats", "1"], "touching face pairs whole"),
+    (["engine_speed.py", "--launch", "--repeats", "1"], "| serial, cached launch |"),
+    (["engine_speed.py", "--scaling", "--threads", "1", "--sizes", "142", "--steps", "100",
+      "--repeats", "1"], "| 142 |"),
+    (["batch_speed.py", "cpu", "--ks", "1,2", "--steps", "50", "--repeats", "1", "--threads",
+      "1", "--error"], '"error_vs_alone"'),
+    (["batch_speed.py", "lone", "--steps", "50", "--repeats", "1"], '"brick_steps_per_s"'),
+    (["startup_time.py", "--repeat", "1"], "Simulation.compile_seconds"),
+    (["rocking_speed.py", "--repeat", "1"], "50-cycle rocking run"),
+    (["checkpoint_cost.py", "--duration", "0.3", "--repeats", "1"], "restart.npz"),
+]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("args, expected", RUNS, ids=[" ".join(a[:2]) for a, _ in RUNS])
+def test_benchmark_runs(args, expected):
+    res = subprocess.run([sys.executable, str(ROOT / "benchmarks" / args[0]), *args[1:]],
+                         cwd=ROOT, capture_output=True, text=True, timeout=900)
+    assert res.returncode == 0, res.stderr[-3000:]
+    assert expected in res.stdout, res.stdout[-3000:]
