@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
 import statistics
 import sys
@@ -107,8 +106,8 @@ def main() -> None:
                 rec["lambda_runs"] = rec.get("lambda_runs", []) + [r["load_factor"]]
                 data[key] = rec
                 out.write_text(json.dumps(data, indent=1))
-    print(f"\n| wall | variant | lambda | error vs rate->0 | CPU s (median, excl. compile) | "
-          f"runs | x 2 deg/s run |")
+    print("\n| wall | variant | lambda | error vs rate->0 | CPU s (median, excl. compile) | "
+          "runs | x 2 deg/s run |")
     print("|---|---|---|---|---|---|---|")
     for wall, (_, ref) in WALLS.items():
         base = data.get(f"{wall} | rate 2 deg/s")

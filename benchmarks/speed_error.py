@@ -318,9 +318,7 @@ def main():
     rows = json.loads(path.read_text()) if path.exists() else []
     if not args.report:
         todo = [(c, v) for c in (args.case or CASES) for v in (args.variant or VARIANTS)]
-        done_keys = {(r["case"], r["variant"]) for r in rows}
         rows = [r for r in rows if (r["case"], r["variant"]) not in set(todo)]
-        del done_keys
         print(f"{len(todo)} runs, {args.jobs} at a time", flush=True)
         with ThreadPoolExecutor(args.jobs) as pool:
             for r in pool.map(lambda cv: _child(*cv), todo):
