@@ -247,10 +247,9 @@ OLD_ROWS = "2026-11-22, issue 7"
 
 
 def report(rows: list[dict]) -> None:
-    import matplotlib
+    from dem.output.plotting import agg_pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = agg_pyplot()
 
     _errors(rows)
     lines = ["# Speed against error (issues 7 and 10)", "",

@@ -225,8 +225,10 @@ def backend_choices(path: Path) -> list[int]:
 
 def test_matplotlib_backend_is_chosen_in_one_place():
     """Every plot gets pyplot from dem.output.plotting.agg_pyplot, so a headless worker never
-    depends on which plot ran first; no other module calls ``matplotlib.use``."""
-    elsewhere = {name: lines for name, path in MODULES.items()
+    depends on which plot ran first; no other module (nor benchmark script) calls
+    ``matplotlib.use``."""
+    scripts = {f"benchmarks.{p.stem}": p for p in sorted((ROOT / "benchmarks").glob("*.py"))}
+    elsewhere = {name: lines for name, path in {**MODULES, **scripts}.items()
                  if name != BACKEND_MODULE and (lines := backend_choices(path))}
     assert not elsewhere, f"use dem.output.plotting.agg_pyplot instead: {elsewhere}"
     assert backend_choices(MODULES[BACKEND_MODULE])  # the rule looks for the right call
