@@ -9,6 +9,8 @@ The runs (through the command line, as a user runs them; ~3 min on the 2-core VM
            and ``dem run`` of the block on the tilting table;
   * shake  ``dem run`` of the shaken block (frames, VTK) and of Model II, group 3, cut to 0.3 s
            (instruments.npz), then ``dem post`` of the Model II run (the shake analysis);
+  * warped ``dem run`` of the imperfect wall at rest with the overlap reuse on, cut to 0.2 s
+           (the warped kernels' narrow phase and coherence.warped_faces);
   * sweep  ``dem sweep`` of the shaken block at two frequencies, two cycles each, one worker.
 Every file is compared: JSON after dropping the keys that hold timings or machine facts
 (``TIMING_KEYS``), ``.npz`` array by array (exactly), every other file byte for byte.
@@ -43,6 +45,8 @@ def record(out: Path) -> None:
     out.mkdir(parents=True, exist_ok=True)
     model_ii = _cut_case(ROOT / "cases/shake/model-ii/group-3-y-1.53.yaml",
                          out / "model-ii-cut.yaml", 0.3)
+    imperfect = _cut_case(ROOT / "cases/analytic/imperfect-wall-overlap-reuse.yaml",
+                          out / "imperfect-wall-cut.yaml", 0.2)
     block = ROOT / "cases/analytic/block-under-base-acceleration.yaml"
     commands = [
         DEM + ["run", str(ROOT / "cases/tilt/in-plane/small-5x5.yaml"), "--out",
@@ -52,6 +56,7 @@ def record(out: Path) -> None:
         DEM + ["run", str(block), "--out", str(out / "shake-block"), "--no-progress"],
         DEM + ["run", str(model_ii), "--out", str(out / "shake-model-ii"), "--no-progress"],
         DEM + ["post", str(out / "shake-model-ii")],
+        DEM + ["run", str(imperfect), "--out", str(out / "warped-wall"), "--no-progress"],
         DEM + ["sweep", str(block), "--out", str(out / "sweep-block"), "--frequencies",
                "1.5,2.0", "--cycles", "2", "--workers", "1"],
     ]

@@ -53,10 +53,15 @@ CLOSED_RATIO = 1e-3  # a patch is closed when its shallowest vertex is this frac
 
 
 @ti.func
-def reference_and_incident(code, i, j, model: ti.template(), state: ti.template()):
-    """For a face code (0-5, geometry.box_contact), the reference face frame (n from R to I,
-    u1, u2, c) and the incident face (nI, b1, b2, ci) from the current poses, as box_contact
-    finds them (R is body j for code >= 3: the caller flips n to point from i to j)."""
+def face_pair(code, i, j, model: ti.template(), state: ti.template()):
+    """For a face code (0-5, geometry.box_contact), the two faces from the current poses, as
+    box_contact finds them: returns (rb, ib, k, sg, n, u1, u2, c, m, sm, nI, b1, b2), with rb, ib
+    the reference and incident bodies (rb = j for code >= 3: the caller flips n to point from i
+    to j), k, sg the reference face's axis and side, (n from R to I, u1, u2, c) its frame and
+    centre (geometry.face_frame), m, sm the incident face's axis and side, nI its normal and
+    b1, b2 its half-edge vectors (geometry.incident_face).  The incident face's centre,
+    ci = pos[ib] + nI half[ib][m], is left to the callers, each computing it where its uses are
+    (under Taichi's fast math the place of that multiply-add decides its rounding)."""
     rb = i
     ib = j
     if code >= 3:
@@ -73,8 +78,16 @@ def reference_and_incident(code, i, j, model: ti.template(), state: ti.template(
     if (pI - pR).dot(vec3(RR[0, k], RR[1, k], RR[2, k])) < 0.0:
         sg = -1.0
     n, u1, u2, c = geometry.face_frame(pR, RR, hR, k, sg)
-    m, _sm, nI, b1, b2 = geometry.incident_face(n, RI, hI)
-    ci = pI + nI * hI[m]
+    m, sm, nI, b1, b2 = geometry.incident_face(n, RI, hI)
+    return rb, ib, k, sg, n, u1, u2, c, m, sm, nI, b1, b2
+
+
+@ti.func
+def reference_and_incident(code, i, j, model: ti.template(), state: ti.template()):
+    """face_pair's reference face frame (n, u1, u2, c) and incident face (nI, b1, b2, ci), the
+    part the patch reuse needs."""
+    _rb, ib, _k, _sg, n, u1, u2, c, m, _sm, nI, b1, b2 = face_pair(code, i, j, model, state)
+    ci = state.pos[ib] + nI * model.half[ib][m]
     return n, u1, u2, c, nI, b1, b2, ci
 
 
@@ -234,32 +247,16 @@ def overlap_reuse_tolerance(contacts) -> float:
 
 @ti.func
 def warped_faces(code, i, j, model: ti.template(), state: ti.template()):
-    """For a face code (0-5), the reference face and the incident face from the current poses as
-    geometry.box_contact / face_contact find them in a warped kernel: returns (rb, ib, k, sg, n,
+    """face_pair as the warped kernels need it (geometry.face_contact): returns (rb, ib, k, sg, n,
     u1, u2, c, e1, e2, m, sm, nI, b1, b2, ci, imperfect); e1, e2 the reference rectangle's half
     extents and b1, b2 the incident face's half-edge vectors, inset by the arrises of an
     imperfect pair (geometry module docstring, 5); n points from R to I."""
-    rb = i
-    ib = j
-    if code >= 3:
-        rb = j
-        ib = i
-    pR = state.pos[rb]
-    RR = state.rot[rb]
+    rb, ib, k, sg, n, u1, u2, c, m, sm, nI, b1, b2 = face_pair(code, i, j, model, state)
     hR = model.half[rb]
-    pI = state.pos[ib]
-    RI = state.rot[ib]
     hI = model.half[ib]
-    k = code % 3
-    sg = 1.0
-    if (pI - pR).dot(vec3(RR[0, k], RR[1, k], RR[2, k])) < 0.0:
-        sg = -1.0
-    k1 = (k + 1) % 3
-    k2 = (k + 2) % 3
-    n, u1, u2, c = geometry.face_frame(pR, RR, hR, k, sg)
-    e1 = hR[k1]
-    e2 = hR[k2]
-    m, sm, nI, b1, b2 = geometry.incident_face(n, RI, hI)
+    RI = state.rot[ib]
+    e1 = hR[(k + 1) % 3]
+    e2 = hR[(k + 2) % 3]
     imperfect = model.imperfect[rb] + model.imperfect[ib]
     if imperfect > 0:
         m1 = (m + 1) % 3
@@ -268,7 +265,7 @@ def warped_faces(code, i, j, model: ti.template(), state: ti.template()):
         e2 -= model.arris[rb]
         b1 = vec3(RI[0, m1], RI[1, m1], RI[2, m1]) * (hI[m1] - model.arris[ib])
         b2 = vec3(RI[0, m2], RI[1, m2], RI[2, m2]) * (hI[m2] - model.arris[ib])
-    ci = pI + nI * hI[m]
+    ci = state.pos[ib] + nI * hI[m]
     return rb, ib, k, sg, n, u1, u2, c, e1, e2, m, sm, nI, b1, b2, ci, imperfect
 
 
