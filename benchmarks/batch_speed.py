@@ -145,6 +145,9 @@ def run_batch(k: int, steps: int, threads: int | None, device: bool, out_root: P
                                       threads=threads, device_arrays=device or None,
                                       on_engine=on_engine)
     t1 = time.perf_counter()
+    if "engine" not in held:  # the batch failed before its engine existed (its records say why)
+        raise SystemExit(f"run K={k}: no engine was built: "
+                         f"{[(r.get('status'), r.get('error')) for r in records]}")
     engine = held["engine"]
     stats = since(engine.transfer_stats(), held["before"])
     summaries = [r.get("summary") or {} for r in records]

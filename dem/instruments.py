@@ -125,16 +125,22 @@ class InstrumentRecorder:
         self._last = None  # (t, absolute velocity [n,3])
 
     def sample(self, t: float, pos, quat, vel, omega, table_disp, table_vel) -> None:
+        """One sample at time t (s) from the state of every block (arrays indexed by block)
+        and the table's displacement and velocity (m, m/s)."""
         b = self.blocks
-        q = quat[b]
-        R = quaternion.matrices(q)
+        self.sample_blocks(t, pos[b], quat[b], vel[b], omega[b], table_disp, table_vel)
+
+    def sample_blocks(self, t: float, pos, quat, vel, omega, table_disp, table_vel) -> None:
+        """:meth:`sample` from the states of the instruments' own blocks ([n] rows, one per
+        instrument, in the order of ``instruments``)."""
+        R = quaternion.matrices(quat)
         r = np.einsum("nij,nj->ni", R, self.points)
-        x = pos[b] + r
-        v = vel[b] + np.cross(omega[b], r)
+        x = pos + r
+        v = vel + np.cross(omega, r)
         table_vel = np.asarray(table_vel, float)
         v_abs = v + table_vel
         if self._last is None:
-            acc = np.zeros((len(b), 3))
+            acc = np.zeros((len(self.blocks), 3))
             table_acc = np.zeros(3)
         else:
             dt = t - self._last[0]

@@ -2,7 +2,8 @@
 the order of the kernels' argpack, and Control.role hands out the arrays the kernels write."""
 
 from dem import ti_runtime
-from dem.engine.containers import (CONTROL_FIELDS, CONTROL_ROLES, ENERGY_TERMS, STOP, Control)
+from dem.engine.containers import (CONTROL_FIELDS, CONTROL_ROLES, ENERGY_TERMS, P_MAX_SPEED,
+                                   P_PATCH_TOLERANCE, P_SKIN, STOP, Control)
 
 
 def test_roles_partition_control_in_argpack_order():
@@ -16,9 +17,11 @@ def test_roles_partition_control_in_argpack_order():
 
 def test_role_returns_the_live_arrays():
     ti_runtime.init()
-    ctl = Control(skin=0.01, max_speed=50.0, local_damping=0.1)
+    ctl = Control(skin=0.01, max_speed=50.0, local_damping=0.1, patch_tolerance=1e-7)
     params = ctl.role("parameters")
-    assert float(params["skin"][0]) == 0.01 and float(params["local_damping"][0]) == 0.1
+    step = params["step_parameters"]
+    assert (step[P_SKIN], step[P_MAX_SPEED], step[P_PATCH_TOLERANCE]) == (0.01, 50.0, 1e-7)
+    assert float(params["local_damping"][0]) == 0.1
     ctl.role("diagnostics")["status"][0] = STOP
     assert int(ctl.status[0]) == STOP  # the same array, not a copy
 
@@ -32,4 +35,7 @@ def test_a_scene_region_is_a_view_of_its_row():
     assert ctl.energy_sums[1, 2] == 5.0 and ctl.energy_sums[[0, 2]].sum() == 0.0
     assert list(ctl.status) == [0, STOP, 0]
     assert row.loads.shape == (ctl.loads.shape[0], 1, 2, 3)
-    assert row.skin is ctl.skin  # shared by the scenes
+    assert row.step_parameters is ctl.step_parameters  # shared by the scenes
+    assert row.probe_slot.shape == (ctl.probe_slot.shape[0], 1)  # per step, as the loads
+    assert row.probe_buf.shape == (ctl.probe_buf.shape[0], 1) + ctl.probe_buf.shape[2:]
+    assert (ctl.probe_slot == -1).all() and (ctl.probe_body == -1).all()  # nothing probed

@@ -53,6 +53,9 @@ from dem.ti_runtime import real_dtype
 
 MAT_BLOCK, MAT_TABLE = 0, 1
 SERIAL_CHUNK = 2000  # steps per launch of the serial kernel (S)
+PROBES_PER_SCENE = 16  # bodies a scene may have probed (control.probe_body)
+PROBE_SLOTS = 16       # probed steps of one scene in one launch (control.probe_buf: Q)
+PROBE_WIDTH = 13       # a probed body's row: pos (3), quat (4), vel (3), omega (3)
 
 # status bits (control.status)
 REBUILD = 1      # a body moved more than half the skin: rebuild the neighbour list
@@ -65,7 +68,7 @@ STOP = NONFINITE | RUNAWAY
 class FieldDef:
     name: str
     elem: str        # real, vec3, vec4, mat3, i32, ivec2
-    dims: tuple      # symbolic: "B", "P", "K", "S", or an int
+    dims: tuple      # symbolic: "B", "P", "K", "S", "G", "Q", or an int
     unit: str
     writer: str
     meaning: str
@@ -156,20 +159,29 @@ CONTACT_FIELDS = (
 ENERGY_TERMS = ("work_gravity", "work_base", "dissipated_normal_damping",
                 "dissipated_shear_damping", "dissipated_friction", "dissipated_local_damping")
 
+# control.step_parameters' entries (one array, not three: Taichi 1.7.4 takes at most 64
+# argument elements per kernel on x64, and the kernels take every container's fields)
+STEP_PARAMETERS = ("skin", "max_speed", "patch_tolerance")
+P_SKIN, P_MAX_SPEED, P_PATCH_TOLERANCE = range(len(STEP_PARAMETERS))
+
 # Control, by role (the kernels take one argpack of the four tables in this order):
 # what the host writes before each launch ...
 CONTROL_LOADS = (
     _f("loads", "vec3", ("S", "G", 2), "m/s^2", "Engine._launch",
        "per step of a launch and scene: (gravity, base acceleration), table frame"),
+    _f("probe_slot", "i32", ("S", "G"), "-", "Engine._launch",
+       "per step of a launch and scene: the slot of probe_buf that takes the scene's probed "
+       "bodies after the step, -1: none (Simulation.set_probe)"),
 )
 # ... the run's step parameters, set once (local_damping also by Simulation.set_local_damping) ...
 CONTROL_PARAMETERS = (
-    _f("skin", "real", (1,), "m", "Simulation", "neighbour-list skin"),
-    _f("max_speed", "real", (1,), "m/s", "Simulation", "a faster body stops the run"),
+    _f("step_parameters", "real", (len(STEP_PARAMETERS),), "m, m/s, m", "Control",
+       "shared by every scene, in the order of STEP_PARAMETERS: the neighbour-list skin; the "
+       "speed above which a body stops the run; the patch reuse's largest in-plane drift of a "
+       "kept contact patch (dem.engine.coherence; 0 = off)"),
     _f("local_damping", "real", "G", "-", "Simulation", "Cundall local damping coefficient"),
-    _f("patch_tolerance", "real", (1,), "m", "Simulation",
-       "patch reuse: largest in-plane drift of a kept contact patch (dem.engine.coherence); "
-       "0 = off"),
+    _f("probe_body", "i32", ("G", PROBES_PER_SCENE), "-", "Simulation.set_probe",
+       "per scene, the bodies (engine-wide index) copied to probe_buf at a probed step; -1 none"),
 )
 # ... what the kernels report back about the launch (diagnostics) ...
 CONTROL_DIAGNOSTICS = (
@@ -186,6 +198,9 @@ CONTROL_DIAGNOSTICS = (
        "per scene, deepest penetration of any contact point at any step since t = 0"),
     _f("deepest_step", "i32", "G", "-", "deepest_stage",
        "step of the last launch (0 = its first) at which deepest grew; -1 if it did not"),
+    _f("probe_buf", "real", ("Q", "G", PROBES_PER_SCENE, PROBE_WIDTH), "m, -, m/s, rad/s",
+       "probe_stage",
+       "per slot, scene and probed body: pos, quat, vel, omega after the step probe_slot names"),
 )
 # ... and the energy sums since t = 0, one row per scene, one column per ENERGY_TERMS
 CONTROL_ENERGY = (_f("energy_sums", "real", ("G", len(ENERGY_TERMS)), "J", "energy_stage",
@@ -471,15 +486,19 @@ class Control(_Container):
     FIELDS, ARGS = CONTROL_FIELDS, ControlArgs
 
     # the fields every scene shares (the others have one row per scene)
-    SHARED = ("skin", "max_speed", "patch_tolerance", "steps_done")
+    SHARED = ("step_parameters", "steps_done")
 
     def __init__(self, skin: float, max_speed: float, local_damping: float,
-                 patch_tolerance: float = 0.0, n_scenes: int = 1, steps: int = SERIAL_CHUNK):
-        """``steps``: S, the most steps of one launch (or chunk of launches)."""
-        _allocate(self, CONTROL_FIELDS, {"S": int(steps), "G": int(n_scenes)})
-        self.patch_tolerance[0] = patch_tolerance
-        self.skin[0] = skin
-        self.max_speed[0] = max_speed
+                 patch_tolerance: float = 0.0, n_scenes: int = 1, steps: int = SERIAL_CHUNK,
+                 probe_slots: int = PROBE_SLOTS):
+        """``steps``: S, the most steps of one launch (or chunk of launches); ``probe_slots``:
+        Q, the most probed steps of a scene in one (Engine._plan_probes)."""
+        _allocate(self, CONTROL_FIELDS, {"S": int(steps), "G": int(n_scenes),
+                                         "Q": int(probe_slots)})
+        self.probe_slot[...] = -1
+        self.probe_body[...] = -1
+        self.step_parameters[[P_SKIN, P_MAX_SPEED, P_PATCH_TOLERANCE]] = \
+            (skin, max_speed, patch_tolerance)
         self.local_damping[...] = local_damping
         self.active[...] = 1
 
@@ -491,7 +510,7 @@ class Control(_Container):
             a = getattr(self, f.name)
             if f.name in self.SHARED:
                 setattr(out, f.name, a)
-            elif f.name == "loads":
+            elif f.name in ("loads", "probe_slot", "probe_buf"):  # per step or slot, then scene
                 setattr(out, f.name, a[:, g:g + 1])
             else:
                 setattr(out, f.name, a[g:g + 1])

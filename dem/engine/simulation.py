@@ -38,8 +38,9 @@ from dem import ti_runtime
 from dem.engine import coherence
 from dem.engine import step as stepk
 from dem.engine.broadphase import candidate_pairs
-from dem.engine.containers import (NONFINITE, REBUILD, SERIAL_CHUNK, STOP, Contacts, Control,
-                                   Model, State, pair_lists)
+from dem.engine.containers import (NONFINITE, PROBE_SLOTS, PROBES_PER_SCENE, REBUILD,
+                                   SERIAL_CHUNK, STOP, Contacts, Control, Model, State,
+                                   pair_lists)
 from dem.engine.launch import CachedLaunch
 from dem.engine.options import JointLaw, StepOptions
 from dem.engine.errors import CapacityError, InputError, InstabilityError, SimulationError
@@ -60,6 +61,11 @@ PARALLEL_MIN_BODIES = {2: 2500, 4: 500}  # threads (at most) -> bodies
 # an engine on a device: steps per chunk of launches (the loads of a chunk are copied to the
 # device before it; the host reads the status back after it)
 DEVICE_CHUNK = 256
+
+# an engine on a device: probed steps of a scene per chunk (its probe_buf, Q x G x 16 x 13
+# reals, is copied back whole after a chunk with a probe: 4 slots hold the samples of a chunk
+# of DEVICE_CHUNK steps down to 64 steps apart; more shorten the chunk)
+DEVICE_PROBE_SLOTS = 4
 
 # an engine on a device: a patch is counted as possibly over its area cap from (1 - this) x the
 # cap (Engine._patches_over_caps); the device's and the host's sums of a patch's <= 9 point
@@ -140,7 +146,8 @@ class Engine:
                          else "serial")
         self.control = Control(self.skin, options.max_speed, options.local_damping,
                                options.patch_reuse, G,
-                               DEVICE_CHUNK if self.on_device else SERIAL_CHUNK)
+                               DEVICE_CHUNK if self.on_device else SERIAL_CHUNK,
+                               DEVICE_PROBE_SLOTS if self.on_device else PROBE_SLOTS)
         # dt, dt_crit and the area caps of every body (each scene's clock keeps its anchors)
         self.clock = Clock()
         self.dt_changes: list[dict] = []
@@ -367,6 +374,7 @@ class Engine:
             grav, a = loads[g](sim.clock.times(sim.step_count, k))
             ctl.loads[:k, g, 0] = grav
             ctl.loads[:k, g, 1] = a
+        k, probes = self._plan_probes(k)
         ctl.status[...] = 0
         ctl.bad_body[...] = 0
         ctl.deepest_step[...] = -1
@@ -383,6 +391,8 @@ class Engine:
                 self._advance(s, n_slots, self.dt)
         self._from_device()
         done = int(ctl.steps_done[0])
+        if probes:
+            self._take_probes(probes, done)
         for g, sim in enumerate(self.simulations):
             if not ctl.active[g]:
                 continue
@@ -391,6 +401,50 @@ class Engine:
                 sim._deepest_time = sim.clock.t_anchor + steps * self.dt
             sim.step_count += done
         return done
+
+    def _plan_probes(self, k: int) -> tuple[int, dict]:
+        """Before a launch of k steps: each active scene's probed steps among them
+        (Simulation.set_probe: ``probe.plan``) into control.probe_slot, at most Q (probe_buf's
+        slots) a scene (the launch is shortened to the step of the last one that fits).  Returns (k,
+        {g: [(s, slot), ...]}) with s the step of the launch (0 = its first) after which slot
+        takes scene g's probed bodies."""
+        ctl = self.control
+        ctl.probe_slot[:k] = -1
+        planned = {}
+        for g, sim in enumerate(self.simulations):
+            if sim.probe is None or not ctl.active[g]:
+                continue
+            steps = [c - sim.step_count - 1 for c in
+                     sim.probe.plan(sim.clock, sim.step_count, k)]
+            slots = ctl.probe_buf.shape[0]
+            if len(steps) > slots:
+                steps = steps[:slots]
+                k = steps[-1] + 1
+            if steps:
+                planned[g] = [(s, slot) for slot, s in enumerate(steps)]
+        for g, rows in planned.items():
+            for s, slot in rows:
+                if s < k:
+                    ctl.probe_slot[s, g] = slot
+        return k, {g: [(s, slot) for s, slot in rows if s < k] for g, rows in planned.items()}
+
+    def _take_probes(self, probes: dict, done: int) -> None:
+        """After a launch that did ``done`` steps: each probed step it reached, handed to its
+        scene's ``probe.take(step, t, rows)`` in order (rows: [bodies, 13] pos, quat, vel, omega
+        of the probed bodies, as Simulation.set_probe listed them).  A scene that failed in the
+        launch gets none of its last step (the failing one: its state is not a result)."""
+        if self.on_device:
+            self._dev["control"].pull(["probe_buf"])
+        buf = self.control.probe_buf
+        status = self.control.status
+        for g, rows in probes.items():
+            sim = self.simulations[g]
+            reached = done - 1 if status[g] & STOP else done
+            n = len(sim.probe.bodies)
+            for s, slot in rows:
+                if s < reached:
+                    step = sim.step_count + s + 1
+                    sim.probe.take(step, sim.clock.time(step), buf[slot, g, :n].copy())
 
     # ------------------------------------------------------------------------------------
     def containers(self) -> tuple:
@@ -464,17 +518,23 @@ class Engine:
             self._dev[name].push([f for f in self._fields[name] if f in dirty])
             dirty.clear()
 
+    # Control fields only the kernels write and the host reads on demand (Engine._take_probes)
+    CONTROL_KERNEL_ONLY = ("probe_buf",)
+
     def _to_device(self) -> None:
         if not self.on_device:
             return
-        self._dev["control"].push()
+        self._dev["control"].push([f for f in self._dev["control"].dev
+                                   if f not in self.CONTROL_KERNEL_ONLY])
         for name in ("state", "contacts"):
             self._push_dirty(name)
 
     def _from_device(self) -> None:
         if not self.on_device:
             return
-        self._dev["control"].pull([f for f in self._dev["control"].dev if f != "loads"])
+        host_written = ("loads", "probe_slot", "probe_body")
+        self._dev["control"].pull([f for f in self._dev["control"].dev
+                                   if f not in host_written + self.CONTROL_KERNEL_ONLY])
         for name in ("state", "contacts"):  # nothing is dirty: _to_device pushed it
             self._stale[name] = set(self._fields[name]) - self.HOST_KEPT[name]
 
@@ -624,6 +684,7 @@ class Simulation:
         self._deepest_time = 0.0
         self.n_rebuilds = 0
         self.energy_initial = 0.0
+        self.probe = None
 
     # ------------------------------------------------------------------------------------
     @property
@@ -640,6 +701,27 @@ class Simulation:
         only: :meth:`read_contacts`."""
         self.engine.host("contacts")
         return self._contacts
+
+    def set_probe(self, probe) -> None:
+        """Copy some bodies' state at chosen steps inside a launch, without ending it (an
+        instrument's samples: dem.run.record).  ``probe`` (None: none) has ``bodies`` (indices
+        within this scene, at most PROBES_PER_SCENE), ``plan(clock, step, k)`` (the step counts
+        in step + 1 ... step + k after which to copy, ascending, from this scene's Clock; called
+        before each launch: it must not change the probe, as a launch may stop early) and
+        ``take(step, t, rows)`` (called after the launch for each planned step it reached, in
+        order; rows [bodies, 13]: pos, quat, vel, omega, as the state at that step count)."""
+        ctl = self.engine.control
+        ctl.probe_body[self.scene_index] = -1
+        self.probe = None
+        if probe is None:
+            return
+        bodies = np.asarray(probe.bodies, dtype=int).reshape(-1)
+        if len(bodies) > PROBES_PER_SCENE or (bodies < 0).any() or \
+                (bodies >= self._b1 - self._b0).any():
+            raise InputError(f"a probe takes at most {PROBES_PER_SCENE} bodies of the scene "
+                             f"(0 ... {self._b1 - self._b0 - 1}); got {bodies.tolist()}")
+        ctl.probe_body[self.scene_index, :len(bodies)] = self._b0 + bodies
+        self.probe = probe
 
     def read_state(self, *fields: str) -> FieldView:
         """This scene's State fields ``fields`` (names of State.FIELDS; none given: all) to read

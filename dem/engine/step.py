@@ -19,6 +19,8 @@
                          energy sums (Control), on one thread in a fixed order
         deepest_stage    keeps the deepest penetration of any contact point and the step it
                          happened (Control), read by Simulation.deepest_penetration
+        probe_stage      at the steps the host asked for, copies the probed bodies' state
+                         to Control.probe_buf (Simulation.set_probe: instrument samples)
 
 The broad phase (neighbour list) runs on the host between kernel launches, when a body has moved
 more than half the skin (see :mod:`dem.engine.broadphase`).
@@ -54,8 +56,9 @@ import taichi as ti
 
 from dem import ti_runtime
 from dem.engine import coherence, geometry, laws
-from dem.engine.containers import (ENERGY_TERMS, NONFINITE, REBUILD, RUNAWAY, ContactArgs,
-                                   ControlArgs, ModelArgs, StateArgs)
+from dem.engine.containers import (ENERGY_TERMS, NONFINITE, P_MAX_SPEED, P_PATCH_TOLERANCE,
+                                   P_SKIN, REBUILD, RUNAWAY, ContactArgs, ControlArgs,
+                                   ModelArgs, StateArgs)
 from dem.engine.geometry import point_buffer
 from dem.engine.mathutil import TINY_ANGLE, quat_angle_between, quat_mul, quat_to_mat, vec3, vec4
 from dem.engine.pair import HYPERBOLIC, pair_material, pair_properties
@@ -88,10 +91,10 @@ def narrow_phase(p, i, j, model: ti.template(), state: ti.template(), contacts: 
                  py: ti.template(), pz: ti.template(), dep: ti.template(), w: ti.template(),
                  overlap: ti.template()):
     """Contact patch of pair p = (i, j) into the point buffers (see geometry.box_contact);
-    keeps the sticky axis in contacts.code.  Returns (reused, n, npts, shrink, centroid).  With
-    control.patch_tolerance > 0 a closed flat patch of the last steps is reused (reused = 1)
-    while the poses allow it (dem.engine.coherence), and a full narrow phase keeps its patch for
-    that.  In the warped kernels (imperfect faces) that reuse is off.
+    keeps the sticky axis in contacts.code.  Returns (reused, n, npts, shrink, centroid).  With a
+    patch tolerance > 0 (control.step_parameters) a closed flat patch of the last steps is
+    reused (reused = 1) while the poses allow it (dem.engine.coherence), and a full narrow phase
+    keeps its patch for that.  In the warped kernels (imperfect faces) that reuse is off.
 
     ``overlap`` (compile time, only with ``warped``): the overlap reuse of
     coherence.set_overlap_reuse (tolerance tol_o = contacts.patch_shape[p, 0][0] > 0 m): the
@@ -133,7 +136,7 @@ def narrow_phase(p, i, j, model: ti.template(), state: ti.template(), contacts: 
             if code >= 0:
                 contacts.code[p] = code
     else:  # the narrow phase of aec8507, unchanged
-        tol = control.patch_tolerance[0]
+        tol = control.step_parameters[P_PATCH_TOLERANCE]
         if ti.static(not warped):  # patch reuse: perfect faces only (dem.engine.coherence)
             if tol > 0.0:
                 reused, n, npts, shrink, centroid = coherence.reuse_patch(
@@ -477,7 +480,7 @@ def integrate_stage(b, s, dt, model: ti.template(), state: ti.template(),
         bad = 0
         if not (speed < FINITE_LIMIT) or not (x1.norm_sqr() < FINITE_LIMIT):  # NaN, inf
             bad = NONFINITE
-        elif speed > control.max_speed[0]:
+        elif speed > control.step_parameters[P_MAX_SPEED]:
             bad = RUNAWAY
         if bad != 0:
             ti.atomic_or(control.status[k], bad)
@@ -485,7 +488,7 @@ def integrate_stage(b, s, dt, model: ti.template(), state: ti.template(),
             ti.atomic_max(control.bad_body[k], b - model.scene_bodies[k][0])
         moved = (x1 - contacts.ref_pos[b]).norm() + model.radius[b] * quat_angle_between(
             q1, contacts.ref_quat[b])
-        if moved > REBUILD_FRACTION * control.skin[0]:
+        if moved > REBUILD_FRACTION * control.step_parameters[P_SKIN]:
             ti.atomic_or(control.status[k], REBUILD)
             ti.atomic_or(control.steps_done[1], REBUILD)
 
@@ -539,6 +542,27 @@ def deepest_stage(k, s, n_pairs, model: ti.template(), state: ti.template(),
             if d > control.deepest[k]:
                 control.deepest[k] = d
                 control.deepest_step[k] = s
+
+
+@ti.func
+def probe_stage(k, j, s, state: ti.template(), control: ti.template()):
+    """After step s: scene k's probed body j (control.probe_body[k, j], -1: none) copied to
+    slot control.probe_slot[s, k] of control.probe_buf (pos, quat, vel, omega), if the host
+    asked for that step (Simulation.set_probe: an instrument sampled without ending the
+    launch)."""
+    slot = control.probe_slot[s, k]
+    b = control.probe_body[k, j]
+    if slot >= 0 and b >= 0:
+        x = state.pos[b]
+        q = state.quat[b]
+        v = state.vel[b]
+        w = state.omega[b]
+        for c in ti.static(range(3)):
+            control.probe_buf[slot, k, j, c] = x[c]
+            control.probe_buf[slot, k, j, 7 + c] = v[c]
+            control.probe_buf[slot, k, j, 10 + c] = w[c]
+        for c in ti.static(range(4)):
+            control.probe_buf[slot, k, j, 3 + c] = q[c]
 
 
 @ti.func
@@ -609,6 +633,9 @@ def advance_serial(n_steps: ti.i32, n_slots: ti.i32, dt: float, model: ModelArgs
             if control.active[k] != 0:
                 energy_stage(k, n_slots, model, state, contacts, control, batched)
                 deepest_stage(k, s, n_slots, model, state, contacts, control, batched)
+                if control.probe_slot[s, k] >= 0:
+                    for j in range(control.probe_body.shape[1]):
+                        probe_stage(k, j, s, state, control)
         s += 1
     control.steps_done[0] = s
 
@@ -620,8 +647,9 @@ def advance_parallel(s: ti.i32, n_slots: ti.i32, dt: float, model: ModelArgs,
                      batched: ti.template(), atomic_sums: ti.template()):
     """Step s of a chunk of launches (control.loads[s]) as parallel loops: over pair slots,
     over bodies, then over scenes (each scene's energy and deepest stages on one thread, in
-    the serial kernel's order).  The host launches s = 0, 1, ... without reading anything back
-    (no round trip per step, the GPU's way): a launch whose chunk already stopped (an earlier
+    the serial kernel's order); a probed body is copied in the body loop (:func:`probe_stage`).
+    The host launches s = 0, 1, ... without reading anything back (no round trip per step, the
+    GPU's way): a launch whose chunk already stopped (an earlier
     step raised a status bit) does nothing, so the chunk stops where the serial kernel would,
     and control.steps_done counts the steps done (the host zeroes it before s = 0).
     ``warped``, ``hyperbolic``, ``overlap``, ``batched`` as in :func:`advance_serial`;
@@ -643,12 +671,16 @@ def advance_parallel(s: ti.i32, n_slots: ti.i32, dt: float, model: ModelArgs,
     for b in range(state.pos.shape[0]):
         if control.steps_done[0] == s + 1:
             integrate_stage(b, s, dt, model, state, contacts, control, batched)
+            k = 0
+            if ti.static(batched):
+                k = model.scene[b]
             if ti.static(atomic_sums):
-                k = 0
-                if ti.static(batched):
-                    k = model.scene[b]
                 if model.inv_mass[b] > 0.0 and control.active[k] != 0:
                     body_sums_atomic(b, k, state, control)
+            if control.probe_slot[s, k] >= 0:  # body b's own state is final: copy it if probed
+                for j in range(control.probe_body.shape[1]):
+                    if control.probe_body[k, j] == b:
+                        probe_stage(k, j, s, state, control)
     if ti.static(not atomic_sums):
         for k in range(control.status.shape[0]):
             if control.steps_done[0] == s + 1 and control.active[k] != 0:

@@ -2,9 +2,10 @@
 
 Frames (frames.npz) are taken at the first step at or after every multiple of
 ``run.output_interval``, instrument samples likewise for ``run.instrument_interval`` (time-based,
-so a change of dt during the run keeps the schedule), a VTK frame at every ``run.vtk_every``-th
-frame.  Every recorded frame is also handed to the frame listeners (the collapse detector of a
-tilt run), so what a listener saw is exactly what frames.npz holds.
+so a change of dt during the run keeps the schedule; taken inside the engine's launches:
+:class:`InstrumentProbe`), a VTK frame at every ``run.vtk_every``-th frame.  Every recorded
+frame is also handed to the frame listeners (the collapse detector of a tilt run), so what a
+listener saw is exactly what frames.npz holds.
 """
 
 from __future__ import annotations
@@ -104,6 +105,47 @@ def next_multiple(t: float, interval: float) -> float:
     return (math.floor(t / interval + 1e-9) + 1) * interval
 
 
+class InstrumentProbe:
+    """The instruments' samples taken inside the engine's launches (Simulation.set_probe): the
+    run loop then advances from frame to frame, and each sample is the state of the instruments'
+    blocks at the step the run loop would have stopped at for it (the first step at or after
+    the next multiple of ``run.instrument_interval``, counted from the last sample as
+    :func:`steps_to` counts it); one launch covers many samples (an engine of many scenes no
+    longer ends its launch for every scene's every sample: issue 35)."""
+
+    def __init__(self, recording: "Recording"):
+        self.recording = recording
+        blocks = recording.instruments.blocks
+        self.bodies = np.unique(blocks)
+        self.rows = np.searchsorted(self.bodies, blocks)  # instrument -> row of the probe
+
+    def plan(self, clock, step: int, k: int) -> list[int]:
+        """The step counts in step + 1 ... step + k at which a sample falls (Simulation's
+        probe protocol), without changing the schedule: a launch may stop before them."""
+        interval = self.recording.run.instrument_interval
+        t_next, c, t_c, out = self.recording.next_sample, step, clock.time(step), []
+        while True:
+            c += max(1, int(math.ceil((t_next - t_c) / clock.dt - 1e-9)))
+            if c > step + k:
+                return out
+            t_c = clock.time(c)
+            if t_c >= t_next - 1e-9 * clock.dt:
+                out.append(c)
+                t_next = next_multiple(t_c, interval)
+
+    def take(self, step: int, t: float, rows: np.ndarray) -> None:
+        """The sample of step count ``step`` (time t, s): rows [bodies, 13] of pos, quat, vel,
+        omega."""
+        rec = self.recording
+        r = rows[self.rows]
+        tt = np.array([t])
+        with deferred():  # one sample, whole (see Recording.frame)
+            rec.instruments.sample_blocks(t, r[:, 0:3], r[:, 3:7], r[:, 7:10], r[:, 10:13],
+                                          rec.loading.base_disp(tt)[0],
+                                          rec.loading.base_vel(tt)[0])
+            rec.next_sample = next_multiple(t, rec.run.instrument_interval)
+
+
 class Recording:
     """Everything a run keeps while it runs (frames, instruments, VTK) and when it takes it."""
 
@@ -167,18 +209,17 @@ class Recording:
                                 loading.base_disp(tt)[0], loading.base_vel(tt)[0])
 
     def steps_to_next(self, t_end: float) -> int:
-        """Steps to the next frame, sample or the end, whichever comes first."""
-        k = steps_to(self.sim, min(self.next_frame, t_end))
-        if self.instruments is not None:
-            k = min(k, steps_to(self.sim, self.next_sample))
-        return k
+        """Steps to the next frame or the end, whichever comes first (the load phase's
+        requests).  The instrument samples between are taken inside the engine's launches
+        (:class:`InstrumentProbe`, installed here: from the load phase on, not while settling)."""
+        if self.instruments is not None and self.sim.probe is None:
+            self.sim.set_probe(InstrumentProbe(self))
+        return steps_to(self.sim, min(self.next_frame, t_end))
 
     def after_advance(self, last: bool) -> bool:
-        """Take what is due at the engine's time; True when a frame was recorded."""
+        """Take what is due at the engine's time (the samples are taken in the launches:
+        :class:`InstrumentProbe`); True when a frame was recorded."""
         sim = self.sim
-        if self.instruments is not None and sim.t >= self.next_sample - 1e-9 * sim.dt:
-            self.sample()
-            self.next_sample = next_multiple(sim.t, self.run.instrument_interval)
         if sim.t >= self.next_frame - 1e-9 * sim.dt or last:
             self.next_frame = next_multiple(sim.t, self.run.output_interval)
             self.frame()
