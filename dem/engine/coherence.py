@@ -143,6 +143,21 @@ def store_patch(p, i, j, code, whole, npts, shrink, centroid, model: ti.template
 
 
 @ti.func
+def corner_drift(p, c, u1, u2, ci, b1, b2, contacts: ti.template(), cx: ti.template(),
+                 cy: ti.template()):
+    """The incident face's corners projected on the reference face (geometry.incident_corners,
+    written to cx[0:4], cy[0:4]) and the largest distance along u1 or u2 (m) that one moved
+    since pair p's patch was kept (contacts.patch_shape[p, 1:3]): the test of both reuses."""
+    geometry.incident_corners(c, u1, u2, ci, b1, b2, cx, cy)
+    kx = contacts.patch_shape[p, 1]
+    ky = contacts.patch_shape[p, 2]
+    drift = 0.0
+    for q in ti.static(range(4)):
+        drift = ti.max(drift, ti.max(ti.abs(cx[q] - kx[q]), ti.abs(cy[q] - ky[q])))
+    return drift
+
+
+@ti.func
 def reuse_patch(p, i, j, tol, model: ti.template(), state: ti.template(),
                 contacts: ti.template(), px: ti.template(), py: ti.template(),
                 pz: ti.template(), dep: ti.template(), w: ti.template()):
@@ -161,13 +176,7 @@ def reuse_patch(p, i, j, tol, model: ti.template(), state: ti.template(),
         n, u1, u2, c, nI, b1, b2, ci = reference_and_incident(code, i, j, model, state)
         cx = point_buffer()
         cy = point_buffer()
-        geometry.incident_corners(c, u1, u2, ci, b1, b2, cx, cy)
-        kx = contacts.patch_shape[p, 1]
-        ky = contacts.patch_shape[p, 2]
-        drift = 0.0
-        for q in ti.static(range(4)):
-            drift = ti.max(drift, ti.max(ti.abs(cx[q] - kx[q]), ti.abs(cy[q] - ky[q])))
-        if drift <= tol:
+        if corner_drift(p, c, u1, u2, ci, b1, b2, contacts, cx, cy) <= tol:
             xs = point_buffer()
             ys = point_buffer()
             for q in range(n_kept):
@@ -383,13 +392,7 @@ def reuse_overlap(p, i, j, tol, model: ti.template(), state: ti.template(),
             code, i, j, model, state)
         xs = point_buffer()
         ys = point_buffer()
-        geometry.incident_corners(c, u1, u2, ci, b1, b2, xs, ys)
-        kx = contacts.patch_shape[p, 1]
-        ky = contacts.patch_shape[p, 2]
-        drift = 0.0
-        for q in ti.static(range(4)):
-            drift = ti.max(drift, ti.max(ti.abs(xs[q] - kx[q]), ti.abs(ys[q] - ky[q])))
-        if drift <= tol:
+        if corner_drift(p, c, u1, u2, ci, b1, b2, contacts, xs, ys) <= tol:
             xt = point_buffer()
             yt = point_buffer()
             for q in range(npoly):
