@@ -404,29 +404,27 @@ class Engine:
 
     def _plan_probes(self, k: int) -> tuple[int, dict]:
         """Before a launch of k steps: each active scene's probed steps among them
-        (Simulation.set_probe: ``probe.plan``) into control.probe_slot, at most Q (probe_buf's
-        slots) a scene (the launch is shortened to the step of the last one that fits).  Returns (k,
-        {g: [(s, slot), ...]}) with s the step of the launch (0 = its first) after which slot
-        takes scene g's probed bodies."""
+        (Simulation.set_probe: ``probe.plan``) into control.probe_slot, the i-th of a scene in
+        slot i, at most Q (probe_buf's slots) a scene: the launch is shortened to the step of
+        the last one that fits.  Returns (k, {g: [s, ...]}), s the steps of the launch (0 = its
+        first) after which scene g's probed bodies are copied, ascending (slot = index)."""
         ctl = self.control
         ctl.probe_slot[:k] = -1
+        slots = ctl.probe_buf.shape[0]
         planned = {}
         for g, sim in enumerate(self.simulations):
             if sim.probe is None or not ctl.active[g]:
                 continue
             steps = [c - sim.step_count - 1 for c in
                      sim.probe.plan(sim.clock, sim.step_count, k)]
-            slots = ctl.probe_buf.shape[0]
             if len(steps) > slots:
-                steps = steps[:slots]
-                k = steps[-1] + 1
-            if steps:
-                planned[g] = [(s, slot) for slot, s in enumerate(steps)]
-        for g, rows in planned.items():
-            for s, slot in rows:
-                if s < k:
-                    ctl.probe_slot[s, g] = slot
-        return k, {g: [(s, slot) for s, slot in rows if s < k] for g, rows in planned.items()}
+                k = steps[slots - 1] + 1
+            planned[g] = steps
+        planned = {g: [s for s in steps if s < k] for g, steps in planned.items()}
+        planned = {g: steps for g, steps in planned.items() if steps}
+        for g, steps in planned.items():
+            ctl.probe_slot[steps, g] = np.arange(len(steps))
+        return k, planned
 
     def _take_probes(self, probes: dict, done: int) -> None:
         """After a launch that did ``done`` steps: each probed step it reached, handed to its
@@ -437,11 +435,11 @@ class Engine:
             self._dev["control"].pull(["probe_buf"])
         buf = self.control.probe_buf
         status = self.control.status
-        for g, rows in probes.items():
+        for g, steps in probes.items():
             sim = self.simulations[g]
             reached = done - 1 if status[g] & STOP else done
             n = len(sim.probe.bodies)
-            for s, slot in rows:
+            for slot, s in enumerate(steps):
                 if s < reached:
                     step = sim.step_count + s + 1
                     sim.probe.take(step, sim.clock.time(step), buf[slot, g, :n].copy())
