@@ -258,7 +258,7 @@ def e1_quiet_rows(results: Path = RESULTS) -> dict:
         data = read_json(results / key / "points.json") or {}
         for name, r in _rows(data):
             out.setdefault((name, data["sweep"]), []).append(r)
-    for sweep in {s for _c, s in out}:
+    for sweep in sorted({s for _c, s in out}):
         data = read_json(results.parent / "prediction" / sweep / "points.json") or {}
         out[(BASELINE, sweep)] = [r for r in data.get("rows", [])
                                   if r.get("run_status") == "ok" and r["seed"] in (0, 1, 2)
