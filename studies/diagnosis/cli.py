@@ -102,6 +102,17 @@ def e7() -> None:
     exp.report()
 
 
+@app.command("onset-rule")
+def onset_rule() -> None:
+    """The onset rule A T(f) >= a0 fitted to every from-rest run of E1, E4, E5 and the band
+    runs (T: the quiet branch's amplification of a mode with E1's f_n), checked on the other
+    from-rest runs of the first prediction's joints: onset-rule.json and onset-rule.png
+    (analysis only: no run)."""
+    from studies.diagnosis import onset_rule as exp
+
+    exp.report()
+
+
 @app.command()
 def relative(results: Path = typer.Argument(..., help="a folder holding analysis.json files "
                                             "(e.g. results/shake)")) -> None:
