@@ -462,8 +462,8 @@ def planar_gap(cc, u1, u2, inv1, inv2, oR, d1, d2, invI1, invI2, oI, d0, gx, gy)
         a  = d0 + A_R + A_I + B_I (cc . d1) / hI1 + C_I (cc . d2) / hI2
         bx = gx + B_R / hR1 + B_I (u1 . d1) / hI1 + C_I (u1 . d2) / hI2
         by = gy + C_R / hR2 + B_I (u2 . d1) / hI1 + C_I (u2 . d2) / hI2.
-    Where it differs from evaluating the two bilinear forms at a point (the code before
-    2026-11-24, and still the twisted path's):
+    Where it differs from evaluating the two bilinear forms at a point (the twisted path's
+    way):
     (1) the twist: the planar path takes pairs with |T_R| + |T_I| <= TWIST_FLOOR (1e-12 m), and
         |T xi eta| <= |T| inside a face, so dropping it moves the gap by <= 1e-12 m (face_shape:
         planar leaves ~1e-20 m);
