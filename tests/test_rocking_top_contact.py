@@ -1,4 +1,4 @@
-"""The two top contacts of the two-body model (issue 14): ``sliding`` (the thesis' load N fixed in
+"""The two top contacts of the two-body model: ``sliding`` (the thesis' load N fixed in
 space with friction mu N) and ``co-moving`` (N a mass N/g moving with the bearing top corner).
 
 References are independent closed forms: static moment balances (uplift), Housner (1963) for one
