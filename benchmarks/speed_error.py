@@ -1,4 +1,4 @@
-"""What each solver knob buys and costs (issue 7): speed against error, on a tilt case and a
+"""What each solver knob buys and costs: speed against error, on a tilt case and a
 Model II shake case.
 
     python benchmarks/speed_error.py                  # all knobs, both cases (~1-2 h, 2 cores)
