@@ -190,7 +190,7 @@ def _errors(rows: list[dict]) -> None:
             r["phase_error_deg"] = abs(dphi)
 
 
-DEFAULTS = """## The defaults and why (dem/case.py)
+DEFAULTS = """## The defaults and why (dem/case/settings.py)
 
 Rows are marked with the day and commit they were measured at: the issue-7 rows ran the engine
 before issue 10 (f32 clipping buffers, the box models' dt 9.6e-6 s); the references, the

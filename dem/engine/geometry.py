@@ -27,7 +27,7 @@ Why this design (see ../shared/DESIGN.md, "Contact geometry: what goes wrong wit
 
 4. **Edge-edge contact** (skewed blocks, when an edge-cross axis has the least overlap): one
    point midway between the closest points of the two edges, with weight ``edge_area``
-   (see ``dem.engine.model``), depth = overlap along the axis.
+   (``hmin * hmin``, passed by dem.engine.step.narrow_phase), depth = overlap along the axis.
 
 5. **Imperfect faces** (docs/imperfections.md; bodies with ``faces.imperfect`` set, in the
    ``warped`` kernels only).  An arris of radius r insets the patch: the reference face
