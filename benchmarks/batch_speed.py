@@ -1,4 +1,4 @@
-"""Throughput of an engine of K scenes (issue 35): brick-steps per second against K, beside K
+"""Throughput of an engine of K scenes: brick-steps per second against K, beside K
 separate single-threaded processes, with the error of the batch against the scenes run alone.
 
     python benchmarks/batch_speed.py cpu  --ks 1,4,16,64 --steps 400 --threads 2

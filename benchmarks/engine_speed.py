@@ -1,4 +1,4 @@
-"""Engine throughput on the resting 9 x 15 stretcher-bond wall (issue 2), and how it scales.
+"""Engine throughput on the resting 9 x 15 stretcher-bond wall, and how it scales.
 
     python benchmarks/engine_speed.py            # full table (a few minutes)
     python benchmarks/engine_speed.py --quick    # threads/modes on the 142-block wall only

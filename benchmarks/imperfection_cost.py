@@ -1,4 +1,4 @@
-"""What the imperfect-joint code (issue 12) costs the engine, perfect and imperfect.
+"""What the imperfect-joint code costs the engine, perfect and imperfect.
 
     python benchmarks/imperfection_cost.py --before /tmp/tree_before [--repeats 5]
 
@@ -7,7 +7,7 @@ where /tmp/tree_before holds the code before the change (``git archive 116485c d
 kernel) it runs, interleaved so that the machine's load hits all alike, --repeats fresh processes
 of each of:
 
-  before     the perfect wall on the code before issue 12
+  before     the perfect wall on the code before the change (--before)
   perfect    the perfect wall on this code (the same trajectory, bit for bit: printed)
   warped     the wall with bed_unevenness 0.1 mm and arris 0.5 mm (settled first, then timed)
 
@@ -15,7 +15,7 @@ and prints the median CPU time per brick-step of each and the ratios to ``before
 
     python benchmarks/imperfection_cost.py --overlap [--before TREE] [--repeats 5] [--tol 1e-7]
 
-(issue 32 item 8) times the warped kernels' overlap reuse (dem.engine.coherence
+times the warped kernels' overlap reuse (dem.engine.coherence
 .set_overlap_reuse) on the resting 9 x 15 wall with planar 0.1 mm beds (seed 0): one process
 builds and settles the wall once, then alternates, --repeats times, runs of --steps steps from
 that same snapshot with the reuse off (tol 0, today's path) and on (--tol), so the ratio is
@@ -154,7 +154,7 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--steps", type=int, default=20000)
     ap.add_argument("--overlap", action="store_true",
-                    help="time the warped kernels' overlap reuse (issue 32 item 8)")
+                    help="time the warped kernels' overlap reuse")
     ap.add_argument("--tol", type=float, default=1e-7, help="overlap reuse tolerance, m")
     args = ap.parse_args()
     if args.overlap:

@@ -1,4 +1,4 @@
-"""Quasi-static tilt against the constant-rate tilt: lambda error and CPU time (issue 11 item 1).
+"""Quasi-static tilt against the constant-rate tilt: lambda error and CPU time.
 
     python benchmarks/quasi_static_tilt.py [--out benchmarks/quasi_static_tilt.json] [--only NAME]
                                            [--repeat 3]

@@ -1,4 +1,4 @@
-"""Do two versions of the code give the same output files?  (issue 16: a refactor must not change
+"""Do two versions of the code give the same output files?  (A refactor must not change
 results.)
 
     python benchmarks/same_outputs.py record DIR     # run the cases below into DIR

@@ -1,4 +1,4 @@
-"""What each solver knob buys and costs (issue 7): speed against error, on a tilt case and a
+"""What each solver knob buys and costs: speed against error, on a tilt case and a
 Model II shake case.
 
     python benchmarks/speed_error.py                  # all knobs, both cases (~1-2 h, 2 cores)
@@ -190,7 +190,7 @@ def _errors(rows: list[dict]) -> None:
             r["phase_error_deg"] = abs(dphi)
 
 
-DEFAULTS = """## The defaults and why (dem/case.py)
+DEFAULTS = """## The defaults and why (dem/case/settings.py)
 
 Rows are marked with the day and commit they were measured at: the issue-7 rows ran the engine
 before issue 10 (f32 clipping buffers, the box models' dt 9.6e-6 s); the references, the

@@ -1,6 +1,6 @@
 """Start-up cost of a short run: what a fresh process pays before and around its first steps.
 
-Issue 36 defect 8 ("start-up got slower"): with every kernel in Taichi's offline cache a process
+Why: with every kernel in Taichi's offline cache a process
 still runs Taichi's Python front end (AST transform of each kernel it calls) and the first
 launch.  This script runs ``CHILD`` in a fresh interpreter ``--repeat`` times and prints, per
 phase, the median process CPU time (user + system, s; the 2-core test machine is shared, CPU

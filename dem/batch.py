@@ -15,7 +15,7 @@ dem.run.write.CHECKPOINT_SECONDS): the next batch into the same directories resu
 
 Each case writes its own output directory (summary.json, frames.npz, ...) under ``out_root``.
 
-Batched (``batch`` K, issue 35): the cases are packed K to an engine (the last group smaller) and
+Batched (``batch`` K): the cases are packed K to an engine (the last group smaller) and
 each group is one task, one process (dem.run.batched: K scenes in one Taichi engine, each point
 written into its own directory exactly as a lone run); dask spreads the groups over the workers.
 A failed point never ends its batch-mates; the records stay one per case.  ``arch``: Taichi's

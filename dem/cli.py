@@ -16,7 +16,7 @@ import typer
 class _DemApp(typer.Typer):
     """The ``dem`` program: an exception no command turned into a message (a bug, or a failure
     nobody foresaw) ends in one line and the exit code of dem.commands.exit_codes.exit_code_for,
-    not a traceback (issue 36 defect 4); ``DEM_TRACEBACK=1`` shows the traceback."""
+    not a traceback (a user cannot act on a 34-line traceback); ``DEM_TRACEBACK=1`` shows the traceback."""
 
     def __call__(self, *args, **kwargs):
         import os
@@ -311,7 +311,7 @@ def view(
                                   echo=typer.echo, err=_err))
 
 
-# --- help text (issue 36 defect 7): one line per command in ``dem --help`` (the details are in
+# --- help text: one line per command in ``dem --help`` (the details are in
 # each command's --help), docstrings reflowed with their ``literals`` as plain quotes, and no
 # "<bool>" type shown on flags ---
 SHORT_HELP = {

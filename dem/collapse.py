@@ -3,8 +3,8 @@ collapse was initiated"; lambda = tan(angle at incipient collapse)).
 
 Reference pose: the first frame the detector is fed, i.e. the pose when the loading starts.  For
 an imperfect scene that is the *settled* pose (dem.run.settle runs before the recording starts):
-settling turns bricks on their warped beds by degrees, which is not the collapse (issue 32
-item 4).  For a perfect scene the first frame is the built pose, as before.
+settling turns bricks on their warped beds by degrees, which is not the collapse (a
+3-brick column on 0.3 mm beds turns 2.6-2.9 deg while settling).  For a perfect scene the first frame is the built pose, as before.
 
 Motion measure of block i relative to the table (a bound on how far any of its points moved):
     M_i(t) = |x_i(t) - x_ref,i| + r_i * angle(q_ref,i -> q_i(t))     (m), r_i = half diagonal
@@ -13,7 +13,7 @@ Joints deform elastically by micrometres, so millimetre motions mean blocks are 
 Speed measure: V_i = |v_i| + r_i |omega_i| (m/s, bounds the speed of any point of the block).
 
 Rule (checked at every output frame).  Collapse means a *mechanism*: motion that keeps growing,
-or no new equilibrium.  A scene with free play (warped beds, issue 32 item 4: a 3-brick column
+or no new equilibrium.  A scene with free play (warped beds: a 3-brick column
 with 0.3 mm unevenness snaps through 4 mm at the top at 1.4-2.1 deg, then stands until 25 deg)
 re-seats without collapsing, and a fixed displacement threshold cannot tell the two apart:
   * a *candidate* is the first frame where max_i M_i >= ``confirm`` (default 5 mm);

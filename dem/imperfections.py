@@ -58,7 +58,7 @@ def streams(seed: int) -> tuple[np.random.Generator, np.random.Generator]:
 def truncated_normal(rng: np.random.Generator, shape) -> np.ndarray:
     """Standard normals truncated at +-TRUNCATION."""
     # imported here: scipy.stats costs ~ 1 CPU-s to import, which every `dem run` paid at
-    # start-up, imperfect or not (issue 36 defect 8)
+    # start-up, imperfect or not
     from scipy.stats import truncnorm
 
     return truncnorm.rvs(-TRUNCATION, TRUNCATION, size=shape, random_state=rng)

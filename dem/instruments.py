@@ -17,8 +17,9 @@ Recorded (``instruments.npz``), K samples every ``run.instrument_interval`` seco
     table_disp   [K,3], table_acc [K,3]   the excitation (table_acc: the mean over the sample
                                    interval, (v_table(t_k) - v_table(t_k-1)) / dt_sample)
     table_vel    [K,3]      m/s    the table's velocity at t_k (only where the loading asks for
-                                   it: the starts and stepped shakes of issue 32; a default
-                                   shake's instruments.npz is as before)
+                                   it: a lab or ramp start and a stepped shake, where the
+                                   table's velocity is not the sine's; a default shake's
+                                   instruments.npz keeps its fields)
     names [n], kind [n], block [n], point [n,3], direction [n,3], group [n] (block group name)
 
 Thesis placement (Fig 4.4, Section 4.2.5), used for box models under shaking: all instruments on

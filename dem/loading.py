@@ -64,7 +64,8 @@ class Loading:
 
     def records_table_velocity(self) -> bool:
         """Whether the instruments also record the table's velocity (``table_vel``): for the
-        starts and stepped shakes of issue 32 (a default shake's instruments.npz is as before)."""
+        lab and ramp starts and stepped shakes, whose table velocity is not the plain sine's (a
+        default shake's instruments.npz keeps its fields)."""
         return False
 
     def __call__(self, t: np.ndarray):

@@ -99,8 +99,8 @@ def _clear(out: Path, keep: str = LOCK) -> None:
 def drop_analysis(out: Path) -> list[str]:
     """Remove what is not the run's own (RUN_FILES) from a run directory about to be resumed:
     an analysis of the killed run (``dem post``: analysis.json saying ``running``, PNGs ending
-    at the kill time) would otherwise sit next to the finished run's summary.json (issue 36
-    defect 2).  Returns the names removed."""
+    at the kill time) would otherwise sit next to the finished run's summary.json and
+    contradict it.  Returns the names removed."""
     removed = []
     for p in Path(out).iterdir():
         if p.name in RUN_FILES:

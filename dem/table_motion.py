@@ -25,7 +25,7 @@ while the table shakes: started from rest, -A w^2 sin(w t) would carry it away b
 cycle.  Only a(t) enters the dynamics; u and v are reported (the DEM's frames and instruments,
 the rocking model's ``base_disp``).
 
-How the table starts (``start``, issue 32 item 1; the case field ``loading.start``):
+How the table starts (``start``; the case field ``loading.start``):
 
 * ``table-frame`` (the default, all of the above): the table's velocity is A w from t = 0 on,
   the blocks never feel the jump from rest to A w;
@@ -45,7 +45,7 @@ How the table starts (``start``, issue 32 item 1; the case field ``loading.start
   acceleration during the ramp may exceed A w^2 by a little (the 2 w e' cos term:
   |2 e' / w| <= 15 / (8 pi n_r) of A w^2).  The ramp's cycles count among ``cycles``.
 
-:class:`SteppedSineMotion` (issue 32 item 2) steps the frequency through a list on one
+:class:`SteppedSineMotion` steps the frequency through a list on one
 specimen without stopping; its docstring says how the steps join.
 
 :class:`TableMotion` is the table at rest (the base of the interface), :class:`SineMotion` the
@@ -238,7 +238,7 @@ class SineMotion(TableMotion):
 
 class SteppedSineMotion(TableMotion):
     """A sine whose frequency steps through a list on one specimen, never stopped between steps
-    (issue 32 item 2; the case's ``loading: {type: stepped_shake}``).
+    (the case's ``loading: {type: stepped_shake}``).
 
     ``steps``: [(f_k Hz, n_k cycles)] in the order run (rising frequencies: an up pass; falling:
     a down pass); every step has the same peak acceleration a_p (A_k = a_p / w_k^2, m) or the

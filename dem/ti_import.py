@@ -1,4 +1,4 @@
-"""Taichi's decorators made cheap from Taichi's own import on (issue 36 defect 8).
+"""Taichi's decorators made cheap from Taichi's own import on (every process pays them).
 
 Every ``@ti.func`` / ``@ti.kernel`` / ``@pyfunc`` asks ``taichi.lang.kernel_impl._inside_class``
 whether it decorates a method, which reads the decorating frame's source line through

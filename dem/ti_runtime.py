@@ -30,7 +30,7 @@ def init(threads: int | None = None, precision: str = "f64", debug: bool = False
     threads   : CPU threads for parallel loops (None: the ``DEM_THREADS`` environment variable,
                 else all cores).
     precision : "f64" (default) or "f32", used as ``default_fp``.
-    arch      : "cpu" (default) or "cuda" (issue 35: an engine of many scenes on a GPU; the
+    arch      : "cpu" (default) or "cuda" (an engine of many scenes on a GPU; the
                 engine then keeps its arrays on the device, dem.engine.device).  None: the
                 ``DEM_ARCH`` environment variable, else cpu; a later call with None accepts
                 the arch in use.  Taichi falls back to the CPU silently where CUDA is absent:
@@ -69,7 +69,7 @@ def init(threads: int | None = None, precision: str = "f64", debug: bool = False
         kwargs["cpu_max_num_threads"] = int(threads)
     # ti.init prints "[Taichi] Starting on arch=x64" on stdout unconditionally; stdout is for
     # results, and the line repeated by every worker of a sweep or an ensemble only buried
-    # their progress (issue 36 defect 7): it is kept out (the import banner is off too:
+    # their progress: it is kept out (the import banner is off too:
     # dem/__init__.py); anything else ti.init prints still goes to stderr
     banner = io.StringIO()
     with contextlib.redirect_stdout(banner), deferred():  # deferred: see dem.signals
@@ -97,8 +97,8 @@ def short_source_positions() -> bool:
     Why: Taichi 1.7.4 re-runs its Python front end (the AST transform of every kernel and the
     functions it inlines) in each process even when the compiled kernel comes from the offline
     cache, and for every statement and expression it builds the position text of a possible
-    error message eagerly, through textwrap: about a quarter of a process's start-up (issue 36
-    defect 8: building the 9 x 15 wall's Simulation took 5.9 -> 4.3 CPU-s, median of 5 fresh
+    error message eagerly, through textwrap: about a quarter of a process's start-up (building
+    the 9 x 15 wall's Simulation took 5.9 -> 4.3 CPU-s, median of 5 fresh
     processes on the 2-core test machine, benchmarks/startup_time.py and RESULTS.md).  The text only ever appears in compile-error messages
     (Taichi's DebugInfo); the compiled code and the offline-cache key do not depend on it, so
     results are the same bit for bit.  Errors still name the file, line and function.  Off with
@@ -121,7 +121,8 @@ def short_source_positions() -> bool:
 
 def quick_front_end() -> bool:
     """Two of Taichi 1.7.4's Python front-end costs that repeat work whose answer cannot change
-    within a process, replaced by equivalents that keep the answer (issue 36 defect 8):
+    within a process, replaced by equivalents that keep the answer (every process pays them, cached kernels
+    or not):
 
     * ``kernel_impl._get_tree_and_ctx`` runs for the kernel and again at every call site of
       every ``ti.func`` it inlines (~500 for the stepping kernel): each time it re-reads the
@@ -205,7 +206,7 @@ def quick_matrix_ops() -> bool:
     ``m.transpose()``, ``v.sum()``: ``taichi.lang.matrix_ops``) are Taichi functions written
     in Python that the front end transforms from their source at every call site, with their
     loops over the components unrolled statement by statement: ~300 call sites and a third of
-    the front end of the stepping kernel (issue 36 defect 8).  Inside a kernel, the versions
+    the front end of the stepping kernel, paid by every process.  Inside a kernel, the versions
     here make the same calls on Taichi's expression builder, in the same order, that the
     transform of Taichi's source makes (each argument copied into a local variable, each
     assignment initialised twice, as Taichi's ``build_FunctionDef`` / ``build_Assign`` do), so

@@ -23,7 +23,7 @@ time step
 initial state
     a block whose initial speed |v| + |omega| r (r = half its diagonal: the engine's measure)
     reaches ``solver.max_speed`` would stop the run at step 1: refused.
-plausibility (issue 36 defect 3)
+plausibility (a typo or a unit slip that still validates: warned, or refused when impossible)
     block densities, a block far from all others (:func:`scene_plausibility`), the table's
     g-level, stroke and speed (:func:`table_plausibility`): warnings (``IMPLAUSIBLE``) for what
     no masonry experiment would do, errors for the impossible; thresholds and their
@@ -58,7 +58,7 @@ import numpy as np
 
 from dem.case import Case, RecordLoading, ShakeLoading, SteppedShakeLoading
 
-# --- plausibility (issue 36 defect 3): warn loudly on the implausible, refuse the impossible ---
+# --- plausibility: warn loudly on the implausible, refuse the impossible ----------------------
 # density of a block, kg/m3.  Plausible: what masonry, timber and steel span, from the lightest
 # timber (balsa, ~ 150 kg/m3; aerated concrete 300-800, brick 1600-2000, stone 2000-3000) to
 # steel (7850; stainless 8000): outside it the case most likely mixes units (sizes in mm with
@@ -527,7 +527,7 @@ def check_case(case: Case, source: str | Path | None = None,
                 f"{period:.3g} s, shorter than {MIN_STEPS_PER_PERIOD} time steps "
                 f"({MIN_STEPS_PER_PERIOD} x {dt:.3g} s): the table motion cannot be resolved "
                 f"(highest frequency for this scene: {1.0 / (MIN_STEPS_PER_PERIOD * dt):.4g} Hz)")
-    elif isinstance(ld, SteppedShakeLoading):  # issue 32: each step as a shake (dem.loading)
+    elif isinstance(ld, SteppedShakeLoading):  # each step checked as a shake (dem.loading)
         from dem.loading import stepped_shake_errors, stepped_shake_plausibility
 
         out.errors += stepped_shake_errors(ld, dt, MIN_STEPS_PER_PERIOD, where)

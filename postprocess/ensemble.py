@@ -1,4 +1,4 @@
-"""Statistics of an ensemble of realisations (issue 12): ``dem ensemble`` and
+"""Statistics of an ensemble of realisations: ``dem ensemble`` and
 ``dem sweep --realisations``.
 
 Each realisation is one run of the same case with another ``imperfections.seed``.  From its

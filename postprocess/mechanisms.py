@@ -27,9 +27,9 @@ line decides first (depths per column, in courses from the top):
               course deeper than the deeper end: D (a crack from one edge down to the other)
   arch        otherwise (the deepest column inside the facade, both ends shallower):
       G   arch three courses deep or more, wings joined on both sides;  B2 otherwise
-(:func:`crack_shape`.  Until 2026-11-25 a profile whose ends differed by two courses was
-diagonal whatever its middle, so an asymmetric arch, e.g. depths [2, 12, 14, 15, 15, 16, 16, 14,
-12, 8] on an imperfect 10 x 21 facade, read D; no perfect wall of cases/tilt has such a profile.)
+(:func:`crack_shape`.  The middle is looked at because a rule on the ends alone (two courses
+apart: diagonal) reads an asymmetric arch, e.g. depths [2, 12, 14, 15, 15, 16, 16, 14,
+12, 8] on an imperfect 10 x 21 facade, as D; no perfect wall of cases/tilt has such a profile.)
 """
 
 from __future__ import annotations

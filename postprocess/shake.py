@@ -19,7 +19,7 @@ Per measuring axis, in order (one function each below):
      postprocess.shake_signals) and a's amplification at several cutoffs
      (a_lowpass_sensitivity); beside them the accelerations relative to the table (a_rel,
      da_rel, a_rel_lp, a_front_rel ... and the front / back ratios: ``relative_to_table``,
-     issue 32 item 5), which the thesis' a and da almost certainly are;
+     docs/table_protocols.md), which the thesis' a and da almost certainly are;
   2. the standing check: a centre that moved by more than the brick's own thickness along e has
      tipped past a rigid block's overturning point (collapse, not a steady response: a warning);
   3. the excited portion (needs frames.npz) and its mass m_e (the reference block's mass without
@@ -110,7 +110,7 @@ def a_lowpass_sensitivity(sig: ShakeSignals, a: np.ndarray, win: SteadyWindow) -
 
 
 
-#: the relative accelerations (issue 32 item 5): quantity -> (kind of the table input it is
+#: the relative accelerations: quantity -> (kind of the table input it is
 #: compared with, what it is)
 RELATIVE_QUANTITIES = {
     "a_rel": ("acceleration", "a - a_table: the centre accelerometer relative to the table"),
@@ -123,7 +123,7 @@ RELATIVE_QUANTITIES = {
 
 
 def relative_accelerations(sig: ShakeSignals) -> dict[str, np.ndarray]:
-    """The accelerations relative to the table (issue 32 item 5), [K] m/s2 (and the doubly
+    """The accelerations relative to the table, [K] m/s2 (and the doubly
     integrated m): a_rel = a - a_table with a_table the table's acceleration as the same
     instruments read it (``sig.excitation["acceleration"]``: instruments.npz's table_acc, the
     same mean over the sample interval as a; from frames, the same differences), da_rel its
@@ -259,11 +259,11 @@ def _analyze_axis(sig: ShakeSignals, case, scene, frames, out: dict, run_dir: Pa
     Warnings, plot and VTU file names are appended to ``out``."""
     res, arr = analyze_signals(sig)
     win, q = arr["window"], arr["q"]
-    relative = relative_to_table(sig, win)   # issue 32 item 5
+    relative = relative_to_table(sig, win)   # the thesis' a, da: docs/table_protocols.md
     if relative is not None:
         res["relative_to_table"] = relative
     _check_standing(res, sig, scene, out["warnings"])
-    short = short_window_warning(sig, win)   # issue 36 defect 6
+    short = short_window_warning(sig, win)   # a caveat, not a silent number
     if short:
         out["warnings"].append(short)
     portion = None
@@ -287,7 +287,7 @@ def _analyze_axis(sig: ShakeSignals, case, scene, frames, out: dict, run_dir: Pa
     return res
 
 
-#: fewest steady cycles an amplification is taken from without a caveat (issue 36 defect 6)
+#: fewest steady cycles an amplification is taken from without a caveat
 MIN_STEADY_CYCLES = 3
 
 

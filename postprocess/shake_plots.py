@@ -18,7 +18,7 @@ UNIT_OF_KIND = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s2"}
 def shaken(sig: ShakeSignals, q: dict) -> tuple:
     """(t, q) cut to what the excitation covers, t <= t_end (s): after the last cycle the
     table's acceleration is 0 and it keeps its final velocity (dem.table_motion), a drift the
-    structure follows, not a lag of it (issue 36 defect 6).  The table's own signals in
+    structure follows, not a lag of it, which a plot must not show as one.  The table's own signals in
     ``sig.excitation`` are cut by the caller through the returned mask."""
     m = sig.t <= sig.t_end + 1e-9
     return sig.t[m], {k: v[m] for k, v in q.items()}, m

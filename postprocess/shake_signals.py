@@ -240,7 +240,7 @@ def _side_walls(facade: str) -> tuple:
 
 def excitation_timing(ld) -> dict:
     """{"f": Hz, "t_end": s} of a shake loading: its frequency and the end of its cycles; for a
-    stepped shake (issue 32) the first step's frequency and the end of the last step (the
+    stepped shake the first step's frequency and the end of the last step (the
     per-step analysis, postprocess.stepped, cuts the record into steps with their own)."""
     from dem.case import SteppedShakeLoading
 

@@ -1,4 +1,4 @@
-"""Analysis of a stepped-frequency shake on one specimen (issue 32 item 2): each step's
+"""Analysis of a stepped-frequency shake on one specimen: each step's
 amplification, lag and excited portion, and the up and down passes on one plot.
 
 A ``stepped_shake`` (dem.case.SteppedShakeLoading; the table motion

@@ -1,4 +1,4 @@
-"""Survival of a run: standing, local collapse or collapse (issue 32 item 3).
+"""Survival of a run: standing, local collapse or collapse.
 
 The shaking analysis' standing check (the instrumented centre moved less than its thickness,
 postprocess.shake) cannot see corner bricks or top courses fall, which the thesis records

@@ -21,7 +21,7 @@ Aggregation (:func:`aggregate`):
   frequencies of that group around the characteristic frequency, [f_low, f_high];
   lag times: per point (ds and dsr, s and deg) and their means inside and outside the effective
   range (the thesis' 0.13 s effective / 0.03 s ineffective for Model II y);
-  survival (issue 32 item 3): each point's verdict, standing / local collapse / collapse, from
+  survival: each point's verdict, standing / local collapse / collapse, from
   every brick of its frames (postprocess.survival, kept in the point record as ``survival``),
   gathered by frequency with the count of each verdict (:func:`survival_by_point`).
 """
@@ -232,7 +232,7 @@ def aggregate(points: list[dict]) -> dict:
 def survival_by_point(points: list[dict]) -> dict | None:
     """The survival verdicts of the finished points (postprocess.survival), by frequency:
     [f, verdict, fallen bricks, cycle of the first fall], and the count of each verdict; None
-    when no point has one (a sweep analysed before issue 32)."""
+    when no point has one (a sweep analysed before the points recorded it)."""
     from postprocess.survival import count_verdicts
 
     rows = sorted([p["frequency_hz"], p["survival"]["verdict"], p["survival"].get("n_fallen"),

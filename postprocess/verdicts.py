@@ -1,5 +1,5 @@
-"""Verdicts on an analysed run or ensemble, one implementation each (issue 34 item 2), for the
-studies, ``dem sweep`` and ``dem ensemble`` alike.
+"""Verdicts on an analysed run or ensemble, one implementation each (so that a study and a
+command cannot judge the same numbers differently), for the studies, ``dem sweep`` and ``dem ensemble`` alike.
 
 * **Ensemble bands.**  The statistics of a quantity over the realisations are
   postprocess.ensemble.statistics (n, median, 10 % and 90 % quantiles); :func:`band_text` writes
@@ -7,7 +7,7 @@ studies, ``dem sweep`` and ``dem ensemble`` alike.
   pass when the median lies within the tolerance of the reference (``tol_abs``:
   |median - ref| <= tol_abs; ``factor``: ref / factor <= median <= ref x factor) AND the
   reference lies inside the band [q10, q90]; both are needed, so that a close median from a
-  scatter that does not contain the reference does not pass (issue 13 step 4).
+  scatter that does not contain the reference does not pass.
 * **Characteristic frequency with its edge rules** (:func:`characteristic`): the peak of an
   amplification curve {f (Hz): amplification (-)} by postprocess.sweep.effective_range (thesis
   Section 4.3: the frequency of the peak amplification; interior, at least three points, clear
@@ -21,7 +21,7 @@ studies, ``dem sweep`` and ``dem ensemble`` alike.
   displacement da equals that of table + ds, |1 + A1 exp(-i 2 pi f lag)| (:func:`da_expected`,
   lag (s) of ds behind the table), within max(DA_REL_TOL x expected, DA_ABS_TOL); (3) the
   facade's centre moves relative to its corners: dsr >= DSR_SHARE_MIN x ds.  The thresholds are
-  this harness' choices (issue 13 step 5), not thesis values.
+  this harness' choices (the thesis gives none), not thesis values.
 
 Survival (standing / local collapse / collapse) is postprocess.survival's.
 """
@@ -34,7 +34,7 @@ import numpy as np
 
 from postprocess.sweep import effective_range
 
-# rocking, not drift or a sliding ratchet (issue 13 step 5; the harness' thresholds):
+# rocking, not drift or a sliding ratchet (the harness' thresholds):
 H1_SHARE_MIN = 0.5    # the first harmonic at f carries >= half of the ds peak-to-peak
 DA_REL_TOL = 0.25     # da agrees with the table + ds phasor sum within 25 % (or DA_ABS_TOL)
 DA_ABS_TOL = 0.1

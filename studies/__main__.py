@@ -1,4 +1,4 @@
-"""``python -m studies <study> ...``: the one entry point of the studies (issue 34 item 1).
+"""``python -m studies <study> ...``: the one entry point of the studies.
 
 Each study is a subcommand; what follows its name goes to the study's own Typer command, run by
 its module's ``main(argv)`` (studies.kit.cli: ``python -m studies prediction --help``).  A
@@ -15,11 +15,11 @@ import typer
 #: subcommand -> (module with main(argv), one line of help)
 STUDIES = {
     "prediction": ("studies.prediction.cli",
-                   "blind prediction of the Chapter 4 shaking-table tests (issue 13 steps 3-5)"),
+                   "blind prediction of the Chapter 4 shaking-table tests with the frozen set"),
     "point-pool": ("studies.prediction.pool",
                    "chosen prediction points in a process pool, without dask (a borrowed machine)"),
     "calibration": ("studies.calibration.cli",
-                    "calibration of the imperfections on the Chapter 3 tilts (issue 13 steps 1-2)"),
+                    "calibration of the imperfections on the Chapter 3 tilts, and the freeze"),
     "chapter3-check": ("studies.chapter3.check",
                        "the frozen set's calibration tilts re-run on today's engine (step 4)"),
     "qs-validation": ("studies.qs_validation.study",
@@ -37,7 +37,7 @@ STUDIES = {
     "two-body-report": ("studies.two_body.report",
                         "the two-body rocking model's tables (results/two-body/README.md)"),
     "diagnosis": ("studies.diagnosis.cli",
-                  "why the laboratory's models rocked and the DEM's did not (issue 33)"),
+                  "why the laboratory's models rocked and the DEM's did not (E1-E7)"),
     "two-body-vs-dem": ("studies.two_body.vs_dem_sweep",
                         "the two-body model against the DEM's Model II y rocking sweep"),
 }

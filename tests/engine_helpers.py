@@ -80,8 +80,8 @@ def stretcher_wall(n_bricks=9, n_courses=15):
 
 
 # Serial against parallel kernel: the same arithmetic, compiled into two kernels.  Where the
-# compiler emits the same instructions for both (the AMD EPYC test VMs up to 2026-11-25) the
-# trajectories are bit-identical; on an AVX-512 CPU (the Intel Xeon VM of 2026-11-26) fast-math's
+# compiler emits the same instructions for both (the AMD EPYC test VMs) the
+# trajectories are bit-identical; on an AVX-512 CPU (an Intel Xeon VM) fast-math's
 # instruction selection differs at the last bit between them: measured 2.7e-20 m in position and
 # 1.1e-19 in the quaternions after 600 steps of the wall of tests/test_engine_launch.py, 5.4e-20 m
 # and 3.5e-18 after 2500 steps of the drop in tests/test_engine_stability.py.  The bounds sit

@@ -1,4 +1,4 @@
-"""K cases in one engine (dem.run.batched, ``dem sweep / dem ensemble --batch K``, issue 35): each
+"""K cases in one engine (dem.run.batched, ``dem sweep / dem ensemble --batch K``): each
 point of a batch is the run it would have been alone, written into its own directory; a point
 that fails does not end its batch-mates; a signal stops every point with its restart point, and
 a rerun resumes each point from its own (or starts it over).

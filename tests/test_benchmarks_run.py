@@ -1,9 +1,9 @@
 """The benchmark scripts still run against today's engine (their shortest modes).
 
 A benchmark calls the engine's kernels and containers directly, so a change of a kernel's
-signature or of an array's shape breaks it without breaking any other test: the batched engine
-(issue 35) added the scene axis to Control.loads and the ``batched`` flag to the stages, and
-``engine_speed.py --stages`` / ``--launch`` failed until this check existed.  Each case runs the
+signature or of an array's shape breaks it without breaking any other test (a scene axis added
+to Control.loads and a ``batched`` flag to the stages broke ``engine_speed.py --stages`` /
+``--launch``, and nothing else noticed).  Each case runs the
 script as a user would (a fresh interpreter) and looks for a figure it prints.  Slow (kernel
 compiles in fresh processes, ~3-5 min on the 2-core VM): ``pytest -m slow
 tests/test_benchmarks_run.py``.  Timings are not judged here (benchmarks/RESULTS.md)."""

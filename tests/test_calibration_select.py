@@ -1,4 +1,5 @@
-"""SELECTION.md's rule as executed by postprocess.calibration_select (issue 13, the freeze).
+"""SELECTION.md's rule as executed by studies.calibration.select (the
+freeze).
 
 Synthetic scores: each test plants the check outcomes the rule reads and asserts the choice the
 rule's text gives for them."""

@@ -1,4 +1,4 @@
-"""The Chapter 3 calibration study (issue 13 step 1, studies/calibration/): the cases it
+"""The Chapter 3 calibration study (studies/calibration/): the cases it
 builds (the candidate's imperfections on the quasi-static specimen, friction untouched), a smoke
 point end to end and its resume (a finished point starts nothing; an unfinished one reruns only
 its unfinished realisations), and the scoring on hand-made ensembles with known answers."""
@@ -74,7 +74,7 @@ def test_a_candidate_may_not_tune_friction(tmp_path):
 
 
 # ---- a smoke point and its resume --------------------------------------------------------------
-@pytest.mark.slow  # ~3 min of dem ensemble children (the suite's 4th slowest, 2026-11-27); the
+@pytest.mark.slow  # ~3 min of dem ensemble children (among the suite's slowest); the
 # default run keeps the calibration's end-to-end child run in test_held_out_smoke_run_...
 def test_smoke_point_runs_then_resumes_without_rerunning(tmp_path, monkeypatch):
     cfile = tmp_path / "candidates.yaml"

@@ -37,7 +37,7 @@ def test_case_passes_dem_check(path):
     result = CliRunner().invoke(app, ["check", str(path)])
     assert result.exit_code == 0, result.output
     # no block about to tip at the start (the joints' elastic offset of a tilt's load factor,
-    # a warning above 5 % since issue 36, is the kn these cases were run with: not a defect
+    # a warning above 5 %, is the kn these cases were run with: not a defect
     # of the case)
     assert not [ln for ln in result.output.splitlines()
                 if "warning" in ln and "elastic offset" not in ln]

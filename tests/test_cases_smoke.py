@@ -30,7 +30,7 @@ def test_case_smoke_run(path):
     assert np.isfinite(res.pos).all() and np.isfinite(res.quat).all()
     moved = np.linalg.norm(res.pos[-1] - res.pos[0], axis=1)
     assert moved.max() < 1e-3, f"block {moved.argmax()} moved {moved.max() * 1e3:.3f} mm"
-    # a lab start (issue 32) gives every block -A w relative to the table at t = 0 by design
+    # a lab start gives every block -A w relative to the table at t = 0 by design
     # (87 mm/s in shake/protocol/), which the bricks' first impacts may overshoot
     lab = getattr(case.loading, "start", None) == "lab"
     assert np.abs(res.vel[-1]).max() < 0.1 + (np.abs(res.vel[0]).max() if lab else 0.0)

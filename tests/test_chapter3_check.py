@@ -1,5 +1,5 @@
-"""studies.chapter3.check (`python -m studies chapter3-check`): the Chapter 3 criterion of issue 13 (the calibrated tilt results
-unchanged within 5 %), judged seed by seed against the committed calibration.  Hand-made
+"""studies.chapter3.check (`python -m studies chapter3-check`): the prediction's Chapter 3
+criterion (the calibrated tilt results unchanged within 5 %), judged seed by seed against the committed calibration.  Hand-made
 ensemble records; nothing runs the engine (run_point: studies.calibration.points, tested there)."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Collapse detection and mechanism identification on planted block motions (issue 4)."""
+"""Collapse detection and mechanism identification on planted block motions."""
 
 import numpy as np
 import pytest

@@ -1,4 +1,4 @@
-"""Control split by role (issue 34 item 4): the four role tables partition Control's fields, in
+"""Control split by role: the four role tables partition Control's fields, in
 the order of the kernels' argpack, and Control.role hands out the arrays the kernels write."""
 
 from dem import ti_runtime

@@ -1,4 +1,5 @@
-"""The numbers that decide a tilt's result, shown with it (issue 36): the closed form of lone
+"""The numbers that decide a tilt's result, shown with it, so that a user sees how far
+the answer is from rigid-block theory and why: the closed form of lone
 rigid blocks (postprocess/lone_block.py) with the run's error in the result line and
 summary.json ``reference``, and the joint's elastic offset with the way to remove it."""
 

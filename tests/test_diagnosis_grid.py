@@ -1,4 +1,4 @@
-"""The diagnosis' grid experiments (studies/diagnosis/grid.py, experiments.py; issue 33 E3/E5/E6):
+"""The diagnosis' grid experiments (studies/diagnosis/grid.py, experiments.py; E3/E5/E6):
 a variant changes only what its patch names, a finished row counts only under its fingerprint,
 and the report counts the rocking runs by the library's verdict."""
 

@@ -1,4 +1,4 @@
-"""Several scenes in one engine (issue 35 item 4): a scene stepped among others gives the
+"""Several scenes in one engine: a scene stepped among others gives the
 trajectory of the same scene stepped alone.
 
 The batched kernels differ from a lone scene's only in integer work (the scenes' body and pair

@@ -1,4 +1,4 @@
-"""The engine's device path (issue 35 item 3: dem.engine.device), run on the CPU: Taichi's own
+"""The engine's device path (dem.engine.device), run on the CPU: Taichi's own
 arrays (ti.ndarray) instead of numpy's, data moved only where the host needs it, neighbour-list
 rebuilds installed by a kernel with the shear history carried on the device.  The kernels'
 arithmetic is the same as the numpy path's, so a scene must follow the same trajectory to
@@ -49,7 +49,7 @@ def test_host_writes_reach_the_device():
     assert np.abs(dev.simulations[0].state.vel[:-1, 0]).max() > 0.01
 
 
-# --- what moves between host and device (issue 35: the host's copies of a batched run) -------
+# --- what moves between host and device (the host's copies of a batched run) ----------------
 def _copies(engine) -> tuple[int, int, int, int]:
     """(pulls, bytes pulled, pushes, bytes pushed) so far (Engine.transfer_stats)."""
     s = engine.transfer_stats()

@@ -1,4 +1,4 @@
-"""Bad input gets a clear error naming the problem; failed runs keep their frames (issue 2)."""
+"""Bad input gets a clear error naming the problem; failed runs keep their frames."""
 
 import json
 

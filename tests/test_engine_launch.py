@@ -1,4 +1,4 @@
-"""The engine's kernel plumbing (issue 10): the cached launch gives what Taichi's own call gives,
+"""The engine's kernel plumbing: the cached launch gives what Taichi's own call gives,
 bit for bit; every real number compiles in the engine's precision (no narrowing on a cold
 compile); the containers' field tables are the kernels' arguments."""
 

@@ -1,4 +1,4 @@
-"""The engine against closed-form mechanics (issue 2, items 1-4 and 6).
+"""The engine against closed-form mechanics (docs/validation.md lists every check).
 
 Joint stiffness and the rigid-block limit: a penalty joint of stiffness kn (Pa/m) lets a block
 rotate before it tips.  With the heel lifted the contact pressure is triangular over a width w
@@ -195,8 +195,8 @@ def test_free_fall_momentum_grows_with_gravity_exactly():
 def test_deepest_penetration_of_a_drop_is_the_damped_oscillator_peak():
     """A block dropped flat from a gap h0 onto the table: while its joint is compressed it is
     the oscillator m x'' + c x' + k x = m g (x penetration, k = kn A, c = 2 zeta sqrt(k m),
-    x(0) = 0, x'(0) = sqrt(2 g h0)).  The kernel keeps the deepest penetration of every step
-    (issue 15 item 2), so summary.json's max_penetration_m is that peak whatever the output
+    x(0) = 0, x'(0) = sqrt(2 g h0)).  The kernel keeps the deepest penetration of every step,
+    so summary.json's max_penetration_m is that peak whatever the output
     interval: the same from one launch per step and from launches of 10 000 steps, within the
     first-order integrator's error (~omega dt) of the ODE's peak, and at its time."""
     a, h, rho, h0, zeta, kn = 0.1, 0.05, 2000.0, 0.01, 0.5, 5e9

@@ -1,4 +1,4 @@
-"""Probes (Simulation.set_probe, issue 35): bodies' states copied inside a launch at chosen steps,
+"""Probes (Simulation.set_probe): bodies' states copied inside a launch at chosen steps,
 so that an instrument sample no longer ends the launch of every scene of an engine.  A probed
 row must be the state the scene has at that step count, as a run that stops there reads it;
 probing must not change the trajectory; a launch with more probed steps than slots, a failing

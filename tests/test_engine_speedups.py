@@ -1,4 +1,4 @@
-"""Invariants behind the engine's fast paths (issue 2, throughput): a fast path must give the
+"""Invariants behind the engine's fast paths: a fast path must give the
 result of the general code bit for bit or to round-off, never an approximation of it."""
 
 import numpy as np

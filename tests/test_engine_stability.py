@@ -1,5 +1,4 @@
-"""Resting walls do not creep; hard cases stay finite and never create energy (issue 2, items 5
-and 7).
+"""Resting walls do not creep; hard cases stay finite and never create energy.
 
 Energy check: kinetic + elastic - initial <= work of gravity + work of the base (+ 0.1 % of the
 gravity work for the explicit scheme's residual, measured at about 1e-5 of it on the resting

@@ -1,4 +1,4 @@
-"""Ensembles of imperfect realisations (issue 12 item 3): exact statistics on planted results,
+"""Ensembles of imperfect realisations: exact statistics on planted results,
 ``dem ensemble`` end to end (resume, a failed realisation, bad options), ``dem sweep
 --realisations``."""
 
@@ -167,8 +167,8 @@ def test_a_run_of_an_engine_whose_results_moved_is_not_resumed(tmp_path):
 
 def test_a_signal_stops_dem_sweep_realisations_instead_of_starting_the_next(tmp_path,
                                                                             monkeypatch):
-    """prediction_study's SIGTERM stopped one realisation's sweep, and ``dem sweep
-    --realisations`` went on to the next (2026-11-25): the interrupt now ends the loop, exit 1,
+    """A SIGTERM that stops one realisation's sweep must not let ``dem sweep --realisations``
+    go on to the next (a study's stop would not stop it): the interrupt ends the loop, exit 1,
     and no ensemble statistics are written from a partial set."""
     from dem.commands import sweep as cmd
     from dem.commands.exit_codes import ExitCode

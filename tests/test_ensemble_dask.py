@@ -1,4 +1,4 @@
-"""``dem ensemble`` on a real dask cluster (issue 12 item 4): a ``dask scheduler`` and two
+"""``dem ensemble`` on a real dask cluster: a ``dask scheduler`` and two
 ``dask worker`` processes on localhost; one worker is killed after the first realisation lands.
 Every realisation must still finish (dask reschedules the tasks the dead worker held on the other
 one) and give what a serial run of the same seeds gives, bit for bit."""

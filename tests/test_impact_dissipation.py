@@ -1,4 +1,4 @@
-"""Measuring functions of postprocess/impact_dissipation.py against closed forms (no Taichi; a few
+"""Measuring functions of studies/impact_dissipation/ against closed forms (no Taichi; a few
 seconds).  The DEM runs themselves are the study's (results/prediction/impact-dissipation)."""
 
 from __future__ import annotations

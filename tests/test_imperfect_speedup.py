@@ -1,4 +1,4 @@
-"""Overlap reuse of the warped kernels (dem.engine.coherence.set_overlap_reuse; issue 32 item 8).
+"""Overlap reuse of the warped kernels (dem.engine.coherence.set_overlap_reuse).
 
 A warped joint keeps the faces' overlap polygon (reference rectangle clipped by the incident
 face's projected corners) while those corners drift less than tol in the reference plane, and

@@ -1,8 +1,9 @@
-"""Imperfect dry joints (issue 12, docs/imperfections.md) against rigid-block statics and the
+"""Imperfect dry joints (docs/imperfections.md) against rigid-block statics and the
 free-play estimate.
 
 Tolerances: the arris test as tests/test_quasi_static_tilt.py (rigid joints: elastic offset
-<= 0.5 % of the load factor, 0.08 deg here; bisection to 0.05 deg): 0.3 deg as the issue asks.
+<= 0.5 % of the load factor, 0.08 deg here; bisection to 0.05 deg): 0.3 deg, their sum with a
+margin.
 """
 
 from __future__ import annotations

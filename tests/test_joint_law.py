@@ -1,4 +1,4 @@
-"""The hyperbolic joint closure law (issue 32 item 7; dem.engine.laws, docs/engine.md section 4).
+"""The hyperbolic joint closure law (dem.engine.laws, docs/engine.md section 4).
 
     p(d) = kn0 d / (1 - d/d_max),   kt(d) = kn0 / (1 - d/d_max)^2,
     e(d) = -kn0 d_max (d + d_max ln(1 - d/d_max)),      d(p) = p / (kn0 + p/d_max)

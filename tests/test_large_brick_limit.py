@@ -1,5 +1,5 @@
-"""The rigid-block limit analysis of postprocess.block_limit against closed forms (issue 11,
-item 5: the thesis' L/H = 2.5 large-brick walls).
+"""The rigid-block limit analysis of postprocess.block_limit against closed forms (it
+explains the thesis' L/H = 2.5 large-brick walls).
 
 Closed forms (load factor lambda = a/g, load along +x, blocks rigid, Coulomb joints):
 * one block b x h on a rough base turns about its leeward toe at lambda = b/h (its weight's

@@ -1,4 +1,4 @@
-"""The package's layers point one way (issues 16 and 34, docs/architecture.md): every module
+"""The package's layers point one way (docs/architecture.md): every module
 imports only modules of its own layer or of layers below it, no two modules import each other,
 and no module reaches for another module's private name.  Read from the source (ast), so a lazy
 import inside a function counts as much as one at the top.

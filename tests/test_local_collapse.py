@@ -1,4 +1,4 @@
-"""Local collapse and the survival verdict (issue 32 item 3, postprocess.survival).
+"""Local collapse and the survival verdict (postprocess.survival).
 
 Closed forms first (the toppling angle of a rigid brick, atan(b / h); its height), then built
 scenes run in the engine: a top corner brick knocked off, a top course sliding out, a whole
@@ -147,7 +147,7 @@ def test_sweeps_and_ensembles_count_the_verdicts():
     points = [{"frequency_hz": 2.5, "status": "ok", "survival": surv("local collapse", 2, 16)},
               {"frequency_hz": 1.8, "status": "ok", "survival": surv("standing", 0, None)},
               {"frequency_hz": 3.0, "status": "failed"},
-              {"frequency_hz": 3.5, "status": "ok"}]  # analysed before issue 32: no verdict
+              {"frequency_hz": 3.5, "status": "ok"}]  # analysed before the verdict existed: none
     agg = survival_by_point(points)
     assert agg["per_point"] == [[1.8, "standing", 0, None], [2.5, "local collapse", 2, 16]]
     assert agg["counts"] == {"standing": 1, "local collapse": 1, "collapse": 0}

@@ -1,5 +1,5 @@
 """The case option ``solver.overlap_reuse`` (m; dem.case.settings.SolverSpec), applied by
-dem.run.build.build through dem.engine.coherence.set_overlap_reuse (issue 32 item 8).
+dem.run.build.build through dem.engine.coherence.set_overlap_reuse.
 
 Tolerance of the end-to-end comparison: benchmarks/RESULTS.md ("Overlap reuse for imperfect
 joints") and tests/test_imperfect_speedup.py bound the reuse's effect on this scene (two bricks on

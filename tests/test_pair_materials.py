@@ -1,5 +1,5 @@
-"""Named materials and joint constants per pair of materials (issue 32 item 6; the pair
-material record of issue 34 item 4; dem.engine.pair, dem.case.material).
+"""Named materials and joint constants per pair of materials (the pair material record:
+dem.engine.pair; the case: dem.case.material).
 
 * the record table: every pair takes the default, pairs with the table the base friction, the
   case's ``pairs`` override field by field; a case without materials gives the table the

@@ -126,10 +126,10 @@ def test_each_point_runs_in_its_own_process_and_failures_are_reported():
 
 
 def test_a_pool_stopped_after_some_points_finished_ends_at_once(tmp_path):
-    """The device call that lost nine finished points (2026-11-26): multiprocessing.Pool's
-    terminate() hung for ever once a worker was idle, i.e. once points had finished and fewer
-    were left than workers.  Here two quick points finish, SIGTERM comes while a long one runs:
-    the call must end within seconds, the long point's process with it."""
+    """multiprocessing.Pool's terminate() hangs for ever once a worker is idle, i.e. once
+    points have finished and fewer are left than workers (a borrowed machine lost nine finished
+    points to it).  Here two quick points finish, SIGTERM comes while a long one runs: the call
+    must end within seconds, the long point's process with it."""
     import os
     import signal
     import subprocess

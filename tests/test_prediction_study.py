@@ -1,4 +1,4 @@
-"""The blind-prediction harness of issue 13 steps 3-5 (postprocess/prediction_study.py): it refuses
+"""The blind-prediction harness (studies/prediction/, protocol steps 3-5): it refuses
 a frozen set that is missing, malformed or not committed; it writes the seeds before any run; its
 criteria give the known answers on hand-made inputs (an edge peak is no characteristic frequency,
 a thesis value outside the 10-90 % band fails even with a close median, survival below 80 %
@@ -95,7 +95,7 @@ def test_frozen_file_outside_studies_is_refused(tmp_path):
 
 def test_moving_the_frozen_file_keeps_the_commit_that_froze_it(tmp_path):
     """The freezing commit is the last one that changed the file's content: a commit that only
-    moves it (cases/calibration/ -> studies/calibration/, issue 34) does not count, an edit
+    moves it (e.g. cases/calibration/ -> studies/calibration/) does not count, an edit
     after the move does."""
     repo, path = frozen_repo(tmp_path, rel="cases/calibration/frozen.yaml")
     froze = _git(repo, "rev-parse", "HEAD")
@@ -200,7 +200,7 @@ def test_a_peak_at_the_edge_of_the_sweep_is_no_characteristic_frequency():
 
 
 def test_a_peak_at_the_last_finished_frequency_of_an_unfinished_sweep_is_pending():
-    # model-ii-y on 2026-11-25: 4 of 10 frequencies run (1.8 - 2.1 Hz), ds rising; the report
+    # a real model-ii-y state: 4 of 10 frequencies run (1.8 - 2.1 Hz), ds rising; the report
     # said "peak at the edge of the sweep (2.1 Hz, the highest frequency)"
     freqs = [1.8, 1.9, 2.0, 2.1, 2.2, 2.4, 2.5, 2.8, 3.2, 3.6]
     curve = {1.8: 0.0754, 1.9: 0.0845, 2.0: 0.0953, 2.1: 0.107}
@@ -516,8 +516,8 @@ def test_committed_points_are_not_run_again_when_their_run_directories_are_gone(
     assert calls == [(2, [freqs[-1]])]                  # nothing ran
 
 
-@pytest.mark.slow  # two dem sweep children (the slowest study test, 351 s beside other jobs,
-# 2026-11-27); the default run keeps a real child run of the prediction in
+@pytest.mark.slow  # two dem sweep children (the slowest study test, 351 s beside other jobs);
+# the default run keeps a real child run of the prediction in
 # tests/test_point_pool.py::test_a_pooled_point_is_taken_by_the_study_without_a_rerun
 def test_smoke_one_frequency_two_realisations_then_resume(tmp_path, monkeypatch):
     monkeypatch.setenv("DEM_THREADS", "1")
@@ -796,7 +796,7 @@ def test_truncated_analyses_are_kept_as_points_finish_and_outlive_the_raw_runs(t
 
 def test_a_cut_in_cycles_needs_model_ii_y_in_full_and_its_cycles_check(tmp_path, monkeypatch,
                                                                        capsys):
-    """issue 13 step 3: fewer cycles only after Model II y ran in full and its cycles check says
+    """Protocol step 3: fewer cycles only after Model II y ran in full and its cycles check says
     the answer is unchanged; the cut is recorded in the plan per sweep, a planned sweep's cycles
     never change, and the false-success check names the cut."""
     _, path = frozen_repo(tmp_path)
@@ -923,7 +923,7 @@ def test_iii_below_ii_needs_both_characteristic_frequencies():
 def test_row_from_point_keeps_the_corner_bricks_motion():
     """The instrumented corner bricks' peak-to-peak ds and twist (postprocess.excited's
     mechanism record) reach the committed row, so that models can be compared by their corners
-    (issue 33, E1: do Model I's corner bricks move more than Model II's?)."""
+    (the diagnosis' E1: do Model I's corner bricks move more than Model II's?)."""
     mech = {"response": "global rocking dominated", "corners": "B2-like", "line": "stepped",
             "pp_corner_m": {"corner_a": 0.0027, "corner_b": 0.0030},
             "corner_twist": {"blocks": [154, 159], "h1_amplitude_deg": [0.6, 0.56],

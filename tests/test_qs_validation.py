@@ -1,4 +1,4 @@
-"""postprocess.qs_validation: the slow-tilt check of the calibration's quasi-static lambda."""
+"""studies.qs_validation: the slow-tilt check of the calibration's quasi-static lambda."""
 
 from __future__ import annotations
 

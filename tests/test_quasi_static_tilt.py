@@ -1,4 +1,4 @@
-"""The quasi-static tilt (issue 11 item 1) and the rigid-joint option (item 2) against rigid-block
+"""The quasi-static tilt and the rigid-joint option against rigid-block
 statics: a block slides at atan(mu) and tips at atan(b/h); a small wall's lambda agrees with a
 constant-rate run ten times slower than the default.
 

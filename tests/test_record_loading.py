@@ -1,4 +1,4 @@
-"""Base-acceleration records (CSV or inline) as table motion (issue 5)."""
+"""Base-acceleration records (CSV or inline) as table motion."""
 
 import numpy as np
 import pytest

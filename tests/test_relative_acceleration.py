@@ -1,4 +1,5 @@
-"""Accelerations relative to the table (issue 32 item 5; postprocess.shake.relative_to_table).
+"""Accelerations relative to the table (postprocess.shake.relative_to_table; the thesis' a
+and da almost certainly are these, docs/table_protocols.md).
 
 Closed form: the table moves u = A sin(w t); a point on the back facade moves u + R sin(w t - phi)
 (absolute), one on the front facade u + R_f sin(w t - phi_f).  Relative to the table their
@@ -100,7 +101,8 @@ def test_a_real_bolted_block_reads_zero_relative_and_one_absolute(tmp_path):
 
 
 def test_first_harmonic_estimate_from_an_absolute_entry_is_the_relative_amplitude():
-    """analysis.json files older than issue 32 hold only the absolute a: its phasor against the
+    """analysis.json files written before the relative accelerations hold only the absolute a:
+    its phasor against the
     table's acceleration is 1 + (R / A) e^(-i phi), so |phasor - 1| = R / A (the relative one,
     studies.diagnosis.relative_thesis)."""
     from studies.diagnosis.relative_thesis import first_harmonic_relative, relative_row

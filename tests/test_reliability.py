@@ -1,4 +1,4 @@
-"""Fault injection (issue 15): a full disk, signals at several moments, two runs into one
+"""Fault injection: a full disk, signals at several moments, two runs into one
 directory, a stale directory, a killed sweep rerun; and the checks ``dem check`` and ``dem run``
 share.  Every test asserts the message, the exit code of docs/failures.md, and that every file
 left behind is readable and agrees with summary.json's status.

@@ -1,4 +1,4 @@
-"""postprocess/resonance_search.py: the base-excited linear oscillator against its closed-form
+"""studies/resonance/study.py: the base-excited linear oscillator against its closed-form
 limits, the fit recovering a known natural frequency, and the report on hand-made records."""
 
 from __future__ import annotations

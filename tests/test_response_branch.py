@@ -1,4 +1,4 @@
-"""The response-branch verdict (postprocess.verdicts.response_branch, issue 33): a run is on the
+"""The response-branch verdict (postprocess.verdicts.response_branch): a run is on the
 rocking branch when its ds amplification reaches 1 AND its phase behind the table passes 90 deg
 (a driven oscillator's phase at resonance).  The rows are built from a linear oscillator's
 closed-form response, so the test does not rest on any number the DEM printed."""

@@ -186,7 +186,7 @@ def test_dem_run_resume_goes_on_and_a_plain_rerun_starts_over(tmp_path, monkeypa
 
 def test_a_sweep_point_resumes_in_the_batch(tmp_path, monkeypatch):
     """dem.batch._run_one, the body of every sweep point (dem sweep, the prediction study,
-    postprocess.point_pool), goes on from a restart point of the same case."""
+    studies.prediction.pool), goes on from a restart point of the same case."""
     from dem.batch import run_batch
 
     case = _case(STACK)

@@ -172,7 +172,7 @@ def test_thesis_cases_use_table_5_values():
 
 
 def test_co_moving_cases_are_the_thesis_cases_with_the_roof_moving():
-    """cases/rocking/*-co-moving.yaml (issue 14): the eight Table 5.2 cases, identical to the
+    """cases/rocking/*-co-moving.yaml: the eight Table 5.2 cases, identical to the
     thesis' files except rocking.top_contact = co-moving."""
     import dataclasses
 

@@ -1,4 +1,4 @@
-"""The two top contacts of the two-body model (issue 14): ``sliding`` (the thesis' load N fixed in
+"""The two top contacts of the two-body model: ``sliding`` (the thesis' load N fixed in
 space with friction mu N) and ``co-moving`` (N a mass N/g moving with the bearing top corner).
 
 References are independent closed forms: static moment balances (uplift), Housner (1963) for one
@@ -223,7 +223,7 @@ def test_summary_reports_the_thresholds_of_the_chosen_top_contact(tmp_path):
 
 
 def test_dem_sweep_comparison_reads_the_stored_dem_sweep():
-    """postprocess.rocking_vs_dem_sweep (results/two-body/README.md section 9): the DEM's Model II y
+    """studies.two_body.vs_dem_sweep (results/two-body/README.md section 9): the DEM's Model II y
     4.0 m/s2 sweep is read from results/shake/ (no DEM run); the two-body model at the same point
     stays at rest with the sliding roof (4.0 < 8.36 m/s2), overturns with the co-moving one at
     2.8 Hz, and the DEM's ds amplification is computed on a co-moving run that rocks to the end."""

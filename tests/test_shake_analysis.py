@@ -1,4 +1,4 @@
-"""Analysis of shaking-table runs (issue 5, thesis Chapter 4): amplification, lag, spectrum,
+"""Analysis of shaking-table runs (thesis Chapter 4): amplification, lag, spectrum,
 integration, hysteresis, kinetic energy, the excited portion, ``dem sweep`` and ``dem post``.
 
 Synthetic signals carry known amplitudes and phases; the real runs are a single block (seconds of

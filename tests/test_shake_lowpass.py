@@ -1,5 +1,5 @@
 """The assumed accelerometer low-pass of the shake analysis (postprocess.shake_signals.lowpass,
-``a_lp``, ``a_front_lp``, ``a_lowpass_sensitivity``; issue 13 step 4): on analytic signals it
+``a_lp``, ``a_front_lp``, ``a_lowpass_sensitivity``): on analytic signals it
 keeps the excitation's harmonic within its passband error and removes impact spikes and tones
 above the cutoff, and the unfiltered ``a`` is what it was."""
 

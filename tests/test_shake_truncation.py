@@ -1,4 +1,4 @@
-"""The first N cycles of a longer shaking run analysed as an N-cycle run (issue 13 step 3: the
+"""The first N cycles of a longer shaking run analysed as an N-cycle run (the
 prediction's 10-against-50-cycles check without new simulations).  The table's sine has no ramp
 or taper and the settle phase ends before the clock starts, so an N-cycle run and the first N
 cycles of a longer one are the same computation: bit for bit in the frames (a real run of an

@@ -1,4 +1,4 @@
-"""Size scatter of builder bricks (dem.builders.scatter, issue 12): the bricks are laid again on
+"""Size scatter of builder bricks (dem.builders.scatter): the bricks are laid again on
 their actual sizes without overlaps or floating blocks, with the drawn statistics."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Stability suite of hard cases (issue 7): run with ``pytest -m stability`` (about 7 min on the
+"""Stability suite of hard cases: run with ``pytest -m stability`` (about 7 min on the
 2-core machine).
 
 Every case must finish without NaN (the engine stops a run on NaN or runaway speed), without

@@ -1,4 +1,4 @@
-"""Stepped frequencies on one specimen (issue 32 item 2; dem.table_motion.SteppedSineMotion,
+"""Stepped frequencies on one specimen (dem.table_motion.SteppedSineMotion,
 postprocess.stepped).
 
 The table record is continuous through the steps: each step ends at a displacement extreme

@@ -1,5 +1,4 @@
-"""studies/kit (what every study shares) and the one entry point ``python -m studies``
-(issue 34 item 1)."""
+"""studies/kit (what every study shares) and the one entry point ``python -m studies``."""
 
 from __future__ import annotations
 
@@ -106,7 +105,7 @@ def test_every_study_command_answers_help_through_the_entry_point(name):
 
 
 def test_no_study_parses_its_options_with_argparse():
-    """One command-line dialect (issue 34): every study's options are a Typer command."""
+    """One command-line dialect: every study's options are a Typer command."""
     offenders = [str(p.relative_to(ROOT)) for p in (ROOT / "studies").rglob("*.py")
                  if re.search(r"^\s*(import argparse|from argparse)", p.read_text(), re.M)]
     assert offenders == []

@@ -1,4 +1,4 @@
-"""``dem summary DIR...`` (issue 36, "a table across runs") on a tilt, a shake, a sweep and an
+"""``dem summary DIR...`` (a table across runs) on a tilt, a shake, a sweep and an
 ensemble directory (tests/view_runs.py): every number of a row is read back from the files the
 commands wrote (computed here independently of dem/commands/summary.py), the tilt's lambda is the
 sliding closed form, and the CSV carries units in its header."""
@@ -102,7 +102,7 @@ def test_summary_csv_on_stdout_and_a_bad_directory_exits_2_keeping_the_others(vi
 
 
 def test_a_run_writes_its_cpu_time(view_runs):
-    """summary.json ``cpu_seconds`` (new with issue 36): the process's CPU time after the build,
+    """summary.json ``cpu_seconds``: the process's CPU time after the build,
     positive, and with one Taichi thread per core at most the wall time of the run after its
     compile times the cores."""
     import os

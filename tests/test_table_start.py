@@ -1,4 +1,4 @@
-"""How the table starts (issue 32 item 1; dem.table_motion, dem.run.table_start).
+"""How the table starts (dem.table_motion, dem.run.table_start).
 
 ``start: lab``: the table is at rest before t = 0 and moves as u = A sin(w t) after, so every
 block starts with the velocity -A w relative to it.  A Coulomb block of friction mu on the table

@@ -1,6 +1,6 @@
 """dem.ti_runtime.short_source_positions: Taichi's front end records a statement's position as one
-line (start-up cost, issue 36 defect 8), and a kernel's compile error still names the file, the
-line and the function."""
+line (it is paid at start-up by every process), and a kernel's compile error still names the
+file, the line and the function."""
 
 import inspect
 import os

@@ -1,4 +1,4 @@
-"""Tilt collapse on imperfect scenes (issue 32 item 4): the detector measures from the settled
+"""Tilt collapse on imperfect scenes: the detector measures from the settled
 pose, a re-seating on warped beds is not a collapse, and an onset that cannot be resolved says
 so instead of reading lambda = 0.
 

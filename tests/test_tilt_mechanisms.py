@@ -1,4 +1,4 @@
-"""Mechanisms from kinematics for any scene (issue 11, item 3) and what a tilt run shows (item 4).
+"""Mechanisms from kinematics for any scene, and what a tilt run shows.
 
 A wall given as explicit blocks has no builder layout: its courses, course height, stagger and
 axis are derived from the blocks (postprocess.wall_geometry) and must give the builder's numbers;
@@ -31,7 +31,7 @@ from postprocess.tilt import classify, lean_series, plot_lean, top_blocks, wall_
 from postprocess.wall_geometry import builder_geometry, derive_geometry
 
 CASE = SimpleNamespace(material=SimpleNamespace(friction=0.81))
-# constant-rate tilts: said explicitly where the schema has the choice (issue 11 item 1)
+# constant-rate tilts: said explicitly where the schema has the choice (its default is quasi-static)
 RATE = {"method": "constant_rate"} if "method" in TiltLoading.model_fields else {}
 
 

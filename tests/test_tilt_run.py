@@ -1,5 +1,5 @@
 """A real tilting-table run end to end: collapse detected, run stopped, lambda and mechanism
-reported next to the limit analysis (issue 4)."""
+reported next to the limit analysis."""
 
 import json
 

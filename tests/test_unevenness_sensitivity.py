@@ -1,4 +1,4 @@
-"""postprocess/unevenness_sensitivity.py: the prediction's Model II y case with only the bed
+"""studies/unevenness/study.py: the prediction's Model II y case with only the bed
 unevenness changed, and the report's statistics on hand-made sweep records."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Units on every number (issue 36): summary.json ``units``, frames.npz and instruments.npz
+"""Units on every number: summary.json ``units``, frames.npz and instruments.npz
 ``units`` (dem/units.py), on the runs of tests/view_runs.py; and the units said are the ones the
 numbers are in (checked against quantities computed here from the case: the time step against
 the simulated time, the block's rest height, the table angle)."""
@@ -91,7 +91,7 @@ def test_unit_rules():
                                  "tilt/in-plane/small-9x15-s35.yaml",
                                  "shake/model-ii/group-3-y-1.53.yaml"])
 def test_check_show_defaults_prints_the_case_as_it_runs_with_units(rel):
-    """``dem check CASE --show-defaults`` (issue 36): the case with every default filled in, as
+    """``dem check CASE --show-defaults``: the case with every default filled in, as
     YAML that loads back into the same case, the units in the comments."""
     from pathlib import Path
 

@@ -1,5 +1,6 @@
-"""Issue 36, "a user's second day": one test per defect (1-8), each failing on the code before
-the fix.  Fast: no test here runs the DEM engine (the runs they need are planted files)."""
+"""What a new user met on a second day with the tool, one section per defect (1-8), each test
+guarding the behaviour that replaced it.  Fast: no test here runs the DEM engine (the runs
+they need are planted files)."""
 
 from __future__ import annotations
 
@@ -183,7 +184,7 @@ def test_a_table_far_above_any_shaking_table_warns(tmp_path):
 
 
 def test_a_block_far_from_all_others_warns(tmp_path):
-    """Two bricks side by side and a third 1000 km away (the issue's case)."""
+    """Two bricks side by side and a third 1000 km away (a user's case)."""
     near = {"size": [0.2, 0.1, 0.05], "position": [0.3, 0, 0.025], "density": 2000.0}
     far = {"size": [0.2, 0.1, 0.05], "position": [1e6, 0, 0.025], "density": 2000.0}
     res = _invoke("check", _brick_case(tmp_path, extra_block=[near, far]))
@@ -204,7 +205,7 @@ def _rocking_case(tmp_path, text=None, **loading):
 
 
 def test_a_two_body_case_at_an_impossible_frequency_is_refused(tmp_path):
-    """2.8e5 Hz at 4.69 mm: v = 2 pi f A = 8.3 km/s (the issue's case printed 'nan mm', exit 0)."""
+    """2.8e5 Hz at 4.69 mm: v = 2 pi f A = 8.3 km/s (such a case once printed 'nan mm', exit 0)."""
     path = _rocking_case(tmp_path, frequency=2.8e5, amplitude=0.00469)
     for cmd in (["check", path], ["rocking", path, "--out", tmp_path / "o"]):
         res = _invoke(*cmd)
@@ -245,7 +246,7 @@ def test_schema_out_into_a_missing_directory_exits_2_in_one_line(tmp_path):
 
 def test_rocking_on_a_full_disk_fails_cleanly(tmp_path, monkeypatch):
     """ENOSPC on rocking.npz: exit 1, one message, summary.json says failed with write_errors
-    (the issue: a 55-line traceback, rocking.npz without summary.json)."""
+    (not a 55-line traceback with rocking.npz and no summary.json)."""
     import errno
     import os
 
@@ -268,7 +269,7 @@ def test_rocking_on_a_full_disk_fails_cleanly(tmp_path, monkeypatch):
 
 
 # ------------------------------------------------------------------------------------------
-# defect 5 / issue 34 item 5: one dialect for the two-body cases
+# defect 5: one dialect for the two-body cases
 # ------------------------------------------------------------------------------------------
 def test_two_body_errors_name_file_and_line(tmp_path):
     text = (CASES / "rocking" / "model-ii-2.8hz.yaml").read_text().replace(

@@ -1,4 +1,4 @@
-"""postprocess/verdicts.py against closed forms and independent computations (issue 34 item 2).
+"""postprocess/verdicts.py against closed forms and independent computations.
 The study-level uses (the prediction's criteria and rocking check on hand-made sweeps) are in
 tests/test_prediction_study.py."""
 
@@ -79,7 +79,7 @@ def test_band_text_and_band_verdict():
     assert vd.band_text(st) == "2 (1.5 - 2.5)"
     assert vd.band_text({"n": 0}) == "-" and vd.fmt(float("nan")) == "-"
     assert vd.band_verdict(st, 2.2, tol_abs=0.3)["status"] == "pass"
-    # a close median from a band that misses the reference fails (issue 13 step 4)
+    # a close median from a band that misses the reference fails
     narrow = {"n": 10, "median": 2.0, "q10": 1.95, "q90": 2.05}
     v = vd.band_verdict(narrow, 2.2, tol_abs=0.3)
     assert v["status"] == "fail" and v["by_median"] and not v["in_band"]

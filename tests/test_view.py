@@ -1,4 +1,4 @@
-"""``dem view DIR`` (issue 36, "a look at a run without ParaView"): an animation and a frame
+"""``dem view DIR`` (a look at a run without ParaView): an animation and a frame
 strip drawn off-screen from frames.npz, on a tilt, a shake, a sweep and an ensemble directory
 (tests/view_runs.py), and the geometry of the drawing (dem.output.animation) against closed
 forms: a block resting on a tilted table lies on the table's plane, a magnified motion is the

@@ -203,7 +203,7 @@ def grouped_scene(names) -> Scene:
 
 
 def test_group_names_read_back_as_names(tmp_path):
-    """Issue 36: the group names come back as names, not uint8 codes, from both readers, and
+    """The group names come back as names, not uint8 codes, from both readers, and
     select their blocks by name.  pyvista reads with VTK's own vtkXMLUnstructuredGridReader and
     thresholds with vtkThreshold, what ParaView's reader and Threshold filter use; meshio cannot
     read VTK string arrays, so the names are in the arrays' names.  Names with the characters

@@ -201,7 +201,8 @@ def check_scene(
             overlaps.append(
                 (-sep, f"{block_label(scene, i)} and {block_label(scene, j)} overlap by {-sep * 1e3:.3f} mm")
             )
-            # in contact, if too deep: reported as an overlap, not also as floating (issue 36)
+            # in contact, if too deep: reported as an overlap, not also as floating (one
+            # problem, one message)
             supported[i if scene.position[i, 2] > scene.position[j, 2] else j] = True
             continue
         if sep > contact_tolerance:
@@ -213,7 +214,7 @@ def check_scene(
         for up, down in ((i, j), (j, i)):
             if gaps is not None:
                 # bottom on the other's top, or into it by up to the accepted overlap (a
-                # 0.1 mm overlap was reported as floating, issue 36 defect 7)
+                # 0.1 mm overlap would otherwise be reported as floating)
                 rests = (
                     -(overlap_tolerance + contact_tolerance) <= lo[up, 2] - hi[down, 2]
                     <= contact_tolerance

@@ -1,5 +1,5 @@
-"""Builder bricks of scattered sizes, laid again as a mason lays them (issue 12,
-docs/imperfections.md).
+"""Builder bricks of scattered sizes, laid again as a mason lays them
+(docs/imperfections.md).
 
 Builders lay axis-aligned boxes (dem.builders.layout).  :func:`scatter_sizes` gives each movable
 block new edge lengths and lays the scene again on them:

@@ -122,7 +122,7 @@ _YAML_KIND = {list: "a list", str: "a single text value", int: "a single number"
 
 def read_case_yaml(path: str | Path, error: type[Exception] = None):
     """(data, YAML node tree) of a case file: the one reader of both case kinds (the DEM's and
-    the two-body model's, dem.rocking.schema; issue 34 item 5).  Refused with ``error`` (default
+    the two-body model's, dem.rocking.schema: one dialect, one set of messages).  Refused with ``error`` (default
     CaseError), each message ``FILE[:LINE]: what``: a file that cannot be read, YAML that does
     not parse, a key given twice in one mapping (yaml.safe_load would keep the last one), an
     empty file, a document that is not a mapping.  NaN and inf are refused by the models

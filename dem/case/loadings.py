@@ -244,7 +244,7 @@ class FrequencyStep(StrictModel):
 
 class SteppedShakeLoading(StrictModel):
     """A sine whose frequency steps through ``steps`` on one specimen, never settled again
-    between steps (issue 32 item 2; the table motion: dem.table_motion.SteppedSineMotion).
+    between steps (the table motion: dem.table_motion.SteppedSineMotion).
 
     The steps run in the order given: rising frequencies are an up pass, falling a down pass
     (give both in one list for an up-and-down run).  Every step has the same

@@ -53,7 +53,7 @@ def finished_realisation(case, out_dir: Path, shake: bool,
 
 
 def scalar_text(sc: dict) -> str:
-    """One realisation's headline results as text (issue 36 defect 7: a dict repr with 17
+    """One realisation's headline results as text (not a dict repr with 17
     digits): 'lambda 0.4512 (24.28 deg), mechanism overturning, ds amplification 1.23,
     standing'."""
     parts = []

@@ -34,7 +34,7 @@ def exit_code_for(err: BaseException) -> ExitCode:
 def write_output_file(path, text: str, echo=print, err=print) -> ExitCode:
     """A file a command writes where ``--out`` says (``dem schema --out``), through the atomic
     writer (dem.output.atomic); a path that cannot be written is bad input (exit 2), in one
-    line (issue 36 defect 4: a 34-line traceback, exit 1)."""
+    line, not a traceback with exit 1."""
     from pathlib import Path
 
     from dem.output.atomic import write_text

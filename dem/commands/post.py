@@ -118,7 +118,7 @@ def post_command(path) -> int:
         say(f"error: cannot write the analysis in {path}: {err.strerror or err}"
             + (f" (errno {err.errno})" if err.errno else ""))
         return ExitCode.RUN_FAILED
-    except Exception as err:  # noqa: BLE001 - one line, never a traceback (issue 36 defect 4)
+    except Exception as err:  # noqa: BLE001 - one line, never a traceback
         say(f"error: {path}: the analysis failed: {type(err).__name__}: {err}")
         return ExitCode.RUN_FAILED
 
@@ -158,7 +158,7 @@ def post_run(path: Path) -> int:
             f"{mech.get('mechanism') or mech.get('kind')}"
             + (f", {n_col} blocks collapsed" if n_col is not None else ""))
         say(f"{plot_lean(path, col)}: lean against the table angle")
-    elif case.loading.type == "stepped_shake":   # issue 32 item 2: postprocess.stepped
+    elif case.loading.type == "stepped_shake":   # per step: postprocess.stepped
         from postprocess.stepped import analyze_stepped_run, steps_line
 
         say(f"{path}/stepped.json: {steps_line(analyze_stepped_run(path))}")

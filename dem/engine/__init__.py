@@ -15,7 +15,7 @@ from dem.engine.options import JointLaw, StepOptions
 
 # Bumped by every change that moves a simulation's results (a fixed contact law, a new default),
 # not by refactors that keep them bit for bit.  The studies' resume fingerprints include it
-# (postprocess.calibration_study, postprocess.prediction_study), so a point an older engine
+# (studies.calibration, studies.prediction), so a point an older engine
 # finished is run again instead of being mixed with the new engine's points.
 #   1: up to 8a0d44a
 #   2: planar warps take the planar path (dem.engine.geometry.TWIST_FLOOR)

@@ -199,7 +199,7 @@ def reuse_patch(p, i, j, tol, model: ti.template(), state: ti.template(),
     return reused, n_out, npts, shrink, centroid
 
 
-# --- Overlap reuse: the warped kernels' cut patches (issue 32 item 8) ------------------------
+# --- Overlap reuse: the warped kernels' cut patches -------------------------------------------
 #
 # An imperfect (warped) joint is almost never closed whole: two tilted flat faces bear on part of
 # their overlap (2-4 % of Model II's planar joints are whole, benchmarks/RESULTS.md), so the

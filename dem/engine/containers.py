@@ -29,7 +29,7 @@ blocks of the scene in case order, then the table, index N: a large fixed box wh
 the plane z = 0), P pair capacity, K = MAXP points per pair, S = steps per serial launch, G the
 scenes of the engine (1 for a lone simulation).
 
-Several scenes in one engine (issue 35: an ensemble's realisations side by side): the bodies of
+Several scenes in one engine (an ensemble's realisations side by side): the bodies of
 scene g are the contiguous rows ``model.scene_bodies[g]`` = [b0, b1) (its blocks, then its table,
 the last), and its pairs the slots [g P, g P + n_g) of the Contacts arrays (P the capacity of one
 scene, n_g = contacts.scene_pairs[g]), which hold body indices *within the scene* (0 .. b1-b0-1)

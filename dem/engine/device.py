@@ -1,4 +1,4 @@
-"""The engine's arrays on a device (issue 35: many scenes on a CUDA GPU).
+"""The engine's arrays on a device (many scenes on a CUDA GPU).
 
 On the CPU the kernels use the containers' numpy arrays in place (zero copy).  On a GPU a numpy
 argument is copied to the device and back at every launch, which for the arrays of a hundred

@@ -27,7 +27,7 @@ Why this design (see ../shared/DESIGN.md, "Contact geometry: what goes wrong wit
 
 4. **Edge-edge contact** (skewed blocks, when an edge-cross axis has the least overlap): one
    point midway between the closest points of the two edges, with weight ``edge_area``
-   (see ``dem.engine.model``), depth = overlap along the axis.
+   (``hmin * hmin``, passed by dem.engine.step.narrow_phase), depth = overlap along the axis.
 
 5. **Imperfect faces** (docs/imperfections.md; bodies with ``faces.imperfect`` set, in the
    ``warped`` kernels only).  An arris of radius r insets the patch: the reference face
@@ -462,8 +462,8 @@ def planar_gap(cc, u1, u2, inv1, inv2, oR, d1, d2, invI1, invI2, oI, d0, gx, gy)
         a  = d0 + A_R + A_I + B_I (cc . d1) / hI1 + C_I (cc . d2) / hI2
         bx = gx + B_R / hR1 + B_I (u1 . d1) / hI1 + C_I (u1 . d2) / hI2
         by = gy + C_R / hR2 + B_I (u2 . d1) / hI1 + C_I (u2 . d2) / hI2.
-    Where it differs from evaluating the two bilinear forms at a point (the code before
-    2026-11-24, and still the twisted path's):
+    Where it differs from evaluating the two bilinear forms at a point (the twisted path's
+    way):
     (1) the twist: the planar path takes pairs with |T_R| + |T_I| <= TWIST_FLOOR (1e-12 m), and
         |T xi eta| <= |T| inside a face, so dropping it moves the gap by <= 1e-12 m (face_shape:
         planar leaves ~1e-20 m);

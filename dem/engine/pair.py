@@ -17,9 +17,9 @@ scene's material names, the table last); every ordered pair of materials has one
                  d_lim and the run stops after the launch; 0 for the linear law)
 
 On the host the record is :class:`PairMaterial` (``Model.pair_material(a, b)``); a kernel reads it
-by name through :func:`pair_material` (``pm.mu``, ``pm.kn`` ...), never by slot number.  (Issue 34
-item 4: it replaced a vec4 read by position; the same numbers reach the same operations, so the
-results are the same bit for bit.)
+by name through :func:`pair_material` (``pm.mu``, ``pm.kn`` ...), never by slot number, so that
+adding a field cannot shift another's meaning (the same numbers reach the same operations as a
+read by position, so the results are the same bit for bit).
 
 From the pair's record and its contact area, the viscous coefficients per unit area that give the
 pair a fraction zeta of critical damping (3DEC's contact damping; Cundall & Strack 1979):

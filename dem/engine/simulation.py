@@ -7,8 +7,8 @@ Typical use::
     sim.advance(n_steps, loads)                          # loads(t) -> (gravity [K,3], a_base [K,3])
     sim.state.pos[:sim.n_blocks]
 
-Several scenes in one engine (issue 35: the realisations of an ensemble, the points of a sweep
-side by side, one kernel launch for all)::
+Several scenes in one engine (the realisations of an ensemble, the points of a sweep side by
+side, one kernel launch for all: fewer processes, and a GPU's width to fill)::
 
     engine = Engine([scene_a, scene_b], [joints_a, joints_b], options)
     sim_a, sim_b = engine.simulations                    # each behaves as a lone Simulation
@@ -51,7 +51,7 @@ from dem.scene import Scene
 LoadFn = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
 
 # auto mode: the parallel kernel from this many bodies on, by the threads Taichi runs (measured,
-# benchmarks/RESULTS.md, issue 10, with the cached launch): a parallel step pays ~30-100 us of
+# benchmarks/RESULTS.md "Thread scaling by scene size", with the cached launch): a parallel step pays ~30-100 us of
 # thread-pool dispatch for its two parallel loops, and its loops run slower per CPU-second than
 # the serial kernel.  On the 2-core test machine (2 threads) the parallel kernel lost up to 1624
 # bricks and won at 3078; on a 16-core machine (4-8 threads) it won from ~300-500.

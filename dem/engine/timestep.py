@@ -26,10 +26,11 @@ area for which the capped bound underestimates the block's worst-case stiffness 
 argument: whatever patch a block later makes, even whole faces, the step in use stays below
 sqrt(0.5) of the true critical step.  When a patch exceeds its cap, the simulation raises the
 cap to twice that patch (whole faces once that reaches the largest face) and shortens the step
-(dem.engine.simulation); any cap above the smallest allowed one keeps the argument.  Until
-2026-11 the cap was the typical face itself; for the box models' roof beams (which touch the
-walls and the steel blocks on 30 x 50 mm patches) that left the beams setting dt at 3.2e-5 s
-against the bricks' 4.95e-5 s (benchmarks/RESULTS.md, issue 10).
+(dem.engine.simulation); any cap above the smallest allowed one keeps the argument.  A cap at the
+typical face itself would be too tight: for the box models' roof beams (which touch the
+walls and the steel blocks on 30 x 50 mm patches) it lets the beams set dt at 3.2e-5 s against
+the bricks' 4.95e-5 s (benchmarks/RESULTS.md, "Engine containers, stages, launch and
+throughput").
 """
 
 from __future__ import annotations

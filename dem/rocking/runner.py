@@ -155,8 +155,8 @@ def nonfinite_fields(data, prefix: str = "") -> list[str]:
 
 
 def _fail_nonfinite(summary: dict, res: RockingResult) -> None:
-    """A NaN or inf anywhere in the state or the summary is a failed run, never ``ok`` (issue
-    36 defect 3: a two-body case at 2.8e5 Hz printed 'nan mm' and exited 0)."""
+    """A NaN or inf anywhere in the state or the summary is a failed run, never ``ok`` (a
+    two-body case at 2.8e5 Hz would otherwise print 'nan mm' and exit 0)."""
     bad = [k for k in ("theta1", "theta2", "omega1", "omega2")
            if len(getattr(res, k)) and not np.all(np.isfinite(getattr(res, k)))]
     bad += nonfinite_fields({k: summary.get(k) for k in ("response", "closed_form",

@@ -50,7 +50,7 @@ class RockingCaseError(ValueError):
 
 
 class _Strict(StrictModel):
-    """The DEM case's base (one dialect, issue 34 item 5): unknown keys refused, NaN and inf
+    """The DEM case's base (one dialect for both case kinds): unknown keys refused, NaN and inf
     refused in every number."""
 
 
@@ -172,7 +172,7 @@ class ShakeLoading(DemShakeLoading):
 
     @model_validator(mode="after")
     def _table_frame_start(self) -> "ShakeLoading":
-        """The DEM's ``start: lab`` / ``ramp`` (issue 32) are not taken by the two-body model:
+        """The DEM's ``start: lab`` / ``ramp`` are not taken by the two-body model:
         it starts in the table's frame (dem.table_motion), as it always has."""
         if self.start != "table-frame":
             raise ValueError(f"start: the two-body model takes only start: table-frame, got "

@@ -1,5 +1,5 @@
-"""Run K cases in one engine (issue 35): the points of a sweep or the realisations of an ensemble
-side by side in one dem.engine.Engine, each written into its own run directory exactly as a lone
+"""Run K cases in one engine: the points of a sweep or the realisations of an ensemble
+side by side in one dem.engine.simulation.Engine, each written into its own run directory exactly as a lone
 run (dem.run.loop.run_case) writes it.
 
     records = run_cases_in_one_engine([(name, case), ...], [out_dir, ...], max_steps=None)

@@ -1,8 +1,8 @@
 """A rich progress bar over simulated time (steps/s and ETA), or nothing.
 
 ``unit``/``label``: what the bar counts, simulated time ``t`` in s by default; a quasi-static
-tilt counts its table angle in degrees (its simulated time is only the relaxations' and stopped
-the bar near 1 s of a 22.5 s total, issue 36 defect 7).
+tilt counts its table angle in degrees (its simulated time is only the relaxations': a bar over
+it would stop near 1 s of a 22.5 s total).
 """
 
 from __future__ import annotations

@@ -18,7 +18,7 @@ analysis predicts), as 3DEC / UDEC find static solutions:
    than ``REST_MOTION`` x confirm (less: in equilibrium, whatever R and the speeds say).  A
    relaxation in which a block moved ``collapse.confirm`` or more and then came to rest (R below
    the tolerance, every block at rest) found a new equilibrium: the blocks re-seated on warped
-   beds (issue 32 item 4: a 3-brick column with 0.3 mm unevenness snaps through 4 mm at the top
+   beds (a 3-brick column with 0.3 mm unevenness snaps through 4 mm at the top
    at 1.4-2.1 deg and stands until 25 deg); the angle is in equilibrium (``why``:
    "re-seated").  Where no new equilibrium comes, the relaxation is put back (Simulation.snapshot
    / restore: state, clock, time step) to where the motion first reached ``collapse.confirm``
@@ -26,8 +26,8 @@ analysis predicts), as 3DEC / UDEC find static solutions:
    depends on the clock and time step an earlier failed trial left (save_point keeps neither),
    and near the limit that moved a wall's lambda by a bisection step (the calibration's 5 x 5
    wall, seed 0: 0.8044 -> 0.8035 without the put-back).  The look-ahead costs time: its steps
-   are counted in ``lookahead_steps``.  Until issue 32 a motion of ``collapse.confirm`` (5 mm) ended the relaxation as
-   a loss of equilibrium, which read that re-seating as the collapse (lambda 0.043 instead of
+   are counted in ``lookahead_steps``.  Ending the relaxation at a motion of ``collapse.confirm`` (5 mm), as a loss
+   of equilibrium, would read that re-seating as the collapse (lambda 0.043 instead of
    ~0.47).  Faster
    rules were tried and removed, each wrong on some Chapter 3 walls: a rise of the block speeds
    (near its limit a wall creeps at mm/s for hundreds of ms while slip spreads, then settles:

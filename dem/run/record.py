@@ -110,8 +110,8 @@ class InstrumentProbe:
     run loop then advances from frame to frame, and each sample is the state of the instruments'
     blocks at the step the run loop would have stopped at for it (the first step at or after
     the next multiple of ``run.instrument_interval``, counted from the last sample as
-    :func:`steps_to` counts it); one launch covers many samples (an engine of many scenes no
-    longer ends its launch for every scene's every sample: issue 35)."""
+    :func:`steps_to` counts it); one launch covers many samples (so that an engine of many
+    scenes does not end its launch for every scene's every sample)."""
 
     def __init__(self, recording: "Recording"):
         self.recording = recording

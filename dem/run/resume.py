@@ -162,7 +162,7 @@ def apply_restart(arrays: dict, sim, recording) -> tuple[dict | None, str]:
 def resume_outlook(out: Path, case) -> str:
     """What ``dem run --resume`` will do with ``out`` (claimed, before the run starts), in one
     line: "resuming from t = ... s (step ..., checkpoint of ...)" or "cannot resume: why;
-    starting over from t = 0" (issue 36 defect 2: --resume said nothing).  The run loop has
+    starting over from t = 0" (so that --resume never says nothing).  The run loop has
     the last word (dem.run.loop: an engine that does not fit the checkpoint); the command
     reports a late refusal after the run from summary.json ``resume.refused``."""
     arrays, why = load_restart(out, case)

@@ -20,7 +20,8 @@ to rest first:
 
 The energy sums run through it (the settling's local-damping dissipation is in
 ``dissipated_local_damping``), so the run's energy check covers it.  A perfect scene (no
-imperfections) is not settled: it starts at rest in its built pose, as before issue 12.
+imperfections) is not settled: it starts at rest in its built pose (nothing to settle: its
+faces touch flat).
 """
 
 from __future__ import annotations

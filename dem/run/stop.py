@@ -8,7 +8,7 @@ The detector sees every recorded frame (it listens to the recording), so its res
 summary.json as ``collapse``, is the one ``dem post`` gets by replaying frames.npz.  Its reference
 pose is the first recorded frame, which the recording takes after an imperfect scene settled
 (dem.run.settle): the stop rule is built before settling, so it must not take the scene's built
-poses (issue 32 item 4: settling turned the bricks of a 3-brick column by 2.6-2.9 deg, 4-6 mm of
+poses (settling turned the bricks of a 3-brick column by 2.6-2.9 deg, 4-6 mm of
 the 5 mm budget, and the collapse was "confirmed" at frame 0).
 """
 

@@ -1,4 +1,4 @@
-"""The table's start at the beginning of the load phase (issue 32 item 1; dem.table_motion).
+"""The table's start at the beginning of the load phase (dem.table_motion).
 
 With ``loading.start: lab`` the table is at rest before t = 0 and moves at v_0 = A w along d
 from t = 0 on.  Over that instant the table's acceleration is infinite, but no finite force

@@ -1,4 +1,5 @@
-"""Calibration of the imperfection parameters on the Chapter 3 tilting tests (issue 13, step 1).
+"""Calibration of the imperfection parameters on the Chapter 3 tilting tests (step 1 of the
+prediction's protocol, studies/prediction/__init__.py).
 
     python -m studies calibration --out results/calibration          # run, then report
     python -m studies calibration --out results/calibration --report # report only
@@ -8,7 +9,7 @@
 What it runs.  The calibration specimens are the small-brick tilt specimens of cases/tilt/
 (in-plane/small-*.yaml, out-of-plane/small-*.yaml; the large-brick walls are held out), each
 turned into a quasi-static tilt by studies.tilt.study (``quasi_static_case`` then
-``study_settings``: the converged lambda of issue 11, frames every 0.02 s, no VTK), with the
+``study_settings``: the converged lambda, frames every 0.02 s, no VTK), with the
 ``imperfections:`` section of one candidate of studies/calibration/candidates.yaml.  Friction and
 joint stiffness are the case files' (measured / physical) values, never parameters.  Every
 (candidate, specimen) point is one ``dem ensemble`` of N realisations, seeds 0 .. N-1 (fixed in
@@ -21,8 +22,8 @@ Where things go.  The raw runs (frames.npz, summary.json per seed) go under ``--
 ``calibration`` block (fingerprint of the case, seeds, per-realisation extras read from the
 runs: overturning mass fraction, crack angle, engine seconds; the CPU seconds of the child
 processes, accumulated over resumed sessions).  ``<out>/summary.json`` and ``<out>/README.md``
-score every candidate (:func:`score_candidate`) against the targets of issue 13 step 1 that
-../shared/REFERENCE.md supports (listed in :data:`TARGETS`, each with its strength).
+score every candidate (:func:`score_candidate`) against the targets that ../shared/REFERENCE.md
+supports (listed in :data:`TARGETS`, each with its strength).
 
 Resumable.  A point whose committed ensemble.json holds all N realisations finished, for the
 same case (fingerprint) and step cap, is skipped without starting anything; an unfinished point

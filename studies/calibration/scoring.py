@@ -1,4 +1,4 @@
-"""The invariants and thesis checks of issue 13 step 1 on the finished points, and a candidate's
+"""The invariants and thesis checks of the calibration on the finished points, and a candidate's
 score.
 """
 

@@ -1,5 +1,5 @@
 """The rule of results/calibration/SELECTION.md applied to the scored calibration points
-(issue 13, step 1 -> step 2: which imperfection set is frozen).
+(from the calibration to the freeze: which imperfection set is frozen).
 
 The rule was committed before the grid finished; this module only executes it, so that the
 choice is the same whoever reads the points:

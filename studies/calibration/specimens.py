@@ -37,7 +37,7 @@ THESIS_IN_PLANE_MECHANISM = {3.0: "pure sliding", 2.14: "sliding, leeward first 
 FAMIVE = {3.0: 0.67, 2.14: 0.67, 1.0: 0.65, 0.75: 0.56}
 #: out-of-plane mechanisms by corner connection (Fig 3.14 text): test observations
 THESIS_OOP_MECHANISM = {"strong-strong": ("B2", "G")}
-#: the held-out walls (issue 13 step 1): the thesis' L/H = 2.5 large-brick walls, whose test
+#: the held-out walls: the thesis' L/H = 2.5 large-brick walls, whose test
 #: lambdas are the only ones its text gives (Section 3.3.3; REFERENCE.md), specimen -> lambda.
 #: Never used to choose the set; run with the frozen set after the freeze (``--held-out``).
 HELD_OUT = {"ip-large-stretcher-flat-5x6": 0.48, "ip-large-english-5x6": 0.45,

@@ -1,6 +1,6 @@
 """Chapter 3 unchanged: the frozen set's calibration tilts re-run on the engine that runs the
-prediction, compared realisation by realisation with the committed calibration (issue 13 step 4,
-the criterion "Chapter 3: the calibrated results unchanged within 5 %").
+prediction, compared realisation by realisation with the committed calibration (the
+prediction's criterion "Chapter 3: the calibrated results unchanged within 5 %").
 
     python -m studies chapter3-check                     # run (resumable), then compare
     python -m studies chapter3-check --compare-only      # compare what has run
@@ -55,7 +55,7 @@ DEFAULT_CALIBRATION = ROOT / "results" / "calibration"
 CHECK_DIR, CHECK_FILE = CHAPTER3_CHECK.split("/")  # under the prediction's --out
 DEFAULT_OUT = ROOT / "results" / "prediction" / CHECK_DIR
 DEFAULT_RUNS = ROOT / "results" / "prediction" / "runs" / CHECK_DIR
-TOLERANCE = 0.05  # relative, on lambda: issue 13 step 4, "unchanged within 5 %"
+TOLERANCE = 0.05  # relative, on lambda: the criterion "unchanged within 5 %"
 
 
 class CheckInputError(ValueError):

@@ -1,4 +1,4 @@
-"""The diagnosis (issue 33): why the laboratory's box models rocked at 2.4-3.2 Hz and the DEM's
+"""The diagnosis: why the laboratory's box models rocked at 2.4-3.2 Hz and the DEM's
 did not (results/prediction).  Each hypothesis gets one small decisive experiment; the table of
 hypothesis, experiment, result and verdict is results/diagnosis/README.md.
 

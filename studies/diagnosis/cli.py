@@ -1,4 +1,4 @@
-"""``python -m studies diagnosis ...``: the diagnosis' experiments (issue 33)."""
+"""``python -m studies diagnosis ...``: the diagnosis' experiments (E1-E7, results/diagnosis/)."""
 
 from __future__ import annotations
 
@@ -7,13 +7,13 @@ from pathlib import Path
 import typer
 
 app = typer.Typer(add_completion=False, no_args_is_help=True,
-                  help="The diagnosis (issue 33): why the laboratory's models rocked and the "
+                  help="The diagnosis: why the laboratory's models rocked and the "
                        "DEM's did not.  results/diagnosis/.")
 
 
 @app.callback()
 def diagnosis() -> None:
-    """One subcommand per experiment (issue 33's table)."""
+    """One subcommand per experiment (the table of results/diagnosis/README.md)."""
 
 
 @app.command()
@@ -116,7 +116,7 @@ def onset_rule() -> None:
 @app.command()
 def relative(results: Path = typer.Argument(..., help="a folder holding analysis.json files "
                                             "(e.g. results/shake)")) -> None:
-    """The DEM's accelerations relative to the table against the thesis' (issue 32 item 5): a
+    """The DEM's accelerations relative to the table against the thesis': a
     Markdown table of every analysis.json under RESULTS (recorded relative quantities, else the
     first-harmonic estimate from the absolute ones)."""
     from studies.diagnosis.relative_thesis import report

@@ -1,4 +1,4 @@
-"""E1 (issue 33): are the joints too stiff at low stress?  The low-branch frequency fingerprint.
+"""E1: are the joints too stiff at low stress?  The low-branch frequency fingerprint.
 
 Hypothesis: the DEM's box models are stiffer than the laboratory's, and unevenly so between
 models; a joint law that is right at 1-7 kPa would move each model's natural frequency to the

@@ -1,4 +1,4 @@
-"""E2 (issue 33): do two branches coexist, and were the laboratory's tests on the upper one?
+"""E2: do two branches coexist, and were the laboratory's tests on the upper one?
 
 Hypothesis: at the thesis' level the DEM has both a quiet (quasi-static) and a rocking branch
 inside 2.4-3.2 Hz; a specimen started from rest lands on the quiet one (the first prediction,

@@ -1,4 +1,4 @@
-"""E7 (issue 33): were the thesis' targets measured in another frame?
+"""E7: were the thesis' targets measured in another frame?
 
 Hypothesis: the thesis' acceleration amplifications (a ~2 inside Model II y's effective range,
 < 0.5 outside, thesis line 1017; ds = da at 1.9 Hz, line 1059) are relative to the table, and the

@@ -1,4 +1,4 @@
-"""The diagnosis' grid experiments (issue 33): E3, E5, E6 and the survival points as
+"""The diagnosis' grid experiments: E3, E5, E6 and the survival points as
 :class:`studies.diagnosis.grid.Grid` (E1's grids: studies.diagnosis.e1).
 
 Each varies one thing of the first prediction's case (frozen imperfect joints, thesis friction,
@@ -6,8 +6,9 @@ the same table motion otherwise) and nothing else; the runs are 10 cycles (+ 1 s
 judged by the library's branch verdict.  The baseline is the first prediction's rows of the same
 sweep and seeds (50 cycles, the case unchanged).
 
-E3, the table's start (thesis line 698: the table starts from rest; issue 32 item 1 built the
-options, cases/shake/protocol/): Model II y at the thesis' 1.53 m/s2, 2.4 / 2.8 / 3.2 Hz,
+E3, the table's start (thesis line 698: the table starts from rest; the options:
+cases/shake/protocol/, docs/table_protocols.md): Model II y at the thesis' 1.53 m/s2,
+2.4 / 2.8 / 3.2 Hz,
   * ``lab-start``: the table at rest before t = 0, u = A sin(w t) after: every brick receives
     the jump -A w in velocity relative to the table (-87 mm/s at 2.8 Hz);
   * ``ramp``: the amplitude raised over the first 2 cycles (quintic taper, no jump of any kind),
@@ -76,7 +77,7 @@ E6 = Grid(
     ),
     frequencies=(2.8,), seeds=SEEDS, cycles=CYCLES)
 
-# The survival re-judged with local collapse (issue 33): the thesis records collapses at Model I y
+# The survival re-judged with local collapse: the thesis records collapses at Model I y
 # 1.8 Hz (line 752: the top corner bricks) and Model II x 2.5 Hz (line 979: from the top of the
 # facade on the 16th cycle), where the first prediction found its runs standing over 20 cycles
 # (its standing check saw only the instrumented centre).  The same cases, 50 cycles.

@@ -1,6 +1,6 @@
 """A diagnosis experiment as a grid: case variants x frequencies x seeds of one first-prediction
-sweep, each run judged by the library's branch and survival verdicts (issue 33: E1, E3, E5, E6,
-the survival points).
+sweep, each run judged by the library's branch and survival verdicts (E1, E3, E5, E6, the survival
+points).
 
 An experiment (:class:`Grid`) names the first prediction's sweep whose case it starts from
 (``studies.prediction.plan.sweep_case``: the cases/shake file with the frozen imperfect joints of

@@ -1,7 +1,7 @@
-"""The DEM's accelerations relative to the table against the thesis' values (issue 32 item 5).
+"""The DEM's accelerations relative to the table against the thesis' values.
 
 The thesis' a and da are almost certainly relative to the table (postprocess.shake
-.relative_accelerations says why).  A run analysed since issue 32 carries them in analysis.json
+.relative_accelerations says why).  A run analysed by today's dem post carries them in analysis.json
 (``axes.<axis>.relative_to_table``).  Older analysis.json files (every shipped sweep) hold only
 the absolute ones; for them the relative amplification is estimated from the first harmonic:
 with rho = ``h1_amplitude_ratio`` and phi = ``lag_deg`` of an absolute quantity (its phasor

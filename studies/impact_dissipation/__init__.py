@@ -1,5 +1,5 @@
-"""Impact dissipation of the DEM's rocking bodies against Housner and the two-body model
-(issue 13 item 6).
+"""Impact dissipation of the DEM's rocking bodies against Housner and the two-body model: whether
+the DEM's impacts lose what a rigid block's do, and whether it matters for the prediction.
 
     python -m studies impact-dissipation --out results/prediction/impact-dissipation
 

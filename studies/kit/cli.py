@@ -1,4 +1,4 @@
-"""A study's command line (issue 34 item 1): one Typer command per study, run by ``main(argv)``.
+"""A study's command line: one Typer command per study, run by ``main(argv)``.
 
 Every study module keeps ``main(argv=None) -> int`` (the entry ``python -m studies <study>``
 hands it what follows the study's name; tests call it with a list) and builds its options as a

@@ -1,5 +1,5 @@
 """The blind prediction of the Chapter 4 shaking-table tests with the frozen imperfection set
-(issue 13, steps 3-5).
+(steps 3-5 of the protocol below).
 
     python -m studies prediction --frozen studies/calibration/frozen.yaml \\
         --out results/prediction                      # run (Model II y first), then report
@@ -10,7 +10,12 @@
     python -m studies prediction --frozen studies/calibration/frozen.yaml \\
         --out results/prediction --only model-ii-y --cycles-check 10   # 10 against 50 cycles
 
-The protocol (issue 13: calibrate -> freeze -> predict, in this order in the git history).
+The protocol: calibrate -> freeze -> predict, in this order in the git history, so that no
+Chapter 4 result can have chosen the parameters.  Its steps, which the modules name: (1)
+calibrate the imperfections on the Chapter 3 tilts (studies.calibration); (2) freeze one set, a
+committed file (studies/calibration/frozen.yaml); (3) predict Chapter 4, Model II y in full
+first, at least 10 realisations per frequency; (4) judge the prediction by the success criteria
+(criteria.criteria); (5) reject false successes (criteria.false_success_checks).
 
 * The frozen set (plan.load_frozen) is a YAML file under ``cases/`` with an ``imperfections:``
   mapping (the fields of docs/imperfections.md except ``seed``: ``bed_unevenness`` (m),
@@ -66,19 +71,19 @@ The protocol (issue 13: calibrate -> freeze -> predict, in this order in the git
   over the surviving realisations; null with the reason when the peak is at the edge of the
   sweep or not clear), the effective range, amplification of ds inside and outside (median and
   10-90 % over the realisations), lag inside, excited bricks, survival rate, CPU time; the
-  criteria of issue 13 step 4 (criteria.criteria) and the false-success checks of step 5
+  criteria of step 4 (criteria.criteria) and the false-success checks of step 5
   (criteria.false_success_checks), each pass / fail / pending; beside them, not criteria, the
   acceleration table, the front / back table and the cycles checks (below).
 
 Thesis numbers: ../shared/REFERENCE.md, "Shaking-table tests (Chapter 4)" (characteristic
 frequencies, effective ranges, amplifications, lags, excited portions; Appendix I groups and
-peak accelerations) and issue 13's table of success criteria.  Units: Hz, s, m, m/s2; the
+peak accelerations) and the success criteria (criteria.py, protocol.py).  Units: Hz, s, m, m/s2; the
 amplifications are dimensionless (thesis Section 4.2.5: steady-state peak-to-peak of the
 response over that of the excitation of the same kind).
 
-Shown, not scored (none is one of issue 13's criteria):
+Shown, not scored (none is one of the success criteria):
 
-* The acceleration low-passed like an instrument's (issue 13 step 4).  The DEM's accelerometer
+* The acceleration low-passed like an instrument's (step 4).  The DEM's accelerometer
   is ideal (500 Hz samples of a rigid brick, every impact spike kept: an amplification of a of
   6-8 on Model II where the tests read ~2); the thesis gives no sampling rate or filter for its
   accelerometers.  ``a_lp`` is ``a`` through an ASSUMED instrument: a 4-pole Butterworth at
@@ -94,7 +99,7 @@ Shown, not scored (none is one of issue 13's criteria):
   cutoff) and a_front_lp / a_lp per row, then per-seed means inside the range
   (analysis.front_back_inside) and the median ratio per frequency.  The DEM's box model is
   symmetric front to back but for the imperfections' draws and the excitation's sign.
-* Fewer cycles (issue 13 step 3: "show that the cut does not change the answer").  The table's
+* Fewer cycles (step 3: a cut must be shown not to change the answer).  The table's
   sine (dem.table_motion) has no ramp-in or taper, the settle phase of an imperfect scene ends
   before the clock starts and does not depend on the duration, and the run loop's steps differ
   only at the run's end: an N-cycle run is the first N cycles of a longer one.  Measured: the

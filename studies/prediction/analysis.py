@@ -145,7 +145,8 @@ def analyse_sweep(name: str, data: dict | None) -> dict:
     out["characteristic_frequency_per_seed_hz"] = fcs
     out["characteristic_frequency_band"] = statistics(fcs)
     out["realisations_without_characteristic_frequency"] = sum(1 for x in fcs if x is None)
-    # inside / outside: the thesis' range (the same frequencies as the tests; issue 13 step 4),
+    # inside / outside: the thesis' range (the same frequencies as the tests, as the criteria
+    # compare),
     # and the DEM's own effective range where it found one
     def split(rng):
         if not rng:

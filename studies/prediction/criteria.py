@@ -1,4 +1,4 @@
-"""The criteria of issue 13 step 4 and the false-success checks of step 5, each pass / fail /
+"""The success criteria (protocol step 4) and the false-success checks (step 5), each pass / fail /
 pending.
 """
 
@@ -12,7 +12,7 @@ from studies.prediction.protocol import (AMP_FACTOR, AMP_RATIO_MIN, COURSES_TOL,
                                          MEASURED_FRICTION, ORDER, SURVIVAL_MIN, THESIS)
 
 
-# ---- criteria (issue 13 step 4) and false-success checks (step 5) --------------------------------
+# ---- criteria (protocol step 4) and false-success checks (step 5) -----------------------------
 def fc_verdict(sw: dict, thesis_fc: float | None) -> dict:
     """Characteristic frequency: the median curve's peak within FC_TOL_HZ of the thesis and the
     thesis value inside the band of the per-seed characteristic frequencies; a null prediction
@@ -47,7 +47,7 @@ def survival_verdict(sw: dict, min_rate: float = SURVIVAL_MIN) -> dict:
 
 
 def criteria(summary: dict, chapter3: dict | None = None) -> list[dict]:
-    """The rows of issue 13 step 4 for every sweep in ``summary`` (sweep -> analyse_sweep);
+    """The success criteria's rows for every sweep in ``summary`` (sweep -> analyse_sweep);
     ``chapter3``: the record of studies.chapter3.check (its check.json) for the last row,
     pending without one."""
     rows = []
@@ -138,7 +138,8 @@ def criteria(summary: dict, chapter3: dict | None = None) -> list[dict]:
 
 
 def false_success_checks(plan: dict | None, summary: dict) -> list[dict]:
-    """Issue 13 step 5 as explicit rows, each pass / fail / pending with what was checked."""
+    """The false-success checks (protocol step 5) as explicit rows, each pass / fail / pending
+    with what was checked."""
     rows = []
     sweeps = (plan or {}).get("sweeps") or {}
     frozen = (plan or {}).get("frozen") or {}

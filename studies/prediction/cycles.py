@@ -1,4 +1,4 @@
-"""The cycles check (issue 13 step 3: fewer cycles must not change the answer) and the cut it
+"""The cycles check (protocol step 3: fewer cycles must not change the answer) and the cut it
 justifies (``--cut-cycles``).
 """
 
@@ -17,7 +17,7 @@ from studies.prediction.protocol import (CYCLES_REL_FLOOR, CYCLES_RULE, FULL_SWE
                                          TRUNCATED_CYCLES)
 
 
-# ---- the cycles check (issue 13 step 3: fewer cycles must not change the answer) -----------------
+# ---- the cycles check (protocol step 3: fewer cycles must not change the answer) --------------
 def truncated_row(seed: int, f: float, run_dir: Path, cycles: float) -> dict:
     """The row (:func:`row_from_point`) of one finished run analysed over its first ``cycles``
     cycles only (postprocess.shake.analyze_run(cycles=...): as if it had shaken that many; the
@@ -236,8 +236,8 @@ def cycles_check_path(out: Path, name: str, cycles: float) -> Path:
 
 def cut_record(out: Path, plan: dict | None, cycles: float) -> dict:
     """The justification of running sweeps other than FULL_SWEEP at ``cycles`` < the plan's
-    (issue 13 step 3: "do Model II y in full first ... and show that the cut does not change
-    the answer"): FULL_SWEEP finished at the plan's cycles, and its committed
+    (protocol step 3: Model II y in full first, and a cut shown not to change the answer):
+    FULL_SWEEP finished at the plan's cycles, and its committed
     ``cycles-check-<N>.json``, made from the finished sweep, says the answer is unchanged
     (:func:`cycles_verdict`).  PredictionInputError naming what is missing otherwise."""
     if plan is None:

@@ -1,4 +1,4 @@
-"""The frozen set (issue 13 step 2: a committed YAML file under studies/calibration/) and the
+"""The frozen set (protocol step 2: a committed YAML file under studies/calibration/) and the
 pre-registered plan written before the first run (``<out>/plan.json``).
 """
 

@@ -62,7 +62,7 @@ def row_from_point(seed: int, p: dict) -> dict:
                               (mech.get("corner_twist") or {}).get("h1_amplitude_deg")},
             "note": p.get("note")})
         surv = p.get("survival")
-        if surv:   # postprocess.survival's verdict (points analysed since issue 32 item 3)
+        if surv:   # postprocess.survival's verdict (points analysed before it have none)
             row["survival"] = {k: surv.get(k) for k in SURVIVAL_KEYS}
     return row
 

@@ -11,17 +11,17 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 DEFAULT_FROZEN = ROOT / "studies" / "calibration" / "frozen.yaml"
 DEFAULT_CYCLES = 50          # thesis: 50 cycles per test (REFERENCE.md, Excitation)
-DEFAULT_REALISATIONS = 10    # issue 13 step 3: at least 10 realisations per frequency
+DEFAULT_REALISATIONS = 10    # protocol step 3: at least 10 realisations per frequency
 PARAM_KEYS = ("bed_unevenness", "face_shape", "size_scatter", "arris")
 PROVENANCE_KEYS = ("derived_in", "candidate", "note", "frozen_on")
-#: the order of the study: Model II y in full first (issue 13 step 3)
+#: the order of the study: Model II y in full first (protocol step 3)
 ORDER = ("model-ii-y", "model-ii-x", "model-ii-xy", "model-i-y", "model-i-x", "model-iii-y")
 EXCITATION_CHECK = ("excitation as in the thesis (Appendix I peak accelerations, 50 cycles, or "
                     "fewer where shown not to change the answer)")
 FULL_SWEEP = ORDER[0]        # run in full; its cycles check is what may justify a cut elsewhere
 CHAPTER3_CHECK = "chapter3-check/check.json"  # under --out: studies.chapter3.check's record
 MEASURED_FRICTION = 0.81     # small bricks, thesis Tables 3.1-3.2 (REFERENCE.md, Bricks)
-SURVIVAL_MIN = 0.8           # issue 13: at least 80 % of the realisations survive
+SURVIVAL_MIN = 0.8           # protocol step 4: at least 80 % of the realisations survive
 FC_TOL_HZ = 0.3              # characteristic frequency within +-0.3 Hz
 AMP_FACTOR = 1.5             # amplification inside the range within x 1.5
 AMP_RATIO_MIN = 3.0          # inside / outside > 3 for Model II
@@ -47,7 +47,7 @@ CYCLES_RULE = (
     f">= {SURVIVAL_MIN:g}) is the same; the same runs, their first N cycles analysed as an "
     "N-cycle run (no new simulation)")
 
-#: thesis numbers per sweep (../shared/REFERENCE.md, Chapter 4; issue 13 step 4).  peak_acc:
+#: thesis numbers per sweep (../shared/REFERENCE.md, Chapter 4; protocol step 4).  peak_acc:
 #: Appendix I constant peak accelerations (m/s2; the diagonal: 1.08 per axis); fc (Hz); range
 #: [lo, hi] Hz (None: the text gives none); amp_in / amp_out: ds amplification inside / outside;
 #: lag_in / lag_out (s); excited bricks and courses from the top.  Model I x: the thesis says only

@@ -1,4 +1,5 @@
-"""Slow constant-rate tilts against the calibration's quasi-static lambda (issue 13, step 1).
+"""Slow constant-rate tilts against the calibration's quasi-static lambda (is the
+calibration's lambda the rate -> 0 value?).
 
     python -m studies qs-validation --out results/calibration/qs-validation   # run, report
     python -m studies qs-validation --out results/calibration/qs-validation --report

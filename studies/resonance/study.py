@@ -1,5 +1,5 @@
-"""Where does the DEM's Model II resonate?  Context for the blind prediction of issue 13, run
-AFTER the freeze; it changes nothing in the frozen set and is not a prediction.
+"""Where does the DEM's Model II resonate?  Context for the blind prediction (studies.prediction),
+run AFTER the freeze; it changes nothing in the frozen set and is not a prediction.
 
 Why: in both finished Model II sweeps (results/prediction, y: 1.8-3.6 Hz, x: 1.8-3.8 Hz) every
 seed's ds amplification rises monotonically to the sweep's top edge, roughly as f^2, with a

@@ -2,7 +2,7 @@
 
     python -m studies two-body-report [--dem]        # markdown on stdout; --dem adds the DEM
                                                         # comparison (runs the DEM, dem.run)
-    python -m studies two-body-report --top-contact  # section 9: the two top contacts (issue 14)
+    python -m studies two-body-report --top-contact  # section 9: the two top contacts
     python -m studies two-body-report --dem-sweep    # section 9: against the DEM's rocking
                                                         # sweep (reads results/shake/, runs no DEM)
 
@@ -218,7 +218,7 @@ def dem_comparison() -> str:
 
 
 # ------------------------------------------------------------------------------------------
-# the two top contacts (issue 14)
+# the two top contacts: the thesis' sliding roof and one that moves with the facade top
 # ------------------------------------------------------------------------------------------
 THESIS_STEMS = ([f"model-ii-{f:.1f}hz" for f in (1.8, 2.0, 2.4, 2.8)]
                 + [f"model-iii-{f:.1f}hz" for f in (2.0, 2.2, 2.4, 2.8)]
@@ -320,7 +320,7 @@ def two_body_report(
         dem: bool = typer.Option(False, "--dem", help="also run the DEM comparison (Taichi)"),
         top_contact: bool = typer.Option(False, "--top-contact",
                                          help="only the tables comparing the two top contacts "
-                                              "(issue 14)"),
+                                              "(sliding, co-moving)"),
         dem_sweep: bool = typer.Option(False, "--dem-sweep",
                                        help="only the comparison with the DEM's Model II y 4.0 "
                                             "m/s2 sweep (studies.two_body.vs_dem_sweep; reads "

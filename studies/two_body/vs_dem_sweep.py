@@ -1,5 +1,5 @@
-"""The two-body model against the DEM's rocking sweep (issue 14: "compare with the DEM's rocking
-portions where the DEM rocks").
+"""The two-body model against the DEM's rocking sweep, where the DEM rocks (a
+comparison at the thesis' level would only compare two resting models).
 
     python -m studies two-body-vs-dem        # markdown on stdout, ~10 s
     python -m studies two-body-report --dem-sweep  # the same

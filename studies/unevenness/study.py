@@ -1,5 +1,5 @@
 """How much does Model II's shaking response depend on the bed unevenness?  Context for the blind
-prediction of issue 13, run AFTER the freeze; it changes nothing in the frozen set.
+prediction (studies.prediction), run AFTER the freeze; it changes nothing in the frozen set.
 
 Why: the calibration on the tilting tests chose 0.1 mm planar beds by a tie-break between
 0.05, 0.1 and 0.2 mm (results/calibration/FINDINGS.md: the tilts barely constrain the bed

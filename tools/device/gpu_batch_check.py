@@ -1,4 +1,4 @@
-"""Issue 35's GPU check, on a borrowed machine (tools/device/README.md): run from the repository
+"""The batched engine's GPU check, on a borrowed machine (tools/device/README.md): run from the repository
 root with `bash tools/device/gpu_batch_check.sh` (carry [".device"]).
 
 Parts, each with its own time budget, results appended to $OUT as they come (part 0 first:

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Issue 35's GPU check on a borrowed machine (tools/device/README.md), from the repository root:
+# The batched engine's GPU check on a borrowed machine (tools/device/README.md), from the repository root:
 #   device run, carry [".device"] (bash tools/device/make_bundle.sh first), timeout_s 570:
 #   R=8 CYCLES=10 KS=1,16,64,100 bash tools/device/gpu_batch_check.sh
 # Everything it measures lands in $OUT (gpu.jsonl, points_gpu.json, points_cpu.json,
