@@ -282,6 +282,15 @@ class BoxModelSpec(_Placed):
     roof: RoofSpec | None = Field(
         default_factory=RoofSpec, description="roof beams and masses (null: bare walls)"
     )
+    corners: Literal["interlocked", "unbonded"] = Field(
+        default="interlocked",
+        # not in the dump while interlocked: recorded cases keep their identity
+        exclude_if=lambda v: v == "interlocked",
+        description="interlocked: the thesis' corners (L and T walls run through the corners in "
+        "alternate courses); unbonded: a straight vertical joint at each corner (L walls run "
+        "through in every course, T walls butt between them; no brick of one wall overlaps the "
+        "other's in plan), a bound on what the corners contribute",
+    )
 
     @model_validator(mode="after")
     def _courses_known(self) -> "BoxModelSpec":
