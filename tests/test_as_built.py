@@ -305,3 +305,57 @@ def test_a_column_built_out_of_plumb_tips_at_its_leaning_centre_of_mass(tmp_path
     assert 0.002 < de < 0.005
     upper = math.tan(math.atan(rigid) + math.radians(0.2))
     assert rigid - 2 * de <= col["load_factor"] <= upper, (col["load_factor"], rigid, de)
+
+
+# ------------------------------------------------------------------ Chapter 3 invariants
+#: the upper ends of the documented ranges (docs/imperfections.md, "As built")
+HEAD_GAP = {"mean": 5e-4, "scatter": 3e-4}
+PLUMB = {"sigma": [5e-4, 5e-4], "lean": [0.4, 0.4]}
+FEATURES = {"head_gap": {"head_gap": HEAD_GAP}, "plumb": {"plumb": PLUMB},
+            "both": {"head_gap": HEAD_GAP, "plumb": PLUMB, "corner_gap": {"mean": 2e-3,
+                                                                          "scatter": 1e-3}}}
+
+
+def _tilt(name, length, courses, imp, start, tmp_path):
+    from dem.commands.run import RUN_ANALYSES
+    from dem.run import run_case
+
+    case = parse_case({
+        "name": name, "scene": {"wall": {"length": length, "courses": courses}},
+        "material": {"friction": 0.81, "base_friction": 1.5},
+        "imperfections": {**imp, "seed": 1},
+        "loading": {"type": "tilt", "axis": "y", "rate": 4.0, "start_angle": start,
+                    "start_time": 0.5, "max_angle": 45.0, "collapse": {"after": 0.2}},
+        "run": {"duration": 6.0, "output_interval": 0.005, "vtk": False, "snapshot": False}})
+    return run_case(case, tmp_path, analyses=RUN_ANALYSES).summary
+
+
+@pytest.mark.parametrize("feature", [pytest.param("head_gap", marks=pytest.mark.slow),
+                                     pytest.param("plumb", marks=pytest.mark.slow), "both"])
+def test_a_5x5_wall_as_built_still_slides_at_mu(feature, tmp_path):
+    """The in-plane 5 x 5 small-brick wall (L/H = 3, s/h = 1.5, mu = 0.81) slides at lambda =
+    mu (results/tilt: 0.812 perfect, 0.812 calibrated): with open head joints and courses out of
+    plumb at the top of their documented ranges it still slides, within 3 % of mu (a single
+    wall has no corners: corner_gap draws nothing there, which 'both' checks).  The features one
+    by one are behind the slow marker (~20 s each), all three together run by default."""
+    s = _tilt(f"5x5-{feature}", 5, 5, FEATURES[feature], 36.0, tmp_path)
+    assert s["collapse"]["detected"]
+    assert s["collapse"]["load_factor"] == pytest.approx(0.81, rel=0.03)
+    assert s["mechanism"]["mechanism"] == "sliding"
+    ab_rec = s["imperfections"]["as_built"]
+    if feature == "both":
+        assert ab_rec["corner_gap"]["n_joints"] == 0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("feature", list(FEATURES))
+def test_the_in_plane_sequence_against_l_over_h_is_kept(feature, tmp_path):
+    """Thesis Fig 3.12 and results/tilt: L/H = 3 slides (3 x 3, lambda in [0.75, 0.83], the
+    bounds of tests/test_tilt_mechanisms.py), L/H = 0.6 overturns (2 x 10, lambda in [0.44,
+    0.6]), with each as-built feature at the top of its range."""
+    s = _tilt(f"3x3-{feature}", 3, 3, FEATURES[feature], 33.0, tmp_path / "a")
+    assert s["collapse"]["detected"] and 0.74 <= s["collapse"]["load_factor"] <= 0.83
+    assert s["mechanism"]["mechanism"] == "sliding"
+    s = _tilt(f"2x10-{feature}", 2, 10, FEATURES[feature], 20.0, tmp_path / "b")
+    assert s["collapse"]["detected"] and 0.44 <= s["collapse"]["load_factor"] <= 0.6
+    assert s["mechanism"]["mechanism"] == "overturning"
