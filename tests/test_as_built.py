@@ -160,15 +160,15 @@ def test_corner_gaps_set_back_the_butting_bricks_of_every_corner_and_course(corn
 
 def test_facade_corners_are_found_for_every_connection():
     """A facade with wings: one butting end per corner and course, whichever wall runs
-    through (facade in even courses, wings in odd ones)."""
-    for conn in ("poor", "good", "strong"):
+    through (facade in even courses, wings in odd ones; unbonded: the facade in every one)."""
+    for conn in ("poor", "good", "strong", "unbonded"):
         s = build_facade("small", 5, 6, left={"length": 3, "connection": conn},
                          right={"length": 3, "connection": conn})
         ends = ab.corner_ends(s, 0.15 * SMALL_L)
         assert len(ends) == 2 * 6, conn
         names = [s.group_names[s.group[b]] for b, _, _ in ends]
         for (b, _, _), name in zip(ends, names):
-            assert (name == "facade") == (s.course[b] % 2 == 1)
+            assert (name == "facade") == (s.course[b] % 2 == 1 and conn != "unbonded")
 
 
 def test_plumb_moves_whole_courses_by_the_walk_and_the_lean():

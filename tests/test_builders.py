@@ -325,6 +325,31 @@ def test_unbonded_box_model_has_straight_corner_joints():
     assert_sound(s)
 
 
+def test_facade_unbonded_wings_butt_in_every_course():
+    """connection 'unbonded': the facade runs through both corners in every course (5 whole
+    bricks, or a half, 4 whole and a half), each wing butts against its back face in every
+    course in the band of a strong corner; no facade brick overlaps a wing brick in plan, the
+    wings' joints stay half a brick from the course below's, and the scene is sound."""
+    s = build_facade("small", 5, 6, left=Wing(3, "unbonded"), right=Wing(3, "unbonded"))
+    lo, hi = lo_hi(s)
+    fac = np.flatnonzero(s.group == s.group_names.index("facade"))
+    wing = np.flatnonzero(s.group != s.group_names.index("facade"))
+    ov = np.minimum(hi[fac, None, :2], hi[None, wing, :2]) - \
+        np.maximum(lo[fac, None, :2], lo[None, wing, :2])
+    assert not ((ov > TOL).all(axis=2)).any()
+    for k in range(6):
+        sel = np.intersect1d(fac, np.flatnonzero(s.course == k))
+        assert lo[sel, 0].min() == pytest.approx(-0.2625) and hi[sel, 0].max() == pytest.approx(0.2625)
+        for name in ("wing-left", "wing-right"):
+            w = (s.course == k) & (s.group == s.group_names.index(name))
+            assert lo[w, 1].min() >= 0.025 - TOL
+            assert np.allclose(hi[w, 0] - lo[w, 0], 0.050)
+    for name in ("wing-left", "wing-right"):
+        for k in range(5):
+            assert min_offset(joints(s, k, name, 1), joints(s, k + 1, name, 1)) >= 0.050 - TOL
+    assert_sound(s)
+
+
 def test_box_model_corner_option_is_checked():
     with pytest.raises(ValueError, match="corners"):
         build_box_model("II", corners="loose")

@@ -159,11 +159,13 @@ class WallSpec(_Placed):
 
 
 Connection = Annotated[
-    Union[Literal["poor", "good", "strong"], float],
+    Union[Literal["poor", "good", "strong", "unbonded"], float],
     Field(
         description="corner connection: the lap of the bricks of one wall into the other wall's "
         "thickness in alternate courses, m, 0 < lap <= wall thickness; or 'poor' (0.010 m), "
-        "'good' (= course height) or 'strong' (= wall thickness: a fully interlocked corner)"
+        "'good' (= course height), 'strong' (= wall thickness: a fully interlocked corner) or "
+        "'unbonded' (a straight vertical joint: the facade runs through every course, the wing "
+        "butts against it; a bound)"
     ),
 ]
 
