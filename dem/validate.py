@@ -468,11 +468,10 @@ def check_case(case: Case, source: str | Path | None = None,
             f"it to 0.5 % (dem/compliance.py)")
     if case.imperfections.any():
         from dem.imperfections import realised_summary
-        from dem.run.build import as_built_record, imperfection_params
+        from dem.run.build import as_built_record, imperfection_params, size_reference
 
-        nominal = scene_from_case(case, check=False, imperfect=False).size
-        out.imperfections = realised_summary(scene, imperfection_params(case), nominal,
-                                             as_built_record(case))
+        out.imperfections = realised_summary(scene, imperfection_params(case),
+                                             size_reference(case), as_built_record(case))
     dt_crit = critical_step(case, scene)
     out.dt_critical = dt_crit if math.isfinite(dt_crit) else None
     sv = case.solver

@@ -359,3 +359,16 @@ def test_the_in_plane_sequence_against_l_over_h_is_kept(feature, tmp_path):
     s = _tilt(f"2x10-{feature}", 2, 10, FEATURES[feature], 20.0, tmp_path / "b")
     assert s["collapse"]["detected"] and 0.44 <= s["collapse"]["load_factor"] <= 0.6
     assert s["mechanism"]["mechanism"] == "overturning"
+
+
+def test_size_deviations_are_not_counted_from_the_gaps():
+    """With size scatter and gaps, `dem check`'s largest size deviation is the scatter's (at
+    most 3 sigma_L), not the bricks the gaps shortened."""
+    from dem.validate import check_case
+
+    imp = {"size_scatter": [3e-4, 2e-4, 1e-4], "corner_gap": {"mean": 2e-3, "scatter": 1e-3},
+           "head_gap": {"mean": 5e-4, "scatter": 3e-4}, "seed": 3}
+    out = check_case(case_of({"box_model": {"model": "II"}}, imp))
+    assert out.ok, out.errors
+    assert out.imperfections["sizes"]["largest_deviation_m"] <= 3 * 3e-4 + 1e-12
+    assert out.imperfections["as_built"]["corner_gap"]["largest_m"] > 3 * 3e-4

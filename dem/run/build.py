@@ -255,3 +255,15 @@ def as_built_record(case: Case) -> dict | None:
         return None
     _, drawn = build_parts(case)
     return as_built_summary(params, drawn)
+
+
+def size_reference(case: Case) -> np.ndarray:
+    """The block sizes (m) the size scatter's deviations are measured from: the perfect scene's,
+    or where an as-built field is set, the scene with its gaps but no size scatter (the bricks
+    the gaps shortened are not counted as scattered; the as-built draws do not depend on the
+    size scatter's, dem.imperfections.as_built_streams)."""
+    if not case.imperfections.as_built():
+        return scene_from_case(case, check=False, imperfect=False).size
+    imp = case.imperfections.model_copy(update={"size_scatter": [0.0, 0.0, 0.0],
+                                                "bed_unevenness": 0.0, "arris": 0.0})
+    return scene_from_case(case.model_copy(update={"imperfections": imp}), check=False).size
