@@ -23,6 +23,16 @@ measured on the same machine state; it prints the median CPU time per brick-step
 ratio, the share of pairs whose overlap was kept, and the largest difference of the final
 positions.  With --before, a fresh process on the code in TREE runs the same wall without the
 option and the final positions of the reuse-off run are compared with it bit for bit.
+
+    python benchmarks/imperfection_cost.py --model-ii [--repeats 3] [--seconds 0.2]
+
+times the as-built box models (docs/imperfections.md, "As built") against today's: Model II
+shaken along y at 2.8 Hz, 1.53 m/s2 (cases/shake/model-ii/group-3-y-1.53.yaml), serial, one
+thread, each variant in a fresh process, interleaved --repeats times: ``today`` (interlocked,
+no gaps), ``corner gaps`` (imperfections.corner_gap 1.0 +- 0.5 mm, seed 0, as
+cases/shake/as-built/), ``unbonded`` (box_model.corners: unbonded).  The gapped model is
+settled first, as a run does (not timed); then --seconds of shaking from t = 0 are timed.
+Prints the median CPU seconds per simulated second, the time step and the contact pairs.
 """
 
 from __future__ import annotations
@@ -105,6 +115,63 @@ print(json.dumps(res))
 """
 
 
+MODEL_II_CHILD = r"""
+import json, sys, time
+import numpy as np
+from dem.case import parse_case
+from dem.run.build import build
+imp, box, seconds = json.loads(sys.argv[1]), json.loads(sys.argv[2]), float(sys.argv[3])
+data = {"name": "model-ii", "scene": {"box_model": {"model": "II", **box}},
+        "material": {"friction": 0.81, "base_friction": 1.5},
+        "loading": {"type": "shake", "direction": [0, 1, 0], "frequency": 2.8,
+                    "peak_acceleration": 1.53, "cycles": 50},
+        "run": {"duration": 18.86}, "solver": {"threads": 1, "mode": "serial"}}
+if imp:
+    data["imperfections"] = imp
+case = parse_case(data)
+b = build(case)
+sim = b.sim
+if case.imperfections.any():
+    from dem.run.settle import settle
+    settle(sim, b.loading, case.solver.local_damping)
+n = int(round(seconds / sim.dt))
+sim.advance(200, b.loading)  # warm
+c0 = time.process_time()
+sim.advance(n, b.loading)
+cpu = time.process_time() - c0
+print(json.dumps({"cpu_per_sim_s": cpu / (n * sim.dt), "dt": sim.dt, "steps": n,
+                  "n_pairs": int(sim.contacts.n_pairs), "n_blocks": sim.n_blocks}))
+"""
+
+MODEL_II_VARIANTS = {"today": ({}, {}),
+                     "corner gaps 1.0 +- 0.5 mm": (
+                         {"corner_gap": {"mean": 1e-3, "scatter": 5e-4}, "seed": 0}, {}),
+                     "unbonded corners": ({}, {"corners": "unbonded"})}
+
+
+def model_ii(args) -> None:
+    """The --model-ii measurement (module docstring)."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT), DEM_THREADS="1")
+    runs: dict[str, list[dict]] = {k: [] for k in MODEL_II_VARIANTS}
+    for _ in range(args.repeats):
+        for name, (imp, box) in MODEL_II_VARIANTS.items():
+            out = subprocess.run([sys.executable, "-c", MODEL_II_CHILD, json.dumps(imp),
+                                  json.dumps(box), str(args.seconds)], cwd=ROOT, env=env,
+                                 capture_output=True, text=True, check=True)
+            runs[name].append(json.loads(out.stdout.strip().splitlines()[-1]))
+    base = statistics.median(r["cpu_per_sim_s"] for r in runs["today"])
+    print(f"Model II, y, 2.8 Hz, 1.53 m/s2; serial, 1 thread; {args.seconds} s of shaking "
+          f"timed per run, {args.repeats} runs each, fresh processes, interleaved (CPU time):")
+    print("| model | blocks | dt (s) | contact pairs | CPU s per simulated s (median) | min | "
+          "ratio to today |")
+    print("|---|---|---|---|---|---|---|")
+    for name, rs in runs.items():
+        v = [r["cpu_per_sim_s"] for r in rs]
+        med = statistics.median(v)
+        print(f"| {name} | {rs[0]['n_blocks']} | {rs[0]['dt']:.3g} | {rs[0]['n_pairs']} | "
+              f"{med:.1f} | {min(v):.1f} | {med / base:.3f} |")
+
+
 def overlap(args) -> None:
     """The --overlap measurement (module docstring)."""
     import numpy as np
@@ -156,7 +223,14 @@ def main() -> None:
     ap.add_argument("--overlap", action="store_true",
                     help="time the warped kernels' overlap reuse")
     ap.add_argument("--tol", type=float, default=1e-7, help="overlap reuse tolerance, m")
+    ap.add_argument("--model-ii", action="store_true",
+                    help="time Model II with corner gaps and unbonded corners against today's")
+    ap.add_argument("--seconds", type=float, default=0.2,
+                    help="--model-ii: simulated seconds of shaking timed per run")
     args = ap.parse_args()
+    if args.model_ii:
+        model_ii(args)
+        return
     if args.overlap:
         overlap(args)
         return

@@ -157,6 +157,20 @@ def imperfection_line(imp: dict) -> str:
     if "sizes" in imp:
         parts[-1] += f" (largest deviation {imp['sizes']['largest_deviation_m'] * mm:.3g} mm)"
     parts.append(f"arris {imp['arris_m'] * mm:.3g} mm")
+    ab = imp.get("as_built", {})
+    for key, what in (("corner_gap", "corner ends"), ("head_gap", "head joints")):
+        if key in ab:
+            r = ab[key]
+            parts.append(f"{key.replace('_', ' ')}s {r['mean_m'] * mm:.3g} +- "
+                         f"{r['scatter_m'] * mm:.3g} mm ({r['n_open']} of {r['n_joints']} "
+                         f"{what} open, largest {r['largest_m'] * mm:.3g} mm)")
+    if "plumb" in ab:
+        r = ab["plumb"]
+        parts.append(f"out of plumb [{r['sigma_m'][0] * mm:.3g}, {r['sigma_m'][1] * mm:.3g}] mm "
+                     f"per course, lean [{r['lean_deg'][0]:.3g}, {r['lean_deg'][1]:.3g}] deg "
+                     f"(top course offset [{r['top_offset_m'][0] * mm:.3g}, "
+                     f"{r['top_offset_m'][1] * mm:.3g}] mm, largest step between courses "
+                     f"{r['largest_course_step_m'] * mm:.3g} mm)")
     return (f"imperfections (seed {imp['seed']}): " + ", ".join(parts)
             + "; the scene settles under gravity before it is loaded (docs/imperfections.md)")
 
@@ -454,10 +468,10 @@ def check_case(case: Case, source: str | Path | None = None,
             f"it to 0.5 % (dem/compliance.py)")
     if case.imperfections.any():
         from dem.imperfections import realised_summary
-        from dem.run.build import imperfection_params
+        from dem.run.build import as_built_record, imperfection_params, size_reference
 
-        nominal = scene_from_case(case, check=False, imperfect=False).size
-        out.imperfections = realised_summary(scene, imperfection_params(case), nominal)
+        out.imperfections = realised_summary(scene, imperfection_params(case),
+                                             size_reference(case), as_built_record(case))
     dt_crit = critical_step(case, scene)
     out.dt_critical = dt_crit if math.isfinite(dt_crit) else None
     sv = case.solver

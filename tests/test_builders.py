@@ -289,6 +289,72 @@ def test_box_model_corners_interlock():
                 assert name[0] == ("L" if k % 2 == 0 else "T")
 
 
+def test_unbonded_box_model_has_straight_corner_joints():
+    """corners='unbonded': the L walls run through every course (7 whole bricks, or a half, 6
+    whole and a half), the T walls butt between them; no L brick and no T brick share any
+    point of the plan (a straight vertical joint), the bond inside each wall is kept (joints of
+    successive courses half a brick apart) and the scene is sound.  The plan outline and the
+    roof are those of the interlocked model."""
+    s = build_box_model("II", corners="unbonded")
+    lo, hi = lo_hi(s)
+    g = {name: s.group == i for i, name in enumerate(s.group_names)}
+    for k in range(9):
+        in_k = s.course == k
+        counts = {w: int((g[w] & in_k).sum()) for w in ("L1", "L2", "T1", "T2")}
+        assert counts == ({"L1": 7, "L2": 7, "T1": 4, "T2": 4} if k % 2 == 0
+                          else {"L1": 8, "L2": 8, "T1": 5, "T2": 5})
+    walls_l = np.flatnonzero(g["L1"] | g["L2"])
+    walls_t = np.flatnonzero(g["T1"] | g["T2"])
+    # plan overlap of every L brick with every T brick (any course): never positive
+    ov = np.minimum(hi[walls_l, None, :2], hi[None, walls_t, :2]) - \
+        np.maximum(lo[walls_l, None, :2], lo[None, walls_t, :2])
+    assert not ((ov > TOL).all(axis=2)).any()
+    # the L walls span the full length in every course, the T walls only the inside
+    for k in range(9):
+        sel = (s.course == k) & g["L1"]
+        assert lo[sel, 0].min() == pytest.approx(-0.3675) and hi[sel, 0].max() == pytest.approx(0.3675)
+        sel = (s.course == k) & g["T1"]
+        assert lo[sel, 1].min() >= -0.2125 - TOL and hi[sel, 1].max() <= 0.2125 + TOL
+    for wall, axis in (("L1", 0), ("L2", 0), ("T1", 1), ("T2", 1)):
+        for k in range(8):
+            assert min_offset(joints(s, k, wall, axis), joints(s, k + 1, wall, axis)) >= 0.050 - TOL
+    ref = build_box_model("II")
+    assert np.allclose(np.array(s.bounding_box()), np.array(ref.bounding_box()))
+    roof = s.course < 0
+    assert np.array_equal(s.position[roof], ref.position[ref.course < 0])
+    assert_sound(s)
+
+
+def test_facade_unbonded_wings_butt_in_every_course():
+    """connection 'unbonded': the facade runs through both corners in every course (5 whole
+    bricks, or a half, 4 whole and a half), each wing butts against its back face in every
+    course in the band of a strong corner; no facade brick overlaps a wing brick in plan, the
+    wings' joints stay half a brick from the course below's, and the scene is sound."""
+    s = build_facade("small", 5, 6, left=Wing(3, "unbonded"), right=Wing(3, "unbonded"))
+    lo, hi = lo_hi(s)
+    fac = np.flatnonzero(s.group == s.group_names.index("facade"))
+    wing = np.flatnonzero(s.group != s.group_names.index("facade"))
+    ov = np.minimum(hi[fac, None, :2], hi[None, wing, :2]) - \
+        np.maximum(lo[fac, None, :2], lo[None, wing, :2])
+    assert not ((ov > TOL).all(axis=2)).any()
+    for k in range(6):
+        sel = np.intersect1d(fac, np.flatnonzero(s.course == k))
+        assert lo[sel, 0].min() == pytest.approx(-0.2625) and hi[sel, 0].max() == pytest.approx(0.2625)
+        for name in ("wing-left", "wing-right"):
+            w = (s.course == k) & (s.group == s.group_names.index(name))
+            assert lo[w, 1].min() >= 0.025 - TOL
+            assert np.allclose(hi[w, 0] - lo[w, 0], 0.050)
+    for name in ("wing-left", "wing-right"):
+        for k in range(5):
+            assert min_offset(joints(s, k, name, 1), joints(s, k + 1, name, 1)) >= 0.050 - TOL
+    assert_sound(s)
+
+
+def test_box_model_corner_option_is_checked():
+    with pytest.raises(ValueError, match="corners"):
+        build_box_model("II", corners="loose")
+
+
 def test_box_model_walls_are_staggered():
     """Inside the walls, joints of successive courses are at least 50 mm apart (s/h = 50/35)."""
     s = build_box_model("III")
@@ -422,6 +488,25 @@ def test_case_scene_explicit_blocks_first_then_builders():
     # turned by 90 deg: the 735 mm long walls now run along y, centred on (0, 1.5)
     assert hi.max(axis=0)[:2] - lo.min(axis=0)[:2] == pytest.approx([0.525, 0.735])
     assert (lo.min(axis=0)[:2] + hi.max(axis=0)[:2]) / 2 == pytest.approx([0.0, 1.5])
+
+
+def test_case_field_turns_unbonded_corners_on_and_stays_out_of_the_identity():
+    """scene.box_model.corners: unbonded builds the unbonded model; left at 'interlocked' it is
+    not in the case's dump, so recorded cases keep their identity (dem.case.identity)."""
+    from dem.case import parse_case
+    from dem.run.build import scene_from_case
+
+    def case(**box):
+        return parse_case({"name": "c", "scene": {"box_model": {"model": "II", **box}},
+                           "material": {"friction": 0.81}, "run": {"duration": 1.0}})
+
+    s = scene_from_case(case(corners="unbonded"))
+    ref = build_box_model("II", corners="unbonded")
+    assert np.array_equal(s.position, ref.position) and np.array_equal(s.size, ref.size)
+    assert "corners" not in case().model_dump()["scene"]["box_model"]
+    assert case(corners="unbonded").model_dump()["scene"]["box_model"]["corners"] == "unbonded"
+    with pytest.raises(Exception, match="corners"):
+        case(corners="loose")
 
 
 def test_case_scene_rejects_overlapping_builders():

@@ -20,6 +20,15 @@ Plan (before ``yaw``/``origin``), centred on x = y = 0, m:
   Models II and III add a 0.5 kg steel block on each corner.  All of these are separate blocks
   resting on the walls with friction.  Beam section and steel block sizes are assumptions
   (:class:`dem.builders.spec.RoofSpec`).
+* ``corners="unbonded"`` (a bound: no interlock at all) replaces the interlock by a straight
+  vertical joint: every course runs L1 and L2 through the corners over the full length X and
+  T1, T2 butt between them, so no brick of an L wall and no brick of a T wall share a t x t
+  corner square in any course.  Inside the walls the bond is kept: the L walls alternate
+  7 whole bricks with [half, 6 whole, half] (flush ends, half-brick stagger); the T walls
+  alternate the 4 whole bricks of the interlocked model (2.5 mm gap at each end) with
+  [55 mm, 3 whole, 55 mm] laid flush against the L walls.  Per course 7 + 7 + 4 + 4 = 22 and
+  8 + 8 + 5 + 5 = 26 pieces.  The corners hold only by friction on the bed joints of each wall
+  and by the T walls' ends bearing on the L walls' inner faces.
 """
 
 from __future__ import annotations
@@ -42,13 +51,19 @@ def build_box_model(
     min_piece: float | None = None,
     origin=(0.0, 0.0, 0.0),
     yaw: int = 0,
+    corners: str = "interlocked",
 ) -> Scene:
     """A box model (m, kg).  ``model`` 'I' / 'II' / 'III' sets courses (9 / 9 / 15) and corner
     masses (0 / 0.5 / 0.5 kg) unless given; ``roof`` True (thesis roof), a RoofSpec / mapping,
     or None / False (bare walls).
 
+    ``corners``: 'interlocked' (the thesis' models) or 'unbonded' (straight vertical joints,
+    module docstring).
+
     Groups: L1, L2, T1, T2, roof-beam, roof-mass, corner-mass.  Roof blocks have course -1.
     """
+    if corners not in ("interlocked", "unbonded"):
+        raise ValueError(f"corners must be 'interlocked' or 'unbonded', got {corners!r}")
     b = as_brick(brick)
     unit, t, h = b.dims("flat")
     if courses is None:
@@ -72,6 +87,8 @@ def build_box_model(
         # long walls along x
         if l_through:
             a, e, phase = -X / 2, X / 2, -X / 2
+        elif corners == "unbonded":  # through every course, shifted by half a brick
+            a, e, phase = -X / 2, X / 2, -X / 2 + s
         else:
             a, e, phase = -X / 2 + t, X / 2 - t, -X / 2 + s
         for name, y0 in (("L1", -Y / 2), ("L2", Y / 2 - t)):
@@ -80,6 +97,8 @@ def build_box_model(
         # short walls along y
         if l_through:
             a, e, phase = -Y / 2 + t, Y / 2 - t, -Y / 2 + s
+        elif corners == "unbonded":  # butting every course, joints half a brick from below
+            a, e, phase = -Y / 2 + t, Y / 2 - t, -Y / 2 + 2 * s
         else:
             a, e, phase = -Y / 2, Y / 2, -Y / 2
         for name, x0 in (("T1", -X / 2), ("T2", X / 2 - t)):

@@ -15,6 +15,12 @@ Geometry (before ``yaw``/``origin``), stretcher bond, m:
   10 / 35 / 50 mm for small ones) are exactly 10 mm / one course height / one wall thickness for
   both brick sizes; they are read here as this lap.  (Assumption: the thesis defines the
   connections only by these numbers, Section 3.3.3.)
+* connection 'unbonded' (a bound: no interlock): the facade runs through the corner in every
+  course (flush, a half brick at its end in odd courses) and the wing butts against its back face
+  in every course, in the band of a strong corner (x in [xa, xa + t] at the left); the wing's
+  courses alternate the strong corner's even course with one starting with a (L - t) piece at
+  the facade, so its joints stay half a brick from those of the course below.  No facade brick
+  overlaps a wing brick in plan: a straight vertical joint;
 * inside the walls, successive courses are offset by ``stagger`` (default half a brick); the
   pieces needed to fill up to a corner are cut, and cut pieces shorter than ``min_piece`` are left
   out (with a strong corner and s = L/2 that leaves a (L/2 - t) gap, 2.5 mm for small bricks).
@@ -43,13 +49,15 @@ class Wing:
 
 def corner_lap(connection, b: Brick, laying: str) -> float:
     """The lap (m) of a named or numeric corner connection: poor 10 mm, good = course height,
-    strong = wall thickness."""
+    strong = wall thickness; 'unbonded' has the strong corner's plan (lap = wall thickness) but
+    no course of the wing runs through (:func:`build_facade`)."""
     _, t, h = b.dims(laying)
     if isinstance(connection, str):
         try:
-            lap = {"poor": POOR_LAP, "good": h, "strong": t}[connection]
+            lap = {"poor": POOR_LAP, "good": h, "strong": t, "unbonded": t}[connection]
         except KeyError:
-            raise ValueError(f"connection must be poor, good, strong or a lap in m, got {connection!r}") from None
+            raise ValueError(f"connection must be poor, good, strong, unbonded or a lap in m, "
+                             f"got {connection!r}") from None
     else:
         lap = float(connection)
     if not (0.0 < lap <= t + 1e-12):
@@ -94,6 +102,8 @@ def build_facade(
     left, right = _as_wing(left), _as_wing(right)
     c_l = corner_lap(left.connection, b, laying) if left else None
     c_r = corner_lap(right.connection, b, laying) if right else None
+    bonded_l = left is not None and left.connection != "unbonded"
+    bonded_r = right is not None and right.connection != "unbonded"
 
     xa, xb = -length * unit / 2.0, length * unit / 2.0
     y_front, y_back = -t / 2.0, t / 2.0
@@ -106,8 +116,8 @@ def build_facade(
             phase = xa
         else:
             phase = xa + s
-            a = xa + c_l if left else (xa if flush_ends else xa + s)
-            e = xb - c_r if right else (xb if flush_ends else xb + s)
+            a = xa + c_l if bonded_l else (xa if flush_ends or left else xa + s)
+            e = xb - c_r if bonded_r else (xb if flush_ends or right else xb + s)
         for p0, p1 in course_pieces(a, e, phase, unit, mp):
             boxes.add_piece((p0, y_front, z0), (p1, y_back, z1), b.density, "facade", k)
         # wings
@@ -117,7 +127,9 @@ def build_facade(
             x0 = xa - t + lap if name == "wing-left" else xb - lap
             y_start = y_back - lap  # start of the wing's through course
             y_end = y_start + wing.length * unit
-            if k % 2 == 1:
+            if k % 2 == 1 and wing.connection == "unbonded":  # butting, offset by s
+                a, e, phase = y_back, y_end, y_start
+            elif k % 2 == 1:
                 a, e, phase = y_start, y_end, y_start
             else:
                 a, phase = y_back, y_start + s

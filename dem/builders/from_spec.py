@@ -36,6 +36,6 @@ def _build(spec: WallSpec | FacadeSpec | BoxModelSpec) -> Scene:
     if isinstance(spec, BoxModelSpec):
         return build_box_model(
             model=spec.model, length=spec.length, width=spec.width, courses=spec.n_courses,
-            roof=spec.roof, **_placement(spec),
+            roof=spec.roof, corners=spec.corners, **_placement(spec),
         )
     raise TypeError(f"not a builder spec: {type(spec).__name__}")

@@ -159,11 +159,13 @@ class WallSpec(_Placed):
 
 
 Connection = Annotated[
-    Union[Literal["poor", "good", "strong"], float],
+    Union[Literal["poor", "good", "strong", "unbonded"], float],
     Field(
         description="corner connection: the lap of the bricks of one wall into the other wall's "
         "thickness in alternate courses, m, 0 < lap <= wall thickness; or 'poor' (0.010 m), "
-        "'good' (= course height) or 'strong' (= wall thickness: a fully interlocked corner)"
+        "'good' (= course height), 'strong' (= wall thickness: a fully interlocked corner) or "
+        "'unbonded' (a straight vertical joint: the facade runs through every course, the wing "
+        "butts against it; a bound)"
     ),
 ]
 
@@ -281,6 +283,15 @@ class BoxModelSpec(_Placed):
     )
     roof: RoofSpec | None = Field(
         default_factory=RoofSpec, description="roof beams and masses (null: bare walls)"
+    )
+    corners: Literal["interlocked", "unbonded"] = Field(
+        default="interlocked",
+        # not in the dump while interlocked: recorded cases keep their identity
+        exclude_if=lambda v: v == "interlocked",
+        description="interlocked: the thesis' corners (L and T walls run through the corners in "
+        "alternate courses); unbonded: a straight vertical joint at each corner (L walls run "
+        "through in every course, T walls butt between them; no brick of one wall overlaps the "
+        "other's in plan), a bound on what the corners contribute",
     )
 
     @model_validator(mode="after")

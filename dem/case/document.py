@@ -10,7 +10,7 @@ import yaml
 from pydantic import Field, ValidationError, field_validator, model_validator
 
 from dem.case.base import Vec3, StrictModel
-from dem.case.imperfections import MAX_FRACTION, Imperfections
+from dem.case.imperfections import MAX_FRACTION, MAX_GAP_FRACTION, Imperfections
 from dem.case.loadings import Loading, NoLoading, RecordLoading
 from dem.case.material import Material
 from dem.case.scene import SceneSpec
@@ -64,7 +64,39 @@ class Case(StrictModel):
                 raise ValueError(
                     f"imperfections.{name}: {value:g} m is more than {MAX_FRACTION:.0%} of the "
                     f"smallest brick dimension ({smallest:g} m)")
+        imp = self.imperfections
+        if imp.as_built():
+            self._as_built_fits()
         return self
+
+    def _as_built_fits(self) -> None:
+        """The as-built fields act on builder bricks: a gap's largest draw (mean + 3 scatter)
+        at most MAX_GAP_FRACTION of the shortest builder brick, a course's offset sigma within
+        MAX_FRACTION of its smallest dimension (as the other imperfection lengths)."""
+        from dem.builders import brick
+
+        imp = self.imperfections
+        bricks = [brick(spec.brick) for spec in (self.scene.wall, self.scene.facade,
+                                                 self.scene.box_model) if spec is not None]
+        if not bricks:
+            name = next(n for n in ("corner_gap", "head_gap", "plumb")
+                        if getattr(imp, n).any())
+            raise ValueError(f"imperfections.{name}: acts on the bricks of scene.wall, "
+                             f"scene.facade or scene.box_model; this scene has none")
+        length = min(b.length for b in bricks)
+        smallest = min(min(b.length, b.width, b.height) for b in bricks)
+        for name in ("corner_gap", "head_gap"):
+            gap = getattr(imp, name)
+            if gap.largest() > MAX_GAP_FRACTION * length:
+                raise ValueError(
+                    f"imperfections.{name}: mean + 3 scatter = {gap.largest():g} m is more than "
+                    f"{MAX_GAP_FRACTION:.0%} of the brick length ({length:g} m): a gap that "
+                    f"large is a missing brick, not a loose joint")
+        for i, sig in enumerate(imp.plumb.sigma):
+            if sig > MAX_FRACTION * smallest:
+                raise ValueError(
+                    f"imperfections.plumb.sigma.{i}: {sig:g} m per course is more than "
+                    f"{MAX_FRACTION:.0%} of the smallest brick dimension ({smallest:g} m)")
 
     @model_validator(mode="after")
     def _material_names_known(self) -> "Case":

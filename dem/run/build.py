@@ -17,7 +17,8 @@ from dem.builders.scatter import scatter_sizes
 from dem.case import Case, Material, SolverSpec, TiltLoading
 from dem.compliance import elastic_offset, rigid_stiffness
 from dem.engine.options import JointLaw, PairLaw, StepOptions
-from dem.imperfections import ImperfectionParams, apply_faces, streams
+from dem.imperfections import (ImperfectionParams, apply_as_built, apply_faces,
+                               as_built_streams, streams)
 from dem.loading import Loading, loading_from_case
 from dem.scene import Scene, blocks_to_scene
 
@@ -27,24 +28,34 @@ def imperfection_params(case: Case) -> ImperfectionParams:
     imp = case.imperfections
     return ImperfectionParams(bed_unevenness=imp.bed_unevenness, face_shape=imp.face_shape,
                               size_scatter=tuple(imp.size_scatter), arris=imp.arris,
-                              seed=imp.seed)
+                              seed=imp.seed,
+                              corner_gap=(imp.corner_gap.mean, imp.corner_gap.scatter),
+                              head_gap=(imp.head_gap.mean, imp.head_gap.scatter),
+                              plumb_sigma=tuple(imp.plumb.sigma),
+                              plumb_lean=tuple(imp.plumb.lean))
 
 
-def scene_from_case(case: Case, check: bool = True, imperfect: bool = True) -> Scene:
-    """Build the scene of a case: explicit blocks first, then the builder entries in the order
-    wall, facade, box_model (see :mod:`dem.builders`), then the case's imperfections realised
-    with its seed (dem.imperfections: the builder bricks' sizes scattered and laid again, face
-    warps and arrises); ``imperfect=False`` gives the perfect scene of the same case.
+def _builder_frame(spec) -> tuple[float, int, float]:
+    """(course height m, yaw degrees, reach m) of a builder entry: what the as-built fields need
+    (dem.imperfections.apply_as_built; the reach is the builder's min_piece)."""
+    from dem.builders import brick
+    from dem.builders.wall import default_min_piece
 
-    With ``check`` (default) the scene goes through :func:`dem.builders.check_scene`: initial
-    overlaps deeper than ``solver.overlap_tolerance`` and floating blocks (unless
-    ``scene.allow_floating``) raise :class:`dem.builders.SceneError` (a ValueError) naming the
-    blocks.
-    """
+    b = brick(spec.brick)
+    h = b.dims(getattr(spec, "laying", "flat"))[2]
+    reach = default_min_piece(b) if spec.min_piece is None else float(spec.min_piece)
+    return h, int(spec.yaw), reach
+
+
+def build_parts(case: Case, imperfect: bool = True) -> tuple[Scene, list[dict]]:
+    """The case's scene before the checks, and what the as-built fields drew per builder part
+    (dem.imperfections.apply_as_built; empty where none is set): :func:`scene_from_case`."""
     params = imperfection_params(case) if imperfect else ImperfectionParams()
     rng_sizes, _ = streams(params.seed)
     scatter = any(s > 0 for s in params.size_scatter)
-    parts = []
+    as_built = params.as_built()
+    rngs = as_built_streams(params.seed) if as_built else None
+    parts, drawn = [], []
     if case.scene.blocks:
         parts.append(blocks_to_scene(case.scene.blocks))
     for spec in (case.scene.wall, case.scene.facade, case.scene.box_model):
@@ -52,10 +63,29 @@ def scene_from_case(case: Case, check: bool = True, imperfect: bool = True) -> S
             built = build_from_spec(spec)
             if scatter:
                 built = scatter_sizes(built, params.size_scatter, rng_sizes)
+            if as_built:
+                built, record = apply_as_built(built, params, rngs, *_builder_frame(spec))
+                drawn.append(record)
             parts.append(built)
     scene = parts[0] if len(parts) == 1 else Scene.concatenate(parts)
     if params.any():
         apply_faces(scene, params)
+    return scene, drawn
+
+
+def scene_from_case(case: Case, check: bool = True, imperfect: bool = True) -> Scene:
+    """Build the scene of a case: explicit blocks first, then the builder entries in the order
+    wall, facade, box_model (see :mod:`dem.builders`), then the case's imperfections realised
+    with its seed (dem.imperfections: the builder bricks' sizes scattered and laid again, the
+    as-built gaps and courses out of plumb, face warps and arrises); ``imperfect=False`` gives
+    the perfect scene of the same case.
+
+    With ``check`` (default) the scene goes through :func:`dem.builders.check_scene`: initial
+    overlaps deeper than ``solver.overlap_tolerance`` and floating blocks (unless
+    ``scene.allow_floating``) raise :class:`dem.builders.SceneError` (a ValueError) naming the
+    blocks.
+    """
+    scene, _ = build_parts(case, imperfect)
     if check:
         require_valid(
             check_scene(
@@ -212,3 +242,28 @@ def build(case: Case, scene: Scene | None = None, sim=None) -> Built:
 
         coherence.set_overlap_reuse(sim.contacts, case.solver.overlap_reuse)
     return Built(scene, loading, sim)
+
+
+def as_built_record(case: Case) -> dict | None:
+    """summary.json's ``imperfections.as_built`` of a case (dem.imperfections.as_built_summary),
+    None where no as-built field is set: the builders and draws run again (milliseconds to a
+    second for a box model), the same seed giving the same draws."""
+    from dem.imperfections import as_built_summary
+
+    params = imperfection_params(case)
+    if not params.as_built():
+        return None
+    _, drawn = build_parts(case)
+    return as_built_summary(params, drawn)
+
+
+def size_reference(case: Case) -> np.ndarray:
+    """The block sizes (m) the size scatter's deviations are measured from: the perfect scene's,
+    or where an as-built field is set, the scene with its gaps but no size scatter (the bricks
+    the gaps shortened are not counted as scattered; the as-built draws do not depend on the
+    size scatter's, dem.imperfections.as_built_streams)."""
+    if not case.imperfections.as_built():
+        return scene_from_case(case, check=False, imperfect=False).size
+    imp = case.imperfections.model_copy(update={"size_scatter": [0.0, 0.0, 0.0],
+                                                "bed_unevenness": 0.0, "arris": 0.0})
+    return scene_from_case(case.model_copy(update={"imperfections": imp}), check=False).size

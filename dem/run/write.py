@@ -83,10 +83,12 @@ def imperfection_record(out: Path | None, case: Case, scene: Scene) -> dict:
     full to imperfections.npz (per block: size, position as built, face_offset [6, 4], arris; the
     scene can be rebuilt from the case and the seed, this file shows it without rebuilding)."""
     from dem.imperfections import realised_summary
-    from dem.run.build import imperfection_params, scene_from_case
+    from dem.run.build import (as_built_record, imperfection_params, scene_from_case,
+                               size_reference)
 
     nominal = scene_from_case(case, check=False, imperfect=False).size
-    record = realised_summary(scene, imperfection_params(case), nominal)
+    record = realised_summary(scene, imperfection_params(case), size_reference(case),
+                              as_built_record(case))
     if out is not None:
         atomic.save_npz(out / "imperfections.npz", {
             "seed": np.array(case.imperfections.seed), "size": scene.size,
