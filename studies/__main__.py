@@ -38,6 +38,8 @@ STUDIES = {
                         "the two-body rocking model's tables (results/two-body/README.md)"),
     "diagnosis": ("studies.diagnosis.cli",
                   "why the laboratory's models rocked and the DEM's did not (E1-E7)"),
+    "as-built": ("studies.as_built.cli",
+                 "masonry as built by hand: the corner bound, loose corners, the input's bounds"),
     "two-body-vs-dem": ("studies.two_body.vs_dem_sweep",
                         "the two-body model against the DEM's Model II y rocking sweep"),
 }

@@ -1,0 +1,45 @@
+"""``python -m studies as-built ...``: the as-built study's experiments (studies/as_built)."""
+
+from __future__ import annotations
+
+import typer
+
+app = typer.Typer(add_completion=False, no_args_is_help=True,
+                  help="Masonry as built by hand: the corner bound, loose corners, the input's "
+                       "bounds.  results/as-built/.")
+
+
+@app.callback()
+def as_built() -> None:
+    """One subcommand per kind of experiment."""
+
+
+@app.command()
+def grid(keys: list[str] = typer.Argument(..., help="experiments to run together, seed by seed: "
+                                          "corner-bound-model-ii-y, corner-bound-model-iii-y"),
+         workers: int = typer.Option(1, help="dem sweep workers (one single-threaded run each)"),
+         stop_at: str = typer.Option(None, help="UTC HH:MM after which no new sweep starts"),
+         report: bool = typer.Option(False, "--report", help="only rebuild the reports (the rows "
+                                     "again from the run directories kept here)")) -> None:
+    """Case variants x frequencies x 3 seeds from rest, each run judged rocking or not and
+    standing or not (resumable: finished runs are skipped; touch runs/diagnosis/DRAIN to end
+    softly after the sweep in flight).  studies/as_built/grids.py."""
+    from studies.as_built.grids import GRIDS
+    from studies.diagnosis import grid as exp
+
+    bad = [k for k in keys if k not in GRIDS]
+    if bad:
+        raise typer.BadParameter(f"unknown experiment(s) {bad}; choose from {sorted(GRIDS)}",
+                                 param_hint="KEYS")
+    grids = [GRIDS[k] for k in keys]
+    if not report:
+        exp.run(grids, workers=workers, stop_at=stop_at)
+    for g in grids:
+        if report:
+            exp.refresh(g)
+        exp.report(g)
+
+
+def main(argv=None) -> int:
+    app(args=argv, prog_name="python -m studies as-built", standalone_mode=True)
+    return 0
