@@ -251,3 +251,36 @@ def test_run_order_is_seed_then_variant_then_grid(tmp_path, monkeypatch):
     assert calls == [("g1", "a.yaml", "0"), ("g2", "a.yaml", "0"), ("g1", "b.yaml", "0"),
                      ("g2", "b.yaml", "0"), ("g1", "a.yaml", "1"), ("g2", "a.yaml", "1"),
                      ("g1", "b.yaml", "1"), ("g2", "b.yaml", "1")]
+
+
+def test_a_grid_of_another_study_keeps_its_records_in_its_own_folders(tmp_path, monkeypatch):
+    """``results_dir`` / ``runs_dir``: the records, CPU ledger, case files, drain file and report
+    of the grid go there and nothing to results/diagnosis; a row recorded finished there for the
+    point's fingerprint is not run again."""
+    calls = []
+    monkeypatch.setattr(G, "RESULTS", tmp_path / "diagnosis-results")
+    monkeypatch.setattr(G, "RUNS", tmp_path / "diagnosis-runs")
+    monkeypatch.setattr(G.child, "run_dem", lambda args, log: (
+        calls.append((args[args.index("--out") + 1], args[args.index("--seed") + 1],
+                      args[args.index("--drain-file") + 1])), (0, 2.0, 3.0))[1])
+    v = G.Variant("lab", "lab start", {"loading": {"start": "lab"}})
+    grid = G.Grid(key="g", title="t", hypothesis="h", sweep="model-ii-y", variants=(v,),
+                  frequencies=(2.8,), seeds=(0, 1), cycles=2.0,
+                  results_dir=tmp_path / "as_built", runs_dir=tmp_path / "runs")
+    assert grid.out == tmp_path / "as_built" / "g" and grid.runs == tmp_path / "runs" / "g"
+    fp = G.point(grid, v, load_frozen(DEFAULT_FROZEN)).fingerprint
+    grid.out.mkdir(parents=True)
+    (grid.out / "points.json").write_text(json.dumps({"variants": {"lab": {
+        "fingerprint": fp, "rows": [_row(0, 2.8, 2.0, 140.0)]}}}))
+    G.run([grid], log=lambda *_: None)
+    assert calls == [(str(tmp_path / "runs" / "g" / "lab"), "1", str(tmp_path / "runs" / "DRAIN"))]
+    data = json.loads((grid.out / "points.json").read_text())
+    assert data["variants"]["lab"]["fingerprint"] == fp and data["kind"] == "diagnosis-g"
+    # the committed finished row of seed 0 is kept over the pending one of this machine
+    assert [r["run_status"] for r in data["variants"]["lab"]["rows"]] == ["ok", "pending"]
+    assert json.loads((grid.out / "cpu.json").read_text()) == {"g": 2.0}
+    assert (tmp_path / "runs" / "g" / "lab.yaml").exists()
+    G.report(grid, log=lambda *_: None)
+    assert (grid.out / "summary.json").exists()
+    assert not (tmp_path / "diagnosis-results").exists()
+    assert not (tmp_path / "diagnosis-runs").exists()

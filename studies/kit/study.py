@@ -1,0 +1,211 @@
+"""A study's shape: what a study declares and what the kit owns.
+
+A study declares its **points** (:class:`Point`: one named case, the plan besides the case that
+its records must match, where its records and raw runs go, and for a swept point its seed), what
+a point still lacks (``todo``), the ``dem`` command that does it, how the point's records are
+brought up to date from its run directory (``record``) and its report.  The kit owns:
+
+* the paths: this checkout's ``ROOT`` (:mod:`studies.kit.provenance`), ``results/<study>/``
+  (:func:`results_dir`) and ``runs/<study>/`` (:func:`runs_dir`, git-ignored);
+* the fingerprint (:func:`fingerprint`): what a finished point must match to be skipped, the
+  case's identity (dem.case.identity), the study's plan and the engine's results revision
+  (dem.engine.RESULTS_REVISION);
+* the records: ``<out>/points.json`` under its lock (:mod:`studies.kit.records`), and for a
+  study of ``dem sweep`` rows the finished rows kept over pending ones (:func:`finished_rows`,
+  :func:`merge_rows`);
+* the resumable loop (:func:`run`): the drain file, the signals and the stop time
+  (:mod:`studies.kit.session`), the case file written, the child run with its CPU seconds added
+  to ``<out>/cpu.json``, the records merged after each point; a finished point is never run
+  again, so a session cut anywhere resumes where it stopped.
+
+What is special to a study (a stepped specimen resumed from its restart point, a plan fixed
+before the runs) stays in the study's hooks.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from studies.kit import child, session
+from studies.kit.provenance import ROOT, rel, source_state
+from studies.kit.records import merge_json
+
+__all__ = ["ROOT", "Point", "Study", "fingerprint", "finished_rows", "merge_rows",
+           "results_dir", "row_key", "run", "runs_dir", "sweep_args", "write_case"]
+
+
+def results_dir(*parts: str) -> Path:
+    """``results/<parts>`` of this checkout: a study's committed records."""
+    return ROOT.joinpath("results", *parts)
+
+
+def runs_dir(*parts: str) -> Path:
+    """``runs/<parts>`` of this checkout: a study's raw runs (git-ignored)."""
+    return ROOT.joinpath("runs", *parts)
+
+
+def fingerprint(case, *plan, form: str = "json") -> str:
+    """What a finished point must match to count: sha256 of the case's identity
+    (dem.case.identity.identity_json), then of the plan parts and the engine's results revision,
+    first 16 hex digits.  ``form`` is how the plan is written into the hash, fixed per study
+    (the committed records carry it): "json", ``json.dumps([*plan, RESULTS_REVISION])``; "bars",
+    ``"|a|b|...|RESULTS_REVISION"``."""
+    from dem.case.identity import identity_json
+    from dem.engine import RESULTS_REVISION
+
+    h = hashlib.sha256(identity_json(case).encode())
+    if form == "json":
+        h.update(json.dumps([*plan, RESULTS_REVISION]).encode())
+    elif form == "bars":
+        h.update("".join(f"|{p}" for p in (*plan, RESULTS_REVISION)).encode())
+    else:
+        raise ValueError(f"fingerprint form must be 'json' or 'bars', got {form!r}")
+    return h.hexdigest()[:16]
+
+
+def write_case(case, path: Path) -> Path:
+    """Write ``case`` as YAML at ``path`` (its folder made); returns ``path``."""
+    import yaml
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(yaml.safe_dump(case.model_dump(mode="json"), sort_keys=False))
+    return path
+
+
+@dataclass(frozen=True)
+class Point:
+    """One point of a study: ``case`` (a dem.case.Case) named ``name`` in its records, judged
+    against ``plan`` (what besides the case its fingerprint covers, :func:`fingerprint` in
+    ``form``); its records in ``out`` (points.json, cpu.json under the key ``ledger``), its case
+    file ``<runs>/<name>.yaml`` and its raw run ``<runs>/<name>/``.  ``seed``: the realisation a
+    swept point runs (None: the study's own); ``owner``: what the study needs to run it (a grid
+    and its variant, an acceleration level...)."""
+    name: str
+    case: Any
+    plan: tuple
+    out: Path
+    runs: Path
+    ledger: str
+    seed: int | None = None
+    owner: Any = None
+    form: str = "json"
+
+    @property
+    def fingerprint(self) -> str:
+        return fingerprint(self.case, *self.plan, form=self.form)
+
+    @property
+    def case_file(self) -> Path:
+        return Path(self.runs) / f"{self.name}.yaml"
+
+    @property
+    def run_dir(self) -> Path:
+        return Path(self.runs) / self.name
+
+    @property
+    def records(self) -> Path:
+        return Path(self.out) / "points.json"
+
+
+class Study:
+    """What a study declares for :func:`run` (override the hooks; the defaults suit none)."""
+
+    #: the folder of the drain file that ends a session softly (``<runs>/DRAIN``)
+    runs: Path
+
+    def points(self):
+        """The points in the order they run."""
+        raise NotImplementedError
+
+    def todo(self, point: Point):
+        """What ``point`` still lacks, from its records brought up to date (falsy: nothing, the
+        point is finished and is skipped)."""
+        raise NotImplementedError
+
+    def describe(self, point: Point, todo) -> str | None:
+        """The log line before ``point`` runs (None: none)."""
+        return point.name
+
+    def command(self, point: Point, todo, drain: Path) -> list[str] | None:
+        """The ``dem`` arguments that do ``todo`` (None: nothing to run, only :meth:`record`)."""
+        raise NotImplementedError
+
+    def record(self, point: Point, log=print) -> None:
+        """Bring ``point``'s records up to date from its run directory (after its child)."""
+        raise NotImplementedError
+
+
+def run(study: Study, stop_at: str | None = None, log=print) -> None:
+    """The resumable loop: for each of ``study.points()``, stop softly (a signal, the drain file
+    ``<study.runs>/DRAIN``, the UTC time ``stop_at``) or write its case file, skip it when
+    ``study.todo`` finds it finished, else run ``study.command`` as a child (its CPU seconds
+    added to ``<point.out>/cpu.json`` under ``point.ledger``) and ``study.record`` it."""
+    drain = session.start(study.runs, log=log)
+    for point in study.points():
+        if session.should_stop(drain, stop_at, log):
+            return
+        write_case(point.case, point.case_file)
+        todo = study.todo(point)
+        if not todo:
+            continue
+        line = study.describe(point, todo)
+        if line:
+            log(f"[{time.strftime('%H:%M:%S', time.gmtime())} UTC] {line}")
+        args = study.command(point, todo, drain)
+        if args is not None:
+            rc, cpu, wall = child.run_dem(args, log)
+            session.add_cpu(Path(point.out) / "cpu.json", point.ledger, cpu)
+            log(f"    exit {rc}, {cpu:.0f} CPU-s, {wall:.0f} s")
+        study.record(point, log)
+
+
+# ---- the records of a study of dem sweep rows --------------------------------------------------
+def row_key(row: dict) -> tuple:
+    """A row's (seed, frequency) key (the frequency rounded to 1e-9 Hz)."""
+    return int(row["seed"]), round(float(row["frequency_hz"]), 9)
+
+
+def finished_rows(points: dict | None, section: str, name: str, fp: str) -> dict:
+    """{(seed, f): row} of the finished rows recorded under ``section``/``name`` of a
+    points.json for fingerprint ``fp`` (none for another fingerprint)."""
+    rec = ((points or {}).get(section) or {}).get(name) or {}
+    if rec.get("fingerprint") != fp:
+        return {}
+    return {row_key(r): r for r in rec.get("rows", []) if r.get("run_status") == "ok"}
+
+
+def merge_rows(point: Point, section: str, fresh: list[dict], entry: dict, top: dict,
+               row_fields: dict | None = None) -> dict:
+    """Merge the rows ``fresh`` (this machine's run directories, in plan order) of ``point``
+    into its points.json under ``section``/``point.name``, under the lock: a finished row,
+    fresh or committed for the same fingerprint, wins over a pending one.  The point's record
+    is ``entry`` + ``run_case``, ``fingerprint`` and ``rows`` (each row updated with
+    ``row_fields``); the file's top level gets ``top`` and the code's ``source``.  Returns the
+    file as written."""
+    fp = point.fingerprint
+
+    def change(data):
+        kept = finished_rows(data, section, point.name, fp)
+        rows = [r if r.get("run_status") == "ok" or row_key(r) not in kept else kept[row_key(r)]
+                for r in fresh]
+        for r in rows:
+            r.update(row_fields or {})
+        data.setdefault(section, {})[point.name] = {
+            **entry, "run_case": rel(point.case_file), "fingerprint": fp, "rows": rows}
+        data.update({**top, "source": source_state()})
+    return merge_json(point.records, change)
+
+
+def sweep_args(point: Point, frequencies, cycles: float, workers: int, drain: Path) -> list[str]:
+    """``dem sweep`` of ``point``'s case at ``frequencies`` (Hz), ``cycles`` cycles, one
+    realisation of ``point.seed``, into ``point.run_dir``."""
+    return ["sweep", str(point.case_file), "--out", str(point.run_dir),
+            "--frequencies", ",".join(f"{f:g}" for f in frequencies),
+            "--cycles", f"{cycles:g}", "--realisations", "1", "--seed", str(point.seed),
+            "--workers", str(workers), "--drain-file", str(drain)]
