@@ -284,3 +284,41 @@ def test_a_grid_of_another_study_keeps_its_records_in_its_own_folders(tmp_path, 
     assert (grid.out / "summary.json").exists()
     assert not (tmp_path / "diagnosis-results").exists()
     assert not (tmp_path / "diagnosis-runs").exists()
+
+
+def test_e4_and_e2_run_on_the_kit_loop_and_skip_what_is_recorded(tmp_path, monkeypatch):
+    """E4: one sweep per (seed, level), seed by seed, a level recorded finished for its
+    fingerprint skipped; E2: a specimen recorded finished (with its survival) not run again,
+    the others run with --resume and recorded."""
+    from studies.diagnosis import e2, e4
+
+    calls = []
+    monkeypatch.setattr(G.child, "run_dem",
+                        lambda args, log: (calls.append(args), (0, 1.0, 1.0))[1])
+    for mod, key in ((e4, "e4"), (e2, "e2")):
+        monkeypatch.setattr(mod, "OUT", tmp_path / "results" / key)
+        monkeypatch.setattr(mod, "RUNS", tmp_path / "runs" / key)
+    frozen = load_frozen(DEFAULT_FROZEN)
+    done = e4.point(e4.ACCELERATIONS[0], frozen)
+    e4.OUT.mkdir(parents=True)
+    (e4.OUT / "points.json").write_text(json.dumps({"levels": {done.name: {
+        "fingerprint": done.fingerprint,
+        "rows": [_row(s, f, 0.2, 10.0) for s in e4.SEEDS for f in e4.FREQUENCIES]}}}))
+    e4.run(log=lambda *_: None)
+    ran = [(a[a.index("--seed") + 1], a[a.index("--out") + 1].rsplit("/", 1)[1]) for a in calls]
+    assert ran == [(str(s), e4.level_name(a)) for s in e4.SEEDS for a in e4.ACCELERATIONS[1:]]
+    assert json.loads((e4.OUT / "cpu.json").read_text()) == {"e4": float(len(ran))}
+
+    calls.clear()
+    finished = e2.specimen_name("model-ii-y", 0)
+    fp = e2.fingerprint(e2.specimen_case("model-ii-y", 0, frozen["parameters"]))
+    e2.OUT.mkdir(parents=True)
+    (e2.OUT / "points.json").write_text(json.dumps({"specimens": {finished: {
+        "fingerprint": fp, "run_status": "ok", "survival": {"verdict": "standing"}}}}))
+    e2.run(sweeps=("model-ii-y",), seeds=(0, 1), log=lambda *_: None)
+    assert [a[:2] + a[3:] for a in calls] == [
+        ["run", str(e2.RUNS / "model-ii-y-seed-1.yaml"), str(e2.RUNS / "model-ii-y-seed-1"),
+         "--resume", "--no-progress"]]
+    rec = json.loads((e2.OUT / "points.json").read_text())["specimens"]
+    assert rec[finished]["run_status"] == "ok" and rec["model-ii-y-seed-1"]["run_status"] == \
+        "unknown"
