@@ -10,6 +10,7 @@ import json
 import pytest
 import yaml
 
+import dem.engine as engine
 from dem.case import load_case
 from studies.calibration import cli as cal_cli
 from studies.calibration import points as cal_points
@@ -254,7 +255,7 @@ def test_a_point_from_an_older_engine_is_not_reused(monkeypatch):
     case = cal_specimens.specimen_case(spec["path"], CAND, "x")
     now = cal_specimens.fingerprint(case, 20, None)
     assert cal_specimens.fingerprint(case, 20, None) == now
-    monkeypatch.setattr(cal_specimens, "RESULTS_REVISION", cal_specimens.RESULTS_REVISION - 1)
+    monkeypatch.setattr(engine, "RESULTS_REVISION", engine.RESULTS_REVISION - 1)
     assert cal_specimens.fingerprint(case, 20, None) != now
 
 
@@ -272,7 +273,7 @@ def test_a_committed_point_of_an_older_engine_is_reported_pending_not_shown(tmp_
     dest.write_text(json.dumps(data))
     now = cal_report.collect(tmp_path, {"c": CAND}, specs, 20)["c"]["ip-small-5x5"]
     assert now["status"] == "finished" and now["lambda_median"] == pytest.approx(0.80)
-    monkeypatch.setattr(cal_specimens, "RESULTS_REVISION", cal_specimens.RESULTS_REVISION + 1)
+    monkeypatch.setattr(engine, "RESULTS_REVISION", engine.RESULTS_REVISION + 1)
     later = cal_report.collect(tmp_path, {"c": CAND}, specs, 20)["c"]["ip-small-5x5"]
     assert later["status"] == "pending" and later["stale"] and "lambda_median" not in later
 
