@@ -48,8 +48,8 @@ from studies.kit import child as dem_child
 from studies.kit.provenance import rel
 from studies.kit.records import read_json
 from studies.prediction.protocol import CHAPTER3_CHECK
+from studies.kit.provenance import ROOT
 
-ROOT = Path(__file__).resolve().parents[2]
 DEFAULT_FROZEN = ROOT / "studies" / "calibration" / "frozen.yaml"
 DEFAULT_CALIBRATION = ROOT / "results" / "calibration"
 CHECK_DIR, CHECK_FILE = CHAPTER3_CHECK.split("/")  # under the prediction's --out
