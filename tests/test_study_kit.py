@@ -182,8 +182,8 @@ def test_the_paths_are_this_checkouts():
 def test_the_loop_skips_finished_points_stops_on_the_drain_file_and_keeps_the_ledger(tmp_path,
                                                                                        monkeypatch):
     """A point whose ``todo`` is empty is skipped without a child; each run's CPU seconds go to
-    ``<out>/cpu.json`` under its ledger key and its records are written after it; the drain file
-    ends the session before the next point."""
+    ``<out>/cpu.json`` under its ledger key and its records are written after it with the
+    child's result; the drain file ends the session before the next point."""
     from studies.kit import study as kit
 
     calls, recorded = [], []
@@ -206,13 +206,17 @@ def test_the_loop_skips_finished_points_stops_on_the_drain_file_and_keeps_the_le
                 (self.runs / "DRAIN").write_text("")
             return ["run", str(p.case_file), "--out", str(p.run_dir)]
 
-        def record(self, p, log=print):
-            recorded.append(p.name)
+        def record(self, p, result, log=print):
+            recorded.append((p.name, result))
+            return "finished"
 
-    kit.run(Toy(), log=lambda *_: None)
-    assert [c[2] for c in calls] == ["--out", "--out"] and recorded == ["p1", "p2"]
+    states = kit.run(Toy(), log=lambda *_: None)
+    assert [(p.name, s) for p, s in states] == [("p0", "skipped"), ("p1", "finished"),
+                                                ("p2", "finished")]
+    assert [c[2] for c in calls] == ["--out", "--out"] and recorded == [("p1", (0, 1.5, 2.0)),
+                                                                ("p2", (0, 1.5, 2.0))]
     assert [c[1] for c in calls] == [str(tmp_path / "runs" / "p1.yaml"),
                                      str(tmp_path / "runs" / "p2.yaml")]
-    assert (tmp_path / "runs" / "p0.yaml").is_file()
+    assert not (tmp_path / "runs" / "p0.yaml").exists()    # nothing to do: no case written
     assert not (tmp_path / "runs" / "p3.yaml").exists()
     assert read_json(tmp_path / "out" / "cpu.json") == {"toy": 3.0}

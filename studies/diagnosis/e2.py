@@ -157,7 +157,7 @@ class E2(kit.Study):
         return (["run", str(p.case_file), "--out", str(p.run_dir), "--resume", "--no-progress"]
                 if todo == "run" else None)
 
-    def record(self, p, log=print):
+    def record(self, p, result, log=print):
         from postprocess.stepped import analyze_stepped_run
 
         summary = read_json(p.run_dir / "summary.json") or {}

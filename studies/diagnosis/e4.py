@@ -116,9 +116,10 @@ class E4(kit.Study):
         return f"E4 seed {p.seed}, {p.owner:g} m/s2: {', '.join(f'{f:g}' for f in todo)} Hz"
 
     def command(self, p, todo, drain):
-        return kit.sweep_args(p, todo, CYCLES, self.workers, drain)
+        return kit.sweep_args(p.case_file, p.run_dir, todo, CYCLES, p.seed, self.workers,
+                              drain=drain)
 
-    def record(self, p, log=print):
+    def record(self, p, result, log=print):
         merge_level(p)
 
 

@@ -168,9 +168,10 @@ class GridStudy(kit.Study):
                 f"{', '.join(f'{f:g}' for f in todo)} Hz")
 
     def command(self, p, todo, drain):
-        return kit.sweep_args(p, todo, p.owner[0].cycles, self.workers, drain)
+        return kit.sweep_args(p.case_file, p.run_dir, todo, p.owner[0].cycles, p.seed,
+                              self.workers, drain=drain)
 
-    def record(self, p, log=print):
+    def record(self, p, result, log=print):
         merge_variant(p)
 
 

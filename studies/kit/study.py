@@ -13,10 +13,10 @@ brought up to date from its run directory (``record``) and its report.  The kit 
 * the records: ``<out>/points.json`` under its lock (:mod:`studies.kit.records`), and for a
   study of ``dem sweep`` rows the finished rows kept over pending ones (:func:`finished_rows`,
   :func:`merge_rows`);
-* the resumable loop (:func:`run`): the drain file, the signals and the stop time
-  (:mod:`studies.kit.session`), the case file written, the child run with its CPU seconds added
-  to ``<out>/cpu.json``, the records merged after each point; a finished point is never run
-  again, so a session cut anywhere resumes where it stopped.
+* the resumable loop (:func:`run`, one point :func:`run_point`): the drain file, the signals
+  and the stop time (:mod:`studies.kit.session`), the case file written, the child run with its
+  CPU seconds added to ``<out>/cpu.json``, the records brought up to date after each point; a
+  finished point is never run again, so a session cut anywhere resumes where it stopped.
 
 What is special to a study (a stepped specimen resumed from its restart point, a plan fixed
 before the runs) stays in the study's hooks.
@@ -36,7 +36,7 @@ from studies.kit.provenance import ROOT, rel, source_state
 from studies.kit.records import merge_json
 
 __all__ = ["ROOT", "Point", "Study", "fingerprint", "finished_rows", "merge_rows",
-           "results_dir", "row_key", "run", "runs_dir", "sweep_args", "write_case"]
+           "results_dir", "row_key", "run", "run_point", "runs_dir", "sweep_args", "write_case"]
 
 
 def results_dir(*parts: str) -> Path:
@@ -116,8 +116,9 @@ class Point:
 class Study:
     """What a study declares for :func:`run` (override the hooks; the defaults suit none)."""
 
-    #: the folder of the drain file that ends a session softly (``<runs>/DRAIN``)
-    runs: Path
+    #: the folder of the drain file that ends a session softly (``<runs>/DRAIN``); None: the
+    #: session stops on signals and the stop time only
+    runs: Path | None = None
 
     def points(self):
         """The points in the order they run."""
@@ -132,37 +133,63 @@ class Study:
         """The log line before ``point`` runs (None: none)."""
         return point.name
 
-    def command(self, point: Point, todo, drain: Path) -> list[str] | None:
+    def command(self, point: Point, todo, drain: Path | None) -> list[str] | None:
         """The ``dem`` arguments that do ``todo`` (None: nothing to run, only :meth:`record`)."""
         raise NotImplementedError
 
-    def record(self, point: Point, log=print) -> None:
-        """Bring ``point``'s records up to date from its run directory (after its child)."""
+    def ran(self, point: Point, rc: int, cpu: float, wall: float, log=print) -> None:
+        """After the child: its CPU seconds added to ``<point.out>/cpu.json`` under
+        ``point.ledger`` (no ledger: none) and its exit logged."""
+        if point.ledger is not None:
+            session.add_cpu(Path(point.out) / "cpu.json", point.ledger, cpu)
+        log(f"    exit {rc}, {cpu:.0f} CPU-s, {wall:.0f} s")
+
+    def record(self, point: Point, result: tuple | None, log=print):
+        """Bring ``point``'s records up to date from its run directory; ``result``: the child's
+        (exit code, CPU s, wall s), None when nothing ran.  Returns the point's state (None:
+        "recorded")."""
         raise NotImplementedError
 
+    def after(self, point: Point, state: str) -> None:
+        """Once ``point`` is done with (``state``: "skipped" or what :meth:`record` said)."""
 
-def run(study: Study, stop_at: str | None = None, log=print) -> None:
+
+def run_point(study: Study, point: Point, drain: Path | None = None, log=print) -> str:
+    """One point: "skipped" when ``study.todo`` finds it finished; else its case file written,
+    ``study.command`` run as a child (then ``study.ran``) and ``study.record``-ed; returns the
+    state that gave."""
+    todo = study.todo(point)
+    if not todo:
+        return "skipped"
+    write_case(point.case, point.case_file)
+    line = study.describe(point, todo)
+    if line:
+        log(f"[{time.strftime('%H:%M:%S', time.gmtime())} UTC] {line}")
+    args = study.command(point, todo, drain)
+    result = None
+    if args is not None:
+        result = child.run_dem(args, log)
+        study.ran(point, *result, log=log)
+    return study.record(point, result, log) or "recorded"
+
+
+def run(study: Study, stop_at: str | None = None, log=print) -> list[tuple[Point, str]]:
     """The resumable loop: for each of ``study.points()``, stop softly (a signal, the drain file
-    ``<study.runs>/DRAIN``, the UTC time ``stop_at``) or write its case file, skip it when
-    ``study.todo`` finds it finished, else run ``study.command`` as a child (its CPU seconds
-    added to ``<point.out>/cpu.json`` under ``point.ledger``) and ``study.record`` it."""
-    drain = session.start(study.runs, log=log)
+    ``<study.runs>/DRAIN``, the UTC time ``stop_at``: nothing new starts) or :func:`run_point`
+    it, then ``study.after``.  Returns each point met with its state."""
+    if study.runs is not None:
+        drain = session.start(study.runs, log=log)
+    else:
+        drain = None
+        child.install_signal_handlers()
+    states = []
     for point in study.points():
         if session.should_stop(drain, stop_at, log):
-            return
-        write_case(point.case, point.case_file)
-        todo = study.todo(point)
-        if not todo:
-            continue
-        line = study.describe(point, todo)
-        if line:
-            log(f"[{time.strftime('%H:%M:%S', time.gmtime())} UTC] {line}")
-        args = study.command(point, todo, drain)
-        if args is not None:
-            rc, cpu, wall = child.run_dem(args, log)
-            session.add_cpu(Path(point.out) / "cpu.json", point.ledger, cpu)
-            log(f"    exit {rc}, {cpu:.0f} CPU-s, {wall:.0f} s")
-        study.record(point, log)
+            break
+        state = run_point(study, point, drain, log)
+        study.after(point, state)
+        states.append((point, state))
+    return states
 
 
 # ---- the records of a study of dem sweep rows --------------------------------------------------
@@ -202,10 +229,17 @@ def merge_rows(point: Point, section: str, fresh: list[dict], entry: dict, top: 
     return merge_json(point.records, change)
 
 
-def sweep_args(point: Point, frequencies, cycles: float, workers: int, drain: Path) -> list[str]:
-    """``dem sweep`` of ``point``'s case at ``frequencies`` (Hz), ``cycles`` cycles, one
-    realisation of ``point.seed``, into ``point.run_dir``."""
-    return ["sweep", str(point.case_file), "--out", str(point.run_dir),
+def sweep_args(case_file: Path, run_dir: Path, frequencies, cycles: float, seed: int,
+               workers: int | None = None, max_steps: int | None = None,
+               drain: Path | None = None) -> list[str]:
+    """``dem sweep`` of ``case_file`` at ``frequencies`` (Hz), ``cycles`` cycles, one
+    realisation of ``seed``, into ``run_dir``; ``workers``, ``max_steps`` and the drain file
+    when given."""
+    args = ["sweep", str(case_file), "--out", str(run_dir),
             "--frequencies", ",".join(f"{f:g}" for f in frequencies),
-            "--cycles", f"{cycles:g}", "--realisations", "1", "--seed", str(point.seed),
-            "--workers", str(workers), "--drain-file", str(drain)]
+            "--cycles", f"{cycles:g}", "--realisations", "1", "--seed", str(seed)]
+    for flag, value in (("--workers", workers), ("--max-steps", max_steps),
+                        ("--drain-file", drain)):
+        if value is not None:
+            args += [flag, str(value)]
+    return args
