@@ -231,13 +231,14 @@ def merge_rows(point: Point, section: str, fresh: list[dict], entry: dict, top: 
 
 def sweep_args(case_file: Path, run_dir: Path, frequencies, cycles: float, seed: int,
                workers: int | None = None, max_steps: int | None = None,
-               drain: Path | None = None) -> list[str]:
-    """``dem sweep`` of ``case_file`` at ``frequencies`` (Hz), ``cycles`` cycles, one
-    realisation of ``seed``, into ``run_dir``; ``workers``, ``max_steps`` and the drain file
-    when given."""
+               drain: Path | None = None, realisations: int = 1) -> list[str]:
+    """``dem sweep`` of ``case_file`` at ``frequencies`` (Hz), ``cycles`` cycles,
+    ``realisations`` realisations from ``seed`` on, into ``run_dir``; ``workers``,
+    ``max_steps`` and the drain file when given."""
     args = ["sweep", str(case_file), "--out", str(run_dir),
             "--frequencies", ",".join(f"{f:g}" for f in frequencies),
-            "--cycles", f"{cycles:g}", "--realisations", "1", "--seed", str(seed)]
+            "--cycles", f"{cycles:g}", "--realisations", str(realisations),
+            "--seed", str(seed)]
     for flag, value in (("--workers", workers), ("--max-steps", max_steps),
                         ("--drain-file", drain)):
         if value is not None:
