@@ -122,7 +122,7 @@ def record(name: str, sweep: str, seed: int, case_file: Path, fp: str, status: s
             "steps": step_rows(analysis, fall_times) if analysis else []}
         data.update({"kind": "diagnosis-e2", "down_hz": list(DOWN), "up_hz": list(UP),
                      "cycles_per_step": CYCLES_PER_STEP, "source": source_state()})
-    return merge_json(OUT / "points.json", change)
+    return merge_json(kit.records_path(OUT), change)
 
 
 class E2(kit.Study):
@@ -143,7 +143,7 @@ class E2(kit.Study):
     def todo(self, p):
         """What is left: "run", "analyse" (a finished run recorded before its survival was) or
         nothing."""
-        rec = ((read_json(OUT / "points.json") or {}).get("specimens") or {}).get(p.name)
+        rec = (kit.records(OUT).get("specimens") or {}).get(p.name)
         done = rec and rec.get("fingerprint") == p.fingerprint and rec.get("run_status") == "ok"
         if done and rec.get("survival"):
             return None
@@ -182,7 +182,7 @@ def run(sweeps=SWEEPS, seeds=SEEDS, stop_at: str | None = None, log=print) -> No
 def from_rest(sweep: str, seeds) -> dict:
     """{f: [branch verdicts]} of the first prediction's rows of ``sweep`` and ``seeds`` (each
     run started from rest at its own frequency)."""
-    data = read_json(kit.results_dir("prediction", sweep, "points.json")) or {}
+    data = kit.records(kit.results_dir("prediction", sweep))
     out = {}
     for r in data.get("rows", []):
         if r.get("run_status") == "ok" and r["seed"] in seeds:
@@ -241,7 +241,7 @@ def plot(specimens: dict, path: Path) -> None:
 def report(log=print) -> dict:
     from dem.output.atomic import write_json
 
-    data = read_json(OUT / "points.json") or {}
+    data = kit.records(OUT)
     specimens = {n: s for n, s in (data.get("specimens") or {}).items()
                  if s.get("run_status") == "ok"}
     verdicts = {}

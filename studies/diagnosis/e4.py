@@ -45,7 +45,7 @@ ONSET_SEEDS = 2                         # of 3: a majority on the rocking branch
 THESIS_ACCELERATION = 1.53              # m/s2, group 3 (the first prediction's level)
 OUT = kit.results_dir("diagnosis", "e4")
 RUNS = kit.runs_dir("diagnosis", "e4")
-PREDICTION_POINTS = kit.results_dir("prediction", SWEEP, "points.json")
+PREDICTION_POINTS = kit.records_path(kit.results_dir("prediction", SWEEP))
 
 
 def level_name(accel: float) -> str:
@@ -227,7 +227,7 @@ def report(log=print) -> dict:
     """summary.json and threshold.png from points.json (and the first prediction's context)."""
     from dem.output.atomic import write_json
 
-    data = read_json(OUT / "points.json") or {}
+    data = kit.records(OUT)
     rows = [r for lv in (data.get("levels") or {}).values() for r in lv.get("rows", [])]
     recs = cells(rows + context_rows())
     done = sum(r.get("run_status") == "ok" for r in rows)

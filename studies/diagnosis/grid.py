@@ -190,7 +190,7 @@ BASELINE = "first prediction"
 
 def baseline_rows(grid: Grid) -> list[dict]:
     """The first prediction's finished rows of the grid's sweep, seeds and frequencies."""
-    data = read_json(kit.results_dir("prediction", grid.sweep, "points.json")) or {}
+    data = kit.records(kit.results_dir("prediction", grid.sweep))
     return [r for r in data.get("rows", []) if r.get("run_status") == "ok"
             and r["seed"] in grid.seeds
             and any(abs(r["frequency_hz"] - f) < 1e-9 for f in grid.frequencies)]
@@ -268,7 +268,7 @@ def report(grid: Grid, log=print) -> dict:
     """summary.json and branches.png of ``grid`` from its points.json and the baseline."""
     from dem.output.atomic import write_json
 
-    data = read_json(grid.out / "points.json") or {}
+    data = kit.records(grid.out)
     recs = (data.get("variants") or {})
     table = {BASELINE: {"label": f"{BASELINE} ({grid.sweep}, no change)",
                         "cells": cells(baseline_rows(grid))}}

@@ -33,10 +33,14 @@ from typing import Any
 
 from studies.kit import child, session
 from studies.kit.provenance import ROOT, rel, source_state
-from studies.kit.records import merge_json
+from studies.kit.records import merge_json, read_json
 
-__all__ = ["ROOT", "Point", "Study", "fingerprint", "finished_rows", "merge_rows",
-           "results_dir", "row_key", "run", "run_point", "runs_dir", "sweep_args", "write_case"]
+__all__ = ["ROOT", "RECORDS", "Point", "Study", "fingerprint", "finished_rows", "merge_rows",
+           "records", "records_path", "results_dir", "row_key", "run", "run_point", "runs_dir",
+           "sweep_args", "write_case"]
+
+#: the file of a study's committed records in its folder
+RECORDS = "points.json"
 
 
 def results_dir(*parts: str) -> Path:
@@ -47,6 +51,17 @@ def results_dir(*parts: str) -> Path:
 def runs_dir(*parts: str) -> Path:
     """``runs/<parts>`` of this checkout: a study's raw runs (git-ignored)."""
     return ROOT.joinpath("runs", *parts)
+
+
+def records_path(out: Path) -> Path:
+    """``<out>/points.json``: the records of the study (or sweep, or grid) whose folder is
+    ``out``."""
+    return Path(out) / RECORDS
+
+
+def records(out: Path) -> dict:
+    """The records ``<out>/points.json`` as read ({} when missing or unreadable)."""
+    return read_json(records_path(out)) or {}
 
 
 def fingerprint(case, *plan, form: str = "json") -> str:
@@ -110,7 +125,7 @@ class Point:
 
     @property
     def records(self) -> Path:
-        return Path(self.out) / "points.json"
+        return records_path(self.out)
 
 
 class Study:
