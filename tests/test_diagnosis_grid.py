@@ -9,6 +9,7 @@ import json
 import pytest
 
 from studies.diagnosis import grid as G
+from studies.kit import child as kit_child
 from studies.diagnosis.experiments import GRIDS
 from studies.prediction.plan import load_frozen, sweep_case
 from studies.prediction.protocol import DEFAULT_FROZEN
@@ -240,7 +241,7 @@ def test_run_order_is_seed_then_variant_then_grid(tmp_path, monkeypatch):
     calls = []
     monkeypatch.setattr(G, "RESULTS", tmp_path / "results")
     monkeypatch.setattr(G, "RUNS", tmp_path / "runs")
-    monkeypatch.setattr(G.child, "run_dem", lambda args, log: (
+    monkeypatch.setattr(kit_child, "run_dem", lambda args, log: (
         calls.append((args[1].split("/")[-2], args[1].split("/")[-1], args[args.index("--seed")
                                                                           + 1])), (0, 0.0, 0.0))[1])
     va, vb = (G.Variant("a", "a", {"loading": {"start": "lab"}}),
@@ -260,7 +261,7 @@ def test_a_grid_of_another_study_keeps_its_records_in_its_own_folders(tmp_path, 
     calls = []
     monkeypatch.setattr(G, "RESULTS", tmp_path / "diagnosis-results")
     monkeypatch.setattr(G, "RUNS", tmp_path / "diagnosis-runs")
-    monkeypatch.setattr(G.child, "run_dem", lambda args, log: (
+    monkeypatch.setattr(kit_child, "run_dem", lambda args, log: (
         calls.append((args[args.index("--out") + 1], args[args.index("--seed") + 1],
                       args[args.index("--drain-file") + 1])), (0, 2.0, 3.0))[1])
     v = G.Variant("lab", "lab start", {"loading": {"start": "lab"}})
@@ -293,7 +294,7 @@ def test_e4_and_e2_run_on_the_kit_loop_and_skip_what_is_recorded(tmp_path, monke
     from studies.diagnosis import e2, e4
 
     calls = []
-    monkeypatch.setattr(G.child, "run_dem",
+    monkeypatch.setattr(kit_child, "run_dem",
                         lambda args, log: (calls.append(args), (0, 1.0, 1.0))[1])
     for mod, key in ((e4, "e4"), (e2, "e2")):
         monkeypatch.setattr(mod, "OUT", tmp_path / "results" / key)

@@ -29,7 +29,6 @@ from __future__ import annotations
 import numpy as np
 
 from studies.kit import study as kit
-from studies.kit.records import read_json
 
 PREDICTION = kit.results_dir("prediction")
 OUT = kit.results_dir("diagnosis", "e7")

@@ -34,7 +34,7 @@ import numpy as np
 
 from dem.output.plotting import agg_pyplot
 from postprocess.verdicts import BRANCH_AMPLIFICATION, BRANCH_PHASE_DEG, response_branch
-from studies.kit import child, study as kit  # noqa: F401  (child: what the loop runs dem with)
+from studies.kit import study as kit
 from studies.kit.records import read_json
 from studies.prediction.plan import load_frozen, sweep_case
 from studies.prediction.points import collect_rows
