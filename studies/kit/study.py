@@ -106,7 +106,7 @@ class Point:
     plan: tuple
     out: Path
     runs: Path
-    ledger: str
+    ledger: str | None          # None: the CPU seconds go to the point's own record
     seed: int | None = None
     owner: Any = None
     form: str = "json"
