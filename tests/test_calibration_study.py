@@ -10,6 +10,7 @@ import json
 import pytest
 import yaml
 
+import dem.engine as engine
 from dem.case import load_case
 from studies.calibration import cli as cal_cli
 from studies.calibration import points as cal_points
@@ -254,7 +255,7 @@ def test_a_point_from_an_older_engine_is_not_reused(monkeypatch):
     case = cal_specimens.specimen_case(spec["path"], CAND, "x")
     now = cal_specimens.fingerprint(case, 20, None)
     assert cal_specimens.fingerprint(case, 20, None) == now
-    monkeypatch.setattr(cal_specimens, "RESULTS_REVISION", cal_specimens.RESULTS_REVISION - 1)
+    monkeypatch.setattr(engine, "RESULTS_REVISION", engine.RESULTS_REVISION - 1)
     assert cal_specimens.fingerprint(case, 20, None) != now
 
 
@@ -272,7 +273,7 @@ def test_a_committed_point_of_an_older_engine_is_reported_pending_not_shown(tmp_
     dest.write_text(json.dumps(data))
     now = cal_report.collect(tmp_path, {"c": CAND}, specs, 20)["c"]["ip-small-5x5"]
     assert now["status"] == "finished" and now["lambda_median"] == pytest.approx(0.80)
-    monkeypatch.setattr(cal_specimens, "RESULTS_REVISION", cal_specimens.RESULTS_REVISION + 1)
+    monkeypatch.setattr(engine, "RESULTS_REVISION", engine.RESULTS_REVISION + 1)
     later = cal_report.collect(tmp_path, {"c": CAND}, specs, 20)["c"]["ip-small-5x5"]
     assert later["status"] == "pending" and later["stale"] and "lambda_median" not in later
 
@@ -341,3 +342,47 @@ def test_held_out_smoke_run_records_the_frozen_commit(tmp_path):
     assert data["calibration"]["parameters"] == CAND
     assert data["imperfections"]["arris"] == CAND["arris"]
     assert "Held out" in (out / "README.md").read_text()
+
+
+def test_the_calibration_session_runs_records_and_resumes_on_the_kit(tmp_path, monkeypatch):
+    """The calibration command on the kit's loop, with a stand-in for the dem ensemble child:
+    a point runs once and is recorded with the child's CPU seconds, the report follows it; a
+    second session starts nothing; a point recorded unfinished runs again and its sessions and
+    CPU seconds add up."""
+    from pathlib import Path
+
+    from studies.kit import child
+
+    calls = []
+
+    def fake_ensemble(args, log):
+        run_dir = Path(args[args.index("--out") + 1])
+        n = int(args[args.index("--realisations") + 1])
+        run_dir.mkdir(parents=True, exist_ok=True)
+        (run_dir / "ensemble.json").write_text(json.dumps(_ensemble([0.8] * n,
+                                                                    ["sliding"] * n)))
+        calls.append(args)
+        return 0, 5.0, 6.0
+    monkeypatch.setattr(child, "run_dem", fake_ensemble)
+    cfile = tmp_path / "candidates.yaml"
+    cfile.write_text(yaml.safe_dump({"c": CAND}))
+    out = tmp_path / "cal"
+    argv = ["--out", str(out), "--candidates-file", str(cfile), "--specimens", "ip-small-5x5",
+            "--realisations", "2"]
+    assert cal_cli.main(argv) == 0
+    point = cal_points.point_path(out, "c", "ip-small-5x5")
+    cal = json.loads(point.read_text())["calibration"]
+    assert len(calls) == 1 and calls[0][:2] == ["ensemble", str(out / "runs" / "c" /
+                                                                "ip-small-5x5.yaml")]
+    assert cal["finished"] and (cal["cpu_seconds"], cal["sessions"]) == (5.0, 1)
+    case = cal_specimens.specimen_case(cal_specimens.specimens()["ip-small-5x5"]["path"], CAND,
+                                       "cal-c-ip-small-5x5")
+    assert cal["fingerprint"] == cal_specimens.fingerprint(case, 2, None)
+    assert (out / "summary.json").is_file()
+    assert cal_cli.main(argv) == 0 and len(calls) == 1          # finished: nothing starts
+    data = json.loads(point.read_text())
+    data["calibration"]["finished"] = False
+    point.write_text(json.dumps(data))
+    assert cal_cli.main(argv) == 0 and len(calls) == 2
+    cal = json.loads(point.read_text())["calibration"]
+    assert (cal["cpu_seconds"], cal["sessions"]) == (10.0, 2)

@@ -9,6 +9,7 @@ import json
 import pytest
 
 from studies.diagnosis import grid as G
+from studies.kit import child as kit_child
 from studies.diagnosis.experiments import GRIDS
 from studies.prediction.plan import load_frozen, sweep_case
 from studies.prediction.protocol import DEFAULT_FROZEN
@@ -240,7 +241,7 @@ def test_run_order_is_seed_then_variant_then_grid(tmp_path, monkeypatch):
     calls = []
     monkeypatch.setattr(G, "RESULTS", tmp_path / "results")
     monkeypatch.setattr(G, "RUNS", tmp_path / "runs")
-    monkeypatch.setattr(G.child, "run_dem", lambda args, log: (
+    monkeypatch.setattr(kit_child, "run_dem", lambda args, log: (
         calls.append((args[1].split("/")[-2], args[1].split("/")[-1], args[args.index("--seed")
                                                                           + 1])), (0, 0.0, 0.0))[1])
     va, vb = (G.Variant("a", "a", {"loading": {"start": "lab"}}),
@@ -251,3 +252,74 @@ def test_run_order_is_seed_then_variant_then_grid(tmp_path, monkeypatch):
     assert calls == [("g1", "a.yaml", "0"), ("g2", "a.yaml", "0"), ("g1", "b.yaml", "0"),
                      ("g2", "b.yaml", "0"), ("g1", "a.yaml", "1"), ("g2", "a.yaml", "1"),
                      ("g1", "b.yaml", "1"), ("g2", "b.yaml", "1")]
+
+
+def test_a_grid_of_another_study_keeps_its_records_in_its_own_folders(tmp_path, monkeypatch):
+    """``results_dir`` / ``runs_dir``: the records, CPU ledger, case files, drain file and report
+    of the grid go there and nothing to results/diagnosis; a row recorded finished there for the
+    point's fingerprint is not run again."""
+    calls = []
+    monkeypatch.setattr(G, "RESULTS", tmp_path / "diagnosis-results")
+    monkeypatch.setattr(G, "RUNS", tmp_path / "diagnosis-runs")
+    monkeypatch.setattr(kit_child, "run_dem", lambda args, log: (
+        calls.append((args[args.index("--out") + 1], args[args.index("--seed") + 1],
+                      args[args.index("--drain-file") + 1])), (0, 2.0, 3.0))[1])
+    v = G.Variant("lab", "lab start", {"loading": {"start": "lab"}})
+    grid = G.Grid(key="g", title="t", hypothesis="h", sweep="model-ii-y", variants=(v,),
+                  frequencies=(2.8,), seeds=(0, 1), cycles=2.0,
+                  results_dir=tmp_path / "as_built", runs_dir=tmp_path / "runs")
+    assert grid.out == tmp_path / "as_built" / "g" and grid.runs == tmp_path / "runs" / "g"
+    fp = G.point(grid, v, load_frozen(DEFAULT_FROZEN)).fingerprint
+    grid.out.mkdir(parents=True)
+    (grid.out / "points.json").write_text(json.dumps({"variants": {"lab": {
+        "fingerprint": fp, "rows": [_row(0, 2.8, 2.0, 140.0)]}}}))
+    G.run([grid], log=lambda *_: None)
+    assert calls == [(str(tmp_path / "runs" / "g" / "lab"), "1", str(tmp_path / "runs" / "DRAIN"))]
+    data = json.loads((grid.out / "points.json").read_text())
+    assert data["variants"]["lab"]["fingerprint"] == fp and data["kind"] == "diagnosis-g"
+    # the committed finished row of seed 0 is kept over the pending one of this machine
+    assert [r["run_status"] for r in data["variants"]["lab"]["rows"]] == ["ok", "pending"]
+    assert json.loads((grid.out / "cpu.json").read_text()) == {"g": 2.0}
+    assert (tmp_path / "runs" / "g" / "lab.yaml").exists()
+    G.report(grid, log=lambda *_: None)
+    assert (grid.out / "summary.json").exists()
+    assert not (tmp_path / "diagnosis-results").exists()
+    assert not (tmp_path / "diagnosis-runs").exists()
+
+
+def test_e4_and_e2_run_on_the_kit_loop_and_skip_what_is_recorded(tmp_path, monkeypatch):
+    """E4: one sweep per (seed, level), seed by seed, a level recorded finished for its
+    fingerprint skipped; E2: a specimen recorded finished (with its survival) not run again,
+    the others run with --resume and recorded."""
+    from studies.diagnosis import e2, e4
+
+    calls = []
+    monkeypatch.setattr(kit_child, "run_dem",
+                        lambda args, log: (calls.append(args), (0, 1.0, 1.0))[1])
+    for mod, key in ((e4, "e4"), (e2, "e2")):
+        monkeypatch.setattr(mod, "OUT", tmp_path / "results" / key)
+        monkeypatch.setattr(mod, "RUNS", tmp_path / "runs" / key)
+    frozen = load_frozen(DEFAULT_FROZEN)
+    done = e4.point(e4.ACCELERATIONS[0], frozen)
+    e4.OUT.mkdir(parents=True)
+    (e4.OUT / "points.json").write_text(json.dumps({"levels": {done.name: {
+        "fingerprint": done.fingerprint,
+        "rows": [_row(s, f, 0.2, 10.0) for s in e4.SEEDS for f in e4.FREQUENCIES]}}}))
+    e4.run(log=lambda *_: None)
+    ran = [(a[a.index("--seed") + 1], a[a.index("--out") + 1].rsplit("/", 1)[1]) for a in calls]
+    assert ran == [(str(s), e4.level_name(a)) for s in e4.SEEDS for a in e4.ACCELERATIONS[1:]]
+    assert json.loads((e4.OUT / "cpu.json").read_text()) == {"e4": float(len(ran))}
+
+    calls.clear()
+    finished = e2.specimen_name("model-ii-y", 0)
+    fp = e2.fingerprint(e2.specimen_case("model-ii-y", 0, frozen["parameters"]))
+    e2.OUT.mkdir(parents=True)
+    (e2.OUT / "points.json").write_text(json.dumps({"specimens": {finished: {
+        "fingerprint": fp, "run_status": "ok", "survival": {"verdict": "standing"}}}}))
+    e2.run(sweeps=("model-ii-y",), seeds=(0, 1), log=lambda *_: None)
+    assert [a[:2] + a[3:] for a in calls] == [
+        ["run", str(e2.RUNS / "model-ii-y-seed-1.yaml"), str(e2.RUNS / "model-ii-y-seed-1"),
+         "--resume", "--no-progress"]]
+    rec = json.loads((e2.OUT / "points.json").read_text())["specimens"]
+    assert rec[finished]["run_status"] == "ok" and rec["model-ii-y-seed-1"]["run_status"] == \
+        "unknown"

@@ -15,6 +15,7 @@ import subprocess
 import pytest
 import yaml
 
+import dem.engine as engine
 from studies.kit import child as dem_child
 from postprocess import verdicts as vd
 from studies.prediction import analysis as an
@@ -437,7 +438,7 @@ def test_a_finished_sweep_starts_nothing(tmp_path, monkeypatch):
     monkeypatch.setattr(dem_child.subprocess, "Popen", no_run)
     assert runner.run_sweep_point(out, out / "runs", "model-ii-y", plan) == "skipped"
     # an engine whose results moved (dem.engine.RESULTS_REVISION) does not reuse the sweep
-    monkeypatch.setattr(pl, "RESULTS_REVISION", pl.RESULTS_REVISION + 1)
+    monkeypatch.setattr(engine, "RESULTS_REVISION", engine.RESULTS_REVISION + 1)
     assert pl.fingerprint(case, freqs, [0, 1], 50, None) != fp
     # one row not finished: it runs again
     rows[-1]["run_status"] = "pending"

@@ -132,3 +132,91 @@ def test_help_shows_bracketed_text_of_a_docstring():
     """A docstring's ``[m, m, m]`` is text, not Rich markup (studies.kit.cli.text)."""
     res = CliRunner().invoke(app, ["prediction", "--help"])
     assert res.exit_code == 0 and "[m, m, m]" in res.output
+
+
+# ---- a study's shape (studies.kit.study) --------------------------------------------------------
+def _block_case(friction=0.5):
+    from dem.case import parse_case
+
+    return parse_case({"name": "b", "scene": {"blocks": [{"size": [0.2, 0.2, 0.1],
+                                                          "position": [0.0, 0.0, 0.05],
+                                                          "mass": 4.0}]},
+                       "material": {"friction": friction}, "run": {"duration": 0.1}})
+
+
+def test_the_fingerprint_hashes_the_case_identity_then_the_plan_in_its_form():
+    """The two forms the committed records were written with, from their definitions: sha256
+    of the case's identity, then ``json.dumps([*plan, revision])`` or ``|a|b|revision``."""
+    import hashlib
+
+    from dem.case.identity import identity_json
+    from dem.engine import RESULTS_REVISION
+    from studies.kit import study as kit
+
+    case = _block_case()
+
+    def digest(tail: str) -> str:
+        h = hashlib.sha256(identity_json(case).encode())
+        h.update(tail.encode())
+        return h.hexdigest()[:16]
+    assert kit.fingerprint(case, [2.8, 3.2], [0, 1], 10) == \
+        digest(json.dumps([[2.8, 3.2], [0, 1], 10, RESULTS_REVISION]))
+    assert kit.fingerprint(case, 20, None, form="bars") == digest(f"|20|None|{RESULTS_REVISION}")
+    assert kit.fingerprint(case) == digest(json.dumps([RESULTS_REVISION]))
+    # another case, another plan part, or cycles written 10.0 rather than 10: another point
+    assert kit.fingerprint(_block_case(0.6), [2.8], [0], 10) != kit.fingerprint(case, [2.8],
+                                                                                 [0], 10)
+    assert kit.fingerprint(case, [2.8], [0], 10.0) != kit.fingerprint(case, [2.8], [0], 10)
+    with pytest.raises(ValueError, match="form"):
+        kit.fingerprint(case, form="yaml")
+
+
+def test_the_paths_are_this_checkouts():
+    from studies.kit import study as kit
+
+    assert kit.ROOT == ROOT and (ROOT / "studies" / "kit" / "study.py").is_file()
+    assert kit.results_dir("diagnosis", "e4") == ROOT / "results" / "diagnosis" / "e4"
+    assert kit.runs_dir("x") == ROOT / "runs" / "x"
+
+
+def test_the_loop_skips_finished_points_stops_on_the_drain_file_and_keeps_the_ledger(tmp_path,
+                                                                                       monkeypatch):
+    """A point whose ``todo`` is empty is skipped without a child; each run's CPU seconds go to
+    ``<out>/cpu.json`` under its ledger key and its records are written after it with the
+    child's result; the drain file ends the session before the next point."""
+    from studies.kit import study as kit
+
+    calls, recorded = [], []
+    monkeypatch.setattr(child, "run_dem",
+                        lambda args, log: (calls.append(args), (0, 1.5, 2.0))[1])
+
+    class Toy(kit.Study):
+        runs = tmp_path / "runs"
+
+        def points(self):
+            for i in range(4):
+                yield kit.Point(name=f"p{i}", case=_block_case(0.5 + 0.1 * i), plan=(i,),
+                                out=tmp_path / "out", runs=self.runs, ledger="toy", seed=i)
+
+        def todo(self, p):
+            return None if p.seed == 0 else ["go"]
+
+        def command(self, p, todo, drain):
+            if p.seed == 2:
+                (self.runs / "DRAIN").write_text("")
+            return ["run", str(p.case_file), "--out", str(p.run_dir)]
+
+        def record(self, p, result, log=print):
+            recorded.append((p.name, result))
+            return "finished"
+
+    states = kit.run(Toy(), log=lambda *_: None)
+    assert [(p.name, s) for p, s in states] == [("p0", "skipped"), ("p1", "finished"),
+                                                ("p2", "finished")]
+    assert [c[2] for c in calls] == ["--out", "--out"] and recorded == [("p1", (0, 1.5, 2.0)),
+                                                                ("p2", (0, 1.5, 2.0))]
+    assert [c[1] for c in calls] == [str(tmp_path / "runs" / "p1.yaml"),
+                                     str(tmp_path / "runs" / "p2.yaml")]
+    assert not (tmp_path / "runs" / "p0.yaml").exists()    # nothing to do: no case written
+    assert not (tmp_path / "runs" / "p3.yaml").exists()
+    assert read_json(tmp_path / "out" / "cpu.json") == {"toy": 3.0}

@@ -12,11 +12,11 @@ from types import SimpleNamespace
 import typer
 
 from studies import calibration
-from studies.calibration.points import run_point
+from studies.calibration.points import Ensembles
 from studies.calibration.report import report
 from studies.calibration.specimens import (CANDIDATES_FILE, DEFAULT_REALISATIONS, HELD_OUT_DIR,
                                            held_out_specimens, load_candidates, ROOT, specimens)
-from studies.kit import cli, session
+from studies.kit import cli, session, study as kit
 from studies.kit.provenance import repo_rel
 
 
@@ -92,15 +92,12 @@ def _calibration(args) -> int:
     out, runs = session.begin(args.out, args.runs)
     command = _command(args)
     if not args.report:
+        study = Ensembles(args.realisations, args.max_steps, after=lambda p, state: (
+            state != "skipped" and report(out, all_c, all_s, args.realisations, command)))
         for c, params in cands.items():
             for s, spec in specs.items():
-                if session.should_stop(stop_at=args.stop_at,
-                                       log=lambda m: print(m, flush=True)):
-                    break
-                state = run_point(out, runs, c, params, s, spec, args.realisations,
-                                  args.max_steps, log=lambda m: print(m, flush=True))
-                if state != "skipped":
-                    report(out, all_c, all_s, args.realisations, command)
+                study.add(out, runs, c, params, s, spec)
+        kit.run(study, args.stop_at, log=lambda m: print(m, flush=True))
     report(out, all_c, all_s, args.realisations, command)
     return 0
 
@@ -145,14 +142,11 @@ def _main_held_out(args) -> int:
     record = {"frozen": {"file": frozen["path"], "commit": frozen["commit"],
                          "sha256": frozen["sha256"]}}
     out, runs = session.begin(args.out, args.runs)
+    study = Ensembles(args.realisations, args.max_steps)
     for s, spec in all_s.items():
-        if args.specimens and s not in args.specimens:
-            continue
-        if session.should_stop(stop_at=args.stop_at,
-                               log=lambda m: print(m, flush=True)):
-            break
-        run_point(out, runs, HELD_OUT_DIR, frozen["parameters"], s, spec, args.realisations,
-                  args.max_steps, log=lambda m: print(m, flush=True), record=record)
+        if not args.specimens or s in args.specimens:
+            study.add(out, runs, HELD_OUT_DIR, frozen["parameters"], s, spec, record=record)
+    kit.run(study, args.stop_at, log=lambda m: print(m, flush=True))
     report(out, load_candidates(args.candidates_file), specimens(), args.realisations,
            _command(args))
     return 0

@@ -5,14 +5,11 @@
 from __future__ import annotations
 
 import json
-import time
 from pathlib import Path
 
-import yaml
-
 from studies.calibration.select import is_perfect
-from studies.calibration.specimens import fingerprint, realisations_for, specimen_case
-from studies.kit import child as dem_child
+from studies.calibration.specimens import realisations_for, specimen_case
+from studies.kit import study as kit
 from studies.kit.provenance import rel, source_state
 from studies.kit.records import read_json
 
@@ -52,6 +49,104 @@ def point_finished(data: dict | None, fp: str | None = None) -> bool:
     return bool(cal.get("finished")) and agg.get("n_ok") == cal.get("n_realisations")
 
 
+class Ensembles(kit.Study):
+    """Points of the calibration's kind on the kit's loop: one ``dem ensemble`` of N
+    realisations (seeds 0..N-1) per (candidate, specimen[, rate]); the record
+    ``<out>/<candidate>/<specimen>/ensemble.json`` with its ``calibration`` block, CPU and wall
+    seconds adding up over the sessions of one fingerprint.  No drain file: a session stops on
+    signals and its stop time.  ``after(point, state)``: called once each point is done with.
+    The points run in the order :meth:`add` planned them."""
+
+    def __init__(self, realisations: int, max_steps: int | None = None, after=None):
+        self.realisations, self.max_steps = realisations, max_steps
+        self._planned, self._after = [], after
+
+    def add(self, *args, **kwargs) -> None:
+        """Plan one more point (the arguments of :meth:`point`; its case is built when it
+        comes)."""
+        self._planned.append((args, kwargs))
+
+    def point(self, out: Path, runs: Path, candidate: str, params: dict, specimen: str,
+              spec: dict, record: dict | None = None, rate: float | None = None) -> kit.Point:
+        """The point of ``candidate`` (parameters ``params``) on ``specimen`` (``spec``), its
+        record in ``out``, its runs in ``runs``; ``record``: more fields for its calibration
+        block; ``rate``: a constant-rate tilt (:func:`specimen_case`)."""
+        name = f"cal-{candidate}-{specimen}" + ("" if rate is None else f"-rate-{rate:g}")
+        case = specimen_case(spec["path"], params, name, rate)
+        n = realisations_for(params, self.realisations)
+        return kit.Point(name=specimen, case=case, plan=(n, self.max_steps), form="bars",
+                         out=Path(out), runs=Path(runs) / candidate, ledger=None,
+                         owner={"candidate": candidate, "params": params, "spec": spec,
+                                "n": n, "record": record or {}})
+
+    def points(self):
+        for args, kwargs in self._planned:
+            yield self.point(*args, **kwargs)
+
+    def todo(self, p):
+        return not point_finished(read_json(self._dest(p)), p.fingerprint)
+
+    @staticmethod
+    def _dest(p) -> Path:
+        return point_path(p.out, p.owner["candidate"], p.name)
+
+    def describe(self, p, todo):
+        return f"{p.owner['candidate']} / {p.name}: {p.owner['n']} realisation(s) ..."
+
+    def command(self, p, todo, drain):
+        cmd = ["ensemble", str(p.case_file), "--out", str(p.run_dir), "--realisations",
+               str(p.owner["n"]), "--seed", "0", "--workers", "1"]
+        if self.max_steps is not None:
+            cmd += ["--max-steps", str(self.max_steps)]
+        return cmd
+
+    def ran(self, p, rc, cpu, wall, log=print):
+        """(The CPU seconds go to the point's own record; :meth:`record` logs them.)"""
+
+    def record(self, p, result, log=print) -> str:
+        """Write the point's record from its ensemble; its state: "finished", "pending"
+        (interrupted or a realisation failed) or "failed" (dem ensemble refused the case: no
+        ensemble.json)."""
+        rc, cpu, wall = result
+        o = p.owner
+        n, fp, params, spec = o["n"], p.fingerprint, o["params"], o["spec"]
+        data = read_json(p.run_dir / "ensemble.json")
+        if data is None:
+            log(f"    dem ensemble exit {rc}: no ensemble.json")
+            return "failed"
+        dest = self._dest(p)
+        prev = (read_json(dest) or {}).get("calibration") or {}
+        same = prev.get("fingerprint") == fp
+        rows = data.get("realisations") or []
+        extras = {r["name"]: _realisation_extras(p.run_dir / r["name"]) for r in rows
+                  if r.get("status") == "ok"}
+        finished = (data.get("aggregate") or {}).get("n_ok") == n
+        data["source"] = rel(p.case_file)
+        data["calibration"] = {
+            "candidate": o["candidate"], "specimen": p.name, "specimen_case": rel(spec["path"]),
+            "kind": spec["kind"], "l_over_h": spec["l_over_h"],
+            "parameters": params, "friction": p.case.material.friction,
+            "normal_stiffness_pa_per_m": p.case.material.normal_stiffness,
+            "n_realisations": n, "seeds": list(range(n)), "max_steps": self.max_steps,
+            "deterministic": is_perfect(params), "fingerprint": fp, "finished": finished,
+            "cpu_seconds": (prev.get("cpu_seconds", 0.0) if same else 0.0) + cpu,
+            "wall_seconds": (prev.get("wall_seconds", 0.0) if same else 0.0) + wall,
+            "sessions": (prev.get("sessions", 0) if same else 0) + 1,
+            "exit_code": rc, "source": source_state(checkout=True), "extras": extras,
+            **o["record"]}
+        from dem.output.atomic import write_json
+
+        dest.parent.mkdir(parents=True, exist_ok=True)
+        write_json(dest, data, indent=1)
+        state = "finished" if finished else "pending"
+        log(f"    -> {state}: {cpu:.0f} CPU-s, {wall:.0f} s this call")
+        return state
+
+    def after(self, p, state):
+        if self._after is not None:
+            self._after(p, state)
+
+
 def run_point(out: Path, runs: Path, candidate: str, params: dict, specimen: str,
               spec: dict, realisations: int, max_steps: int | None = None,
               log=print, record: dict | None = None, rate: float | None = None) -> str:
@@ -59,52 +154,6 @@ def run_point(out: Path, runs: Path, candidate: str, params: dict, specimen: str
     (interrupted or a realisation failed) or "failed" (dem ensemble refused the case).
     ``record``: more fields for the point's ``calibration`` block (the held-out points: the
     frozen set's file and commit).  ``rate``: a constant-rate tilt (:func:`specimen_case`)."""
-    name = f"cal-{candidate}-{specimen}" + ("" if rate is None else f"-rate-{rate:g}")
-    case = specimen_case(spec["path"], params, name, rate)
-    n = realisations_for(params, realisations)
-    fp = fingerprint(case, n, max_steps)
-    dest = point_path(out, candidate, specimen)
-    old = read_json(dest)
-    if point_finished(old, fp):
-        return "skipped"
-    ens_dir = Path(runs) / candidate / specimen
-    case_file = Path(runs) / candidate / f"{specimen}.yaml"
-    case_file.parent.mkdir(parents=True, exist_ok=True)
-    case_file.write_text(yaml.safe_dump(case.model_dump(mode="json"), sort_keys=False))
-    cmd = ["ensemble", str(case_file), "--out", str(ens_dir), "--realisations", str(n),
-           "--seed", "0", "--workers", "1"]
-    if max_steps is not None:
-        cmd += ["--max-steps", str(max_steps)]
-    log(f"[{time.strftime('%H:%M:%S', time.gmtime())} UTC] {candidate} / {specimen}: {n} realisation(s) ...")
-    rc, cpu, wall = dem_child.run_dem(cmd, log)
-    data = read_json(ens_dir / "ensemble.json")
-    if data is None:
-        log(f"    dem ensemble exit {rc}: no ensemble.json")
-        return "failed"
-    prev = (old or {}).get("calibration") or {}
-    same = prev.get("fingerprint") == fp
-    rows = data.get("realisations") or []
-    extras = {r["name"]: _realisation_extras(ens_dir / r["name"]) for r in rows
-              if r.get("status") == "ok"}
-    finished = (data.get("aggregate") or {}).get("n_ok") == n
-    data["source"] = rel(case_file)
-    data["calibration"] = {
-        "candidate": candidate, "specimen": specimen, "specimen_case": rel(spec["path"]),
-        "kind": spec["kind"], "l_over_h": spec["l_over_h"],
-        "parameters": params, "friction": case.material.friction,
-        "normal_stiffness_pa_per_m": case.material.normal_stiffness,
-        "n_realisations": n, "seeds": list(range(n)), "max_steps": max_steps,
-        "deterministic": is_perfect(params), "fingerprint": fp, "finished": finished,
-        "cpu_seconds": (prev.get("cpu_seconds", 0.0) if same else 0.0) + cpu,
-        "wall_seconds": (prev.get("wall_seconds", 0.0) if same else 0.0) + wall,
-        "sessions": (prev.get("sessions", 0) if same else 0) + 1,
-        "exit_code": rc, "source": source_state(checkout=True), "extras": extras, **(record or {})}
-    from dem.output.atomic import write_json
-
-    dest.parent.mkdir(parents=True, exist_ok=True)
-    write_json(dest, data, indent=1)
-    state = "finished" if finished else "pending"
-    log(f"    -> {state}: {cpu:.0f} CPU-s, {wall:.0f} s this call")
-    return state
-
-
+    study = Ensembles(realisations, max_steps)
+    return kit.run_point(study, study.point(out, runs, candidate, params, specimen, spec,
+                                            record, rate), log=log)

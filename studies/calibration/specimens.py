@@ -4,7 +4,6 @@
 
 from __future__ import annotations
 
-import hashlib
 import json
 from pathlib import Path
 
@@ -12,13 +11,11 @@ import yaml
 
 from dem.builders.bricks import brick
 from dem.case import Case, load_case
-from dem.engine import RESULTS_REVISION
 from studies.calibration.select import is_perfect
+from studies.kit.study import fingerprint as kit_fingerprint
 from studies.tilt.study import quasi_static_case, study_settings
-from dem.case.identity import identity_json
+from studies.kit.provenance import ROOT
 
-
-ROOT = Path(__file__).resolve().parents[2]
 TILT = ROOT / "cases" / "tilt"
 CANDIDATES_FILE = ROOT / "studies" / "calibration" / "candidates.yaml"
 DEFAULT_REALISATIONS = 20
@@ -178,9 +175,7 @@ def realisations_for(params: dict, requested: int) -> int:
 
 def fingerprint(case: Case, n: int, max_steps: int | None) -> str:
     """What a finished point must match to be reused: the case, N, the step cap, the engine's
-    results revision (dem.engine.RESULTS_REVISION)."""
-    h = hashlib.sha256(identity_json(case).encode())
-    h.update(f"|{n}|{max_steps}|{RESULTS_REVISION}".encode())
-    return h.hexdigest()[:16]
+    results revision (dem.engine.RESULTS_REVISION), in the form its records were written with."""
+    return kit_fingerprint(case, n, max_steps, form="bars")
 
 

@@ -44,12 +44,12 @@ from dem.engine import RESULTS_REVISION
 from studies.calibration import points as cal_points
 from studies.calibration import specimens as cal_specimens
 from studies.kit import cli, provenance
-from studies.kit import child as dem_child
+from studies.kit import study as kit
 from studies.kit.provenance import rel
 from studies.kit.records import read_json
 from studies.prediction.protocol import CHAPTER3_CHECK
+from studies.kit.provenance import ROOT
 
-ROOT = Path(__file__).resolve().parents[2]
 DEFAULT_FROZEN = ROOT / "studies" / "calibration" / "frozen.yaml"
 DEFAULT_CALIBRATION = ROOT / "results" / "calibration"
 CHECK_DIR, CHECK_FILE = CHAPTER3_CHECK.split("/")  # under the prediction's --out
@@ -206,13 +206,10 @@ def _check(args, argv: list[str]) -> int:
     seeds = list(range(args.seeds))
     states = []
     if not args.compare_only:
-        dem_child.install_signal_handlers()
+        study = cal_points.Ensembles(args.seeds, args.max_steps)
         for s, spec in specs.items():
-            if dem_child.stopped():
-                break
-            states.append(cal_points.run_point(args.out, args.runs, candidate, params, s, spec,
-                                        args.seeds, args.max_steps,
-                                        log=lambda m: print(m, flush=True)))
+            study.add(args.out, args.runs, candidate, params, s, spec)
+        states = [state for _, state in kit.run(study, log=lambda m: print(m, flush=True))]
     from dem.output.atomic import write_json
 
     args.out.mkdir(parents=True, exist_ok=True)

@@ -52,6 +52,7 @@ import numpy as np
 from dem.output.plotting import agg_pyplot
 from postprocess.verdicts import response_branch
 from studies.diagnosis.grid import Grid, RESULTS, Variant, baseline_rows, judged
+from studies.kit import study as kit
 from studies.kit.records import read_json
 
 FREQUENCY = 2.0
@@ -222,7 +223,7 @@ def report(log=print) -> dict:
     for v in CANDIDATES:
         rows = {}
         for g in GRIDS:
-            data = read_json(g.out / "points.json") or {}
+            data = kit.records(g.out)
             rows[g.sweep] = ((data.get("variants") or {}).get(v.name) or {}).get("rows", [])
         table[v.name] = {"label": v.label, **fingerprint_of(rows),
                          "corner_motion": corner_motion_of(rows)}

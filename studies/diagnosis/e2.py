@@ -29,23 +29,17 @@ fingerprint never runs again; an unfinished run continues from its restart point
 
 from __future__ import annotations
 
-import hashlib
-import json
-import time
 from pathlib import Path
 
 import numpy as np
-import yaml
 
-from dem.case.identity import identity_json
-from dem.engine import RESULTS_REVISION
 from dem.output.plotting import agg_pyplot
 from postprocess.verdicts import BRANCH_AMPLIFICATION, BRANCH_PHASE_DEG, response_branch
-from studies.kit import child, session
+from studies.kit import study as kit
 from studies.kit.provenance import rel, source_state
 from studies.kit.records import merge_json, read_json
 from studies.prediction.plan import load_frozen, sweep_case
-from studies.prediction.protocol import DEFAULT_FROZEN, ROOT
+from studies.prediction.protocol import DEFAULT_FROZEN
 
 DOWN = (4.4, 4.0, 3.6, 3.2, 2.8, 2.4, 2.0)       # Hz, then back up (UP)
 UP = (2.4, 2.8, 3.2, 3.6, 4.0, 4.4)
@@ -53,8 +47,8 @@ CYCLES_PER_STEP = 15
 SWEEPS = ("model-ii-y", "model-iii-y")
 SEEDS = (0, 1, 2)
 MARGIN_S = 1.0                                    # free motion after the last step, as dem sweep
-OUT = ROOT / "results" / "diagnosis" / "e2"
-RUNS = ROOT / "runs" / "diagnosis" / "e2"
+OUT = kit.results_dir("diagnosis", "e2")
+RUNS = kit.runs_dir("diagnosis", "e2")
 
 
 def steps() -> list[dict]:
@@ -83,9 +77,9 @@ def specimen_case(sweep: str, seed: int, params: dict):
 
 
 def fingerprint(case) -> str:
-    h = hashlib.sha256(identity_json(case).encode())
-    h.update(json.dumps([RESULTS_REVISION]).encode())
-    return h.hexdigest()[:16]
+    """What a finished specimen must match: its case (the steps in it) and the engine's
+    revision."""
+    return kit.fingerprint(case)
 
 
 def step_rows(analysis: dict, fall_times=()) -> list[dict]:
@@ -128,55 +122,67 @@ def record(name: str, sweep: str, seed: int, case_file: Path, fp: str, status: s
             "steps": step_rows(analysis, fall_times) if analysis else []}
         data.update({"kind": "diagnosis-e2", "down_hz": list(DOWN), "up_hz": list(UP),
                      "cycles_per_step": CYCLES_PER_STEP, "source": source_state()})
-    return merge_json(OUT / "points.json", change)
+    return merge_json(kit.records_path(OUT), change)
+
+
+class E2(kit.Study):
+    """Every unfinished specimen, seed by seed across the sweeps: ``dem run --resume`` (a killed
+    run continues from its restart point), then the stepped analysis, recorded after each."""
+
+    def __init__(self, sweeps=SWEEPS, seeds=SEEDS):
+        self.sweeps, self.seeds, self.runs = sweeps, seeds, RUNS
+
+    def points(self):
+        frozen = load_frozen(DEFAULT_FROZEN)
+        for seed in self.seeds:
+            for sweep in self.sweeps:
+                yield kit.Point(name=specimen_name(sweep, seed),
+                                case=specimen_case(sweep, seed, frozen["parameters"]), plan=(),
+                                out=OUT, runs=RUNS, ledger="e2", seed=seed, owner=sweep)
+
+    def todo(self, p):
+        """What is left: "run", "analyse" (a finished run recorded before its survival was) or
+        nothing."""
+        rec = (kit.records(OUT).get("specimens") or {}).get(p.name)
+        done = rec and rec.get("fingerprint") == p.fingerprint and rec.get("run_status") == "ok"
+        if done and rec.get("survival"):
+            return None
+        return "analyse" if done else "run"
+
+    def describe(self, p, todo):
+        return (f"E2 {p.name}: {len(steps())} steps, {p.case.run.duration:.1f} s"
+                if todo == "run" else None)
+
+    def command(self, p, todo, drain):
+        return (["run", str(p.case_file), "--out", str(p.run_dir), "--resume", "--no-progress"]
+                if todo == "run" else None)
+
+    def record(self, p, result, log=print):
+        from postprocess.stepped import analyze_stepped_run
+
+        summary = read_json(p.run_dir / "summary.json") or {}
+        status = summary.get("status", "unknown")
+        analysis, surv, falls = None, None, []
+        if status == "ok":
+            analysis = analyze_stepped_run(p.run_dir)
+            surv, falls = survival_record(p.run_dir)
+        record(p.name, p.owner, p.seed, p.case_file, p.fingerprint, status, analysis, surv,
+               falls)
+        log(f"    {p.name}: {status}" + (f", {surv['verdict']} ({surv['n_fallen']} bricks "
+                                        f"down)" if surv else ""))
 
 
 def run(sweeps=SWEEPS, seeds=SEEDS, stop_at: str | None = None, log=print) -> None:
     """Run every unfinished specimen, seed by seed across ``sweeps``: ``dem run --resume`` (a
     killed run continues), then the stepped analysis, recorded after each."""
-    from postprocess.stepped import analyze_stepped_run
-
-    frozen = load_frozen(DEFAULT_FROZEN)
-    drain = session.start(RUNS, log=log)
-    for seed in seeds:
-        for sweep in sweeps:
-            if session.should_stop(drain, stop_at, log):
-                return
-            name = specimen_name(sweep, seed)
-            case = specimen_case(sweep, seed, frozen["parameters"])
-            fp = fingerprint(case)
-            rec = ((read_json(OUT / "points.json") or {}).get("specimens") or {}).get(name)
-            done = rec and rec.get("fingerprint") == fp and rec.get("run_status") == "ok"
-            if done and rec.get("survival"):
-                continue
-            case_file = RUNS / f"{name}.yaml"
-            if not done:   # (else: a finished run recorded before its survival was: analyse)
-                case_file.parent.mkdir(parents=True, exist_ok=True)
-                case_file.write_text(yaml.safe_dump(case.model_dump(mode="json"),
-                                                    sort_keys=False))
-                log(f"[{time.strftime('%H:%M:%S', time.gmtime())} UTC] E2 {name}: "
-                    f"{len(steps())} steps, {case.run.duration:.1f} s")
-                rc, cpu, wall = child.run_dem(["run", str(case_file), "--out",
-                                               str(RUNS / name), "--resume", "--no-progress"],
-                                              log)
-                session.add_cpu(OUT / "cpu.json", "e2", cpu)
-                log(f"    exit {rc}, {cpu:.0f} CPU-s, {wall:.0f} s")
-            summary = read_json(RUNS / name / "summary.json") or {}
-            status = summary.get("status", "unknown")
-            analysis, surv, falls = None, None, []
-            if status == "ok":
-                analysis = analyze_stepped_run(RUNS / name)
-                surv, falls = survival_record(RUNS / name)
-            record(name, sweep, seed, case_file, fp, status, analysis, surv, falls)
-            log(f"    {name}: {status}" + (f", {surv['verdict']} ({surv['n_fallen']} bricks "
-                                          f"down)" if surv else ""))
+    kit.run(E2(sweeps, seeds), stop_at, log)
 
 
 # ---- the report ---------------------------------------------------------------------------------
 def from_rest(sweep: str, seeds) -> dict:
     """{f: [branch verdicts]} of the first prediction's rows of ``sweep`` and ``seeds`` (each
     run started from rest at its own frequency)."""
-    data = read_json(ROOT / "results" / "prediction" / sweep / "points.json") or {}
+    data = kit.records(kit.results_dir("prediction", sweep))
     out = {}
     for r in data.get("rows", []):
         if r.get("run_status") == "ok" and r["seed"] in seeds:
@@ -235,7 +241,7 @@ def plot(specimens: dict, path: Path) -> None:
 def report(log=print) -> dict:
     from dem.output.atomic import write_json
 
-    data = read_json(OUT / "points.json") or {}
+    data = kit.records(OUT)
     specimens = {n: s for n, s in (data.get("specimens") or {}).items()
                  if s.get("run_status") == "ok"}
     verdicts = {}

@@ -24,24 +24,17 @@ summary.json, threshold.png.  Raw runs in runs/diagnosis/e4/ (git-ignored).
 
 from __future__ import annotations
 
-import hashlib
-import json
-import time
 from pathlib import Path
 
 import numpy as np
-import yaml
 
-from dem.engine import RESULTS_REVISION
 from dem.output.plotting import agg_pyplot
 from postprocess.verdicts import BRANCH_AMPLIFICATION, BRANCH_PHASE_DEG, response_branch
-from studies.kit import child, session
-from studies.kit.provenance import rel, source_state
-from studies.kit.records import merge_json, read_json
+from studies.kit import study as kit
+from studies.kit.records import read_json
 from studies.prediction.plan import load_frozen, sweep_case
 from studies.prediction.points import collect_rows
-from studies.prediction.protocol import DEFAULT_FROZEN, ROOT
-from dem.case.identity import identity_json
+from studies.prediction.protocol import DEFAULT_FROZEN
 
 SWEEP = "model-ii-y"
 FREQUENCIES = (2.4, 2.8, 3.2)          # Hz: the thesis' effective range of Model II y
@@ -50,9 +43,9 @@ SEEDS = (0, 1, 2)
 CYCLES = 10
 ONSET_SEEDS = 2                         # of 3: a majority on the rocking branch
 THESIS_ACCELERATION = 1.53              # m/s2, group 3 (the first prediction's level)
-OUT = ROOT / "results" / "diagnosis" / "e4"
-RUNS = ROOT / "runs" / "diagnosis" / "e4"
-PREDICTION_POINTS = ROOT / "results" / "prediction" / SWEEP / "points.json"
+OUT = kit.results_dir("diagnosis", "e4")
+RUNS = kit.runs_dir("diagnosis", "e4")
+PREDICTION_POINTS = kit.records_path(kit.results_dir("prediction", SWEEP))
 
 
 def level_name(accel: float) -> str:
@@ -73,73 +66,68 @@ def level_case(params: dict, accel: float):
 
 def fingerprint(case) -> str:
     """What a finished row must match to count: the case, the plan and the engine's revision."""
-    h = hashlib.sha256(identity_json(case).encode())
-    h.update(json.dumps([list(FREQUENCIES), list(SEEDS), CYCLES, RESULTS_REVISION]).encode())
-    return h.hexdigest()[:16]
+    return kit.fingerprint(case, *PLAN)
 
 
-def _key(row: dict) -> tuple:
-    return int(row["seed"]), round(float(row["frequency_hz"]), 9)
+#: what besides a level's case its fingerprint covers
+PLAN = (list(FREQUENCIES), list(SEEDS), CYCLES)
+
+
+def point(accel: float, frozen: dict, seed: int | None = None) -> kit.Point:
+    """The kit's point of one acceleration level (m/s2), and seed, with the frozen joints."""
+    return kit.Point(name=level_name(accel), case=level_case(frozen["parameters"], accel),
+                     plan=PLAN, out=OUT, runs=RUNS, ledger="e4", seed=seed, owner=accel)
 
 
 def finished(points: dict | None, level: str, fp: str) -> dict:
     """{(seed, f): row} of the finished rows of ``level`` recorded for fingerprint ``fp``."""
-    rec = ((points or {}).get("levels") or {}).get(level) or {}
-    if rec.get("fingerprint") != fp:
-        return {}
-    return {_key(r): r for r in rec.get("rows", []) if r.get("run_status") == "ok"}
+    return kit.finished_rows(points, "levels", level, fp)
 
 
-def merge_level(level: str, accel: float, case_file: Path, fp: str) -> dict:
-    """Merge the rows of ``level``'s run directories into points.json (a finished row, fresh or
+def merge_level(p: kit.Point) -> dict:
+    """Merge the rows of the level's run directories into points.json (a finished row, fresh or
     committed, wins over a pending one) under its lock."""
-    fresh = collect_rows(RUNS / level, SEEDS, FREQUENCIES)
+    return kit.merge_rows(p, "levels", collect_rows(p.run_dir, SEEDS, FREQUENCIES),
+                          entry={"peak_acceleration_m_s2": p.owner},
+                          top={"kind": "diagnosis-e4", "frequencies_hz": list(FREQUENCIES),
+                               "seeds": list(SEEDS), "cycles": CYCLES},
+                          row_fields={"peak_acceleration_m_s2": p.owner})
 
-    def change(data):
-        kept = finished(data, level, fp)
-        rows = [r if r.get("run_status") == "ok" or _key(r) not in kept else kept[_key(r)]
-                for r in fresh]
-        for r in rows:
-            r["peak_acceleration_m_s2"] = accel
-        data.setdefault("levels", {})[level] = {
-            "peak_acceleration_m_s2": accel, "run_case": rel(case_file), "fingerprint": fp,
-            "rows": rows}
-        data.update({"kind": "diagnosis-e4", "frequencies_hz": list(FREQUENCIES),
-                     "seeds": list(SEEDS), "cycles": CYCLES, "source": source_state()})
-    return merge_json(OUT / "points.json", change)
+
+class E4(kit.Study):
+    """Every (seed, level) one ``dem sweep`` over its unfinished frequencies, seed by seed (so
+    that a cut session leaves whole seeds of the map)."""
+    runs = RUNS
+
+    def __init__(self, workers: int = 1):
+        self.workers = workers
+
+    def points(self):
+        frozen = load_frozen(DEFAULT_FROZEN)
+        for seed in SEEDS:
+            for accel in ACCELERATIONS:
+                yield point(accel, frozen, seed)
+
+    def todo(self, p):
+        done = finished(merge_level(p), p.name, p.fingerprint)
+        return [f for f in FREQUENCIES if (p.seed, round(f, 9)) not in done]
+
+    def describe(self, p, todo):
+        return f"E4 seed {p.seed}, {p.owner:g} m/s2: {', '.join(f'{f:g}' for f in todo)} Hz"
+
+    def command(self, p, todo, drain):
+        return kit.sweep_args(p.case_file, p.run_dir, todo, CYCLES, p.seed, self.workers,
+                              drain=drain)
+
+    def record(self, p, result, log=print):
+        merge_level(p)
 
 
 def run(workers: int = 1, stop_at: str | None = None, log=print) -> None:
     """Run every unfinished (seed, level) as one ``dem sweep`` over its unfinished frequencies,
     seed by seed (so that a cut session leaves whole seeds of the map), merging points.json and
     the CPU ledger after each."""
-    frozen = load_frozen(DEFAULT_FROZEN)
-    drain = session.start(RUNS, log=log)
-    for seed in SEEDS:
-        for accel in ACCELERATIONS:
-            if session.should_stop(drain, stop_at, log):
-                return
-            level = level_name(accel)
-            case = level_case(frozen["parameters"], accel)
-            fp = fingerprint(case)
-            case_file = RUNS / f"{level}.yaml"
-            case_file.parent.mkdir(parents=True, exist_ok=True)
-            case_file.write_text(yaml.safe_dump(case.model_dump(mode="json"), sort_keys=False))
-            data = merge_level(level, accel, case_file, fp)
-            done = finished(data, level, fp)
-            todo = [f for f in FREQUENCIES if (seed, round(f, 9)) not in done]
-            if not todo:
-                continue
-            log(f"[{time.strftime('%H:%M:%S', time.gmtime())} UTC] E4 seed {seed}, "
-                f"{accel:g} m/s2: {', '.join(f'{f:g}' for f in todo)} Hz")
-            args = ["sweep", str(case_file), "--out", str(RUNS / level),
-                    "--frequencies", ",".join(f"{f:g}" for f in todo),
-                    "--cycles", f"{CYCLES:g}", "--realisations", "1", "--seed", str(seed),
-                    "--workers", str(workers), "--drain-file", str(drain)]
-            rc, cpu, wall = child.run_dem(args, log)
-            session.add_cpu(OUT / "cpu.json", "e4", cpu)
-            merge_level(level, accel, case_file, fp)
-            log(f"    exit {rc}, {cpu:.0f} CPU-s, {wall:.0f} s")
+    kit.run(E4(workers), stop_at, log)
 
 
 # ---- the report ---------------------------------------------------------------------------------
@@ -239,7 +227,7 @@ def report(log=print) -> dict:
     """summary.json and threshold.png from points.json (and the first prediction's context)."""
     from dem.output.atomic import write_json
 
-    data = read_json(OUT / "points.json") or {}
+    data = kit.records(OUT)
     rows = [r for lv in (data.get("levels") or {}).values() for r in lv.get("rows", [])]
     recs = cells(rows + context_rows())
     done = sum(r.get("run_status") == "ok" for r in rows)

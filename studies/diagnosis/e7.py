@@ -28,11 +28,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from studies.kit.records import read_json
-from studies.prediction.protocol import ROOT
+from studies.kit import study as kit
 
-PREDICTION = ROOT / "results" / "prediction"
-OUT = ROOT / "results" / "diagnosis" / "e7"
+PREDICTION = kit.results_dir("prediction")
+OUT = kit.results_dir("diagnosis", "e7")
 #: thesis (REFERENCE.md, Chapter 4 results): effective range and the amplification of a inside /
 #: outside it, where the thesis gives them
 THESIS = {"model-ii-y": {"range_hz": (2.4, 3.2), "inside": 2.0, "outside_max": 0.5},
@@ -45,7 +44,7 @@ THESIS = {"model-ii-y": {"range_hz": (2.4, 3.2), "inside": 2.0, "outside_max": 0
 def sweep_table(name: str) -> list[dict]:
     """Per frequency of one prediction sweep: runs, median (10-90 %) h1_ds (= relative a,
     first harmonic), median absolute a amplification through the assumed 20 Hz low-pass."""
-    rows = [r for r in (read_json(PREDICTION / name / "points.json") or {}).get("rows", [])
+    rows = [r for r in kit.records(PREDICTION / name).get("rows", [])
             if r.get("analysis_status") == "ok"]
     out = []
     for f in sorted({r["frequency_hz"] for r in rows}):

@@ -19,34 +19,29 @@ patch).
 
 Records per grid (committed, resumable): results/diagnosis/<key>/points.json (one row per run,
 merged after each sweep; a finished row of the same fingerprint never runs again), cpu.json,
-summary.json and branches.png.  Raw runs in runs/diagnosis/<key>/<variant>/ (git-ignored).
+summary.json and branches.png.  Raw runs in runs/diagnosis/<key>/<variant>/ (git-ignored).  A
+grid of another study names its own folders (``Grid.results_dir``, ``Grid.runs_dir``).  The
+paths, fingerprint, records and resumable loop are the study kit's (studies.kit.study).
 """
 
 from __future__ import annotations
 
 import copy
-import hashlib
-import json
-import time
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import yaml
 
-from dem.case.identity import identity_json
-from dem.engine import RESULTS_REVISION
 from dem.output.plotting import agg_pyplot
 from postprocess.verdicts import BRANCH_AMPLIFICATION, BRANCH_PHASE_DEG, response_branch
-from studies.kit import child, session
-from studies.kit.provenance import rel, source_state
-from studies.kit.records import merge_json, read_json
+from studies.kit import study as kit
+from studies.kit.records import read_json
 from studies.prediction.plan import load_frozen, sweep_case
 from studies.prediction.points import collect_rows
-from studies.prediction.protocol import DEFAULT_FROZEN, ROOT
+from studies.prediction.protocol import DEFAULT_FROZEN
 
-RESULTS = ROOT / "results" / "diagnosis"
-RUNS = ROOT / "runs" / "diagnosis"
+RESULTS = kit.results_dir("diagnosis")
+RUNS = kit.runs_dir("diagnosis")
 
 
 @dataclass(frozen=True)
@@ -68,14 +63,18 @@ class Grid:
     frequencies: tuple             # Hz
     seeds: tuple
     cycles: float
+    #: where the records (``<results_dir>/<key>/``) and the raw runs (``<runs_dir>/<key>/``)
+    #: go: another study's folders for a grid of its own (None: results/diagnosis, runs/diagnosis)
+    results_dir: Path | None = None
+    runs_dir: Path | None = None
 
     @property
     def out(self) -> Path:
-        return RESULTS / self.key
+        return Path(self.results_dir if self.results_dir is not None else RESULTS) / self.key
 
     @property
     def runs(self) -> Path:
-        return RUNS / self.key
+        return Path(self.runs_dir if self.runs_dir is not None else RUNS) / self.key
 
 
 def merge_patch(data: dict, patch: dict) -> dict:
@@ -101,50 +100,33 @@ def variant_case(grid: Grid, variant: Variant, params: dict):
 
 def fingerprint(grid: Grid, case) -> str:
     """What a finished row must match to count: the case, the plan and the engine's revision."""
-    h = hashlib.sha256(identity_json(case).encode())
-    h.update(json.dumps([list(grid.frequencies), list(grid.seeds), grid.cycles,
-                         RESULTS_REVISION]).encode())
-    return h.hexdigest()[:16]
+    return kit.fingerprint(case, list(grid.frequencies), list(grid.seeds), grid.cycles)
 
 
-def _key(row: dict) -> tuple:
-    return int(row["seed"]), round(float(row["frequency_hz"]), 9)
+def point(grid: Grid, variant: Variant, frozen: dict, seed: int | None = None) -> kit.Point:
+    """The kit's point of one variant (and seed) of ``grid`` with the frozen joints
+    ``frozen``."""
+    return kit.Point(name=variant.name, case=variant_case(grid, variant, frozen["parameters"]),
+                     plan=(list(grid.frequencies), list(grid.seeds), grid.cycles),
+                     out=grid.out, runs=grid.runs, ledger=grid.key, seed=seed,
+                     owner=(grid, variant))
 
 
 def finished(points: dict | None, variant: str, fp: str) -> dict:
     """{(seed, f): row} of the finished rows of ``variant`` recorded for fingerprint ``fp``."""
-    rec = ((points or {}).get("variants") or {}).get(variant) or {}
-    if rec.get("fingerprint") != fp:
-        return {}
-    return {_key(r): r for r in rec.get("rows", []) if r.get("run_status") == "ok"}
+    return kit.finished_rows(points, "variants", variant, fp)
 
 
-def merge_variant(grid: Grid, variant: Variant, case_file: Path, fp: str) -> dict:
-    """Merge the rows of ``variant``'s run directories into points.json (a finished row, fresh
+def merge_variant(p: kit.Point) -> dict:
+    """Merge the rows of the variant's run directories into points.json (a finished row, fresh
     or committed, wins over a pending one) under its lock."""
-    fresh = collect_rows(grid.runs / variant.name, grid.seeds, grid.frequencies)
-
-    def change(data):
-        kept = finished(data, variant.name, fp)
-        rows = [r if r.get("run_status") == "ok" or _key(r) not in kept else kept[_key(r)]
-                for r in fresh]
-        data.setdefault("variants", {})[variant.name] = {
-            "label": variant.label, "patch": variant.patch, "run_case": rel(case_file),
-            "fingerprint": fp, "rows": rows}
-        data.update({"kind": f"diagnosis-{grid.key}", "sweep": grid.sweep,
-                     "frequencies_hz": list(grid.frequencies), "seeds": list(grid.seeds),
-                     "cycles": grid.cycles, "source": source_state()})
-    return merge_json(grid.out / "points.json", change)
-
-
-def prepare(grid: Grid, variant: Variant, frozen: dict) -> tuple[Path, str]:
-    """Write the variant's case file (runs/diagnosis/<key>/<variant>.yaml); (its path, the
-    fingerprint its rows must carry)."""
-    case = variant_case(grid, variant, frozen["parameters"])
-    case_file = grid.runs / f"{variant.name}.yaml"
-    case_file.parent.mkdir(parents=True, exist_ok=True)
-    case_file.write_text(yaml.safe_dump(case.model_dump(mode="json"), sort_keys=False))
-    return case_file, fingerprint(grid, case)
+    grid, variant = p.owner
+    return kit.merge_rows(
+        p, "variants", collect_rows(p.run_dir, grid.seeds, grid.frequencies),
+        entry={"label": variant.label, "patch": variant.patch},
+        top={"kind": f"diagnosis-{grid.key}", "sweep": grid.sweep,
+             "frequencies_hz": list(grid.frequencies), "seeds": list(grid.seeds),
+             "cycles": grid.cycles})
 
 
 def refresh(grid: Grid) -> None:
@@ -153,41 +135,53 @@ def refresh(grid: Grid) -> None:
     runs whose directories are here; rows whose directories are gone stay as committed."""
     frozen = load_frozen(DEFAULT_FROZEN)
     for variant in grid.variants:
-        case_file, fp = prepare(grid, variant, frozen)
-        merge_variant(grid, variant, case_file, fp)
+        p = point(grid, variant, frozen)
+        kit.write_case(p.case, p.case_file)
+        merge_variant(p)
+
+
+class GridStudy(kit.Study):
+    """Grids run together on the kit's loop: every (grid, variant, seed) one ``dem sweep`` over
+    its unfinished frequencies."""
+
+    def __init__(self, grids, workers: int = 1):
+        self.grids, self.workers = list(grids), workers
+        first = self.grids[0].runs_dir
+        self.runs = Path(first) if first is not None else RUNS   # where the drain file is
+
+    def points(self):
+        """Seed by seed, and within a seed the first variant of every grid, then the second."""
+        frozen = load_frozen(DEFAULT_FROZEN)
+        grids = self.grids
+        for seed in sorted({s for g in grids for s in g.seeds}):
+            for i in range(max(len(g.variants) for g in grids)):
+                for grid in grids:
+                    if seed in grid.seeds and i < len(grid.variants):
+                        yield point(grid, grid.variants[i], frozen, seed)
+
+    def todo(self, p):
+        done = finished(merge_variant(p), p.name, p.fingerprint)
+        return [f for f in p.owner[0].frequencies if (p.seed, round(f, 9)) not in done]
+
+    def describe(self, p, todo):
+        return (f"{p.owner[0].key.upper()} {p.name} seed {p.seed}: "
+                f"{', '.join(f'{f:g}' for f in todo)} Hz")
+
+    def command(self, p, todo, drain):
+        return kit.sweep_args(p.case_file, p.run_dir, todo, p.owner[0].cycles, p.seed,
+                              self.workers, drain=drain)
+
+    def record(self, p, result, log=print):
+        merge_variant(p)
 
 
 def run(grids, workers: int = 1, stop_at: str | None = None, log=print) -> None:
     """Run every unfinished (grid, variant, seed) as one ``dem sweep`` over its unfinished
     frequencies, seed by seed, and within a seed the first variant of every grid, then the
     second ... (E1: one candidate on every model before the next), merging points.json and the
-    CPU ledger after each sweep.  Ends softly on the drain file runs/diagnosis/DRAIN, a signal or
-    ``stop_at`` (UTC HH:MM)."""
-    frozen = load_frozen(DEFAULT_FROZEN)
-    drain = session.start(RUNS, log=log)
-    order = [(seed, i, grid) for seed in sorted({s for g in grids for s in g.seeds})
-             for i in range(max(len(g.variants) for g in grids)) for grid in grids
-             if seed in grid.seeds and i < len(grid.variants)]
-    for seed, i, grid in order:
-        variant = grid.variants[i]
-        if session.should_stop(drain, stop_at, log):
-            return
-        case_file, fp = prepare(grid, variant, frozen)
-        done = finished(merge_variant(grid, variant, case_file, fp), variant.name, fp)
-        todo = [f for f in grid.frequencies if (seed, round(f, 9)) not in done]
-        if not todo:
-            continue
-        log(f"[{time.strftime('%H:%M:%S', time.gmtime())} UTC] {grid.key.upper()} "
-            f"{variant.name} seed {seed}: {', '.join(f'{f:g}' for f in todo)} Hz")
-        args = ["sweep", str(case_file), "--out", str(grid.runs / variant.name),
-                "--frequencies", ",".join(f"{f:g}" for f in todo),
-                "--cycles", f"{grid.cycles:g}", "--realisations", "1",
-                "--seed", str(seed), "--workers", str(workers),
-                "--drain-file", str(drain)]
-        rc, cpu, wall = child.run_dem(args, log)
-        session.add_cpu(grid.out / "cpu.json", grid.key, cpu)
-        merge_variant(grid, variant, case_file, fp)
-        log(f"    exit {rc}, {cpu:.0f} CPU-s, {wall:.0f} s")
+    CPU ledger after each sweep.  Ends softly on the drain file DRAIN in the first grid's
+    ``runs_dir`` (default runs/diagnosis/DRAIN), a signal or ``stop_at`` (UTC HH:MM)."""
+    kit.run(GridStudy(grids, workers), stop_at, log)
 
 
 # ---- the report ---------------------------------------------------------------------------------
@@ -196,7 +190,7 @@ BASELINE = "first prediction"
 
 def baseline_rows(grid: Grid) -> list[dict]:
     """The first prediction's finished rows of the grid's sweep, seeds and frequencies."""
-    data = read_json(ROOT / "results" / "prediction" / grid.sweep / "points.json") or {}
+    data = kit.records(kit.results_dir("prediction", grid.sweep))
     return [r for r in data.get("rows", []) if r.get("run_status") == "ok"
             and r["seed"] in grid.seeds
             and any(abs(r["frequency_hz"] - f) < 1e-9 for f in grid.frequencies)]
@@ -274,7 +268,7 @@ def report(grid: Grid, log=print) -> dict:
     """summary.json and branches.png of ``grid`` from its points.json and the baseline."""
     from dem.output.atomic import write_json
 
-    data = read_json(grid.out / "points.json") or {}
+    data = kit.records(grid.out)
     recs = (data.get("variants") or {})
     table = {BASELINE: {"label": f"{BASELINE} ({grid.sweep}, no change)",
                         "cells": cells(baseline_rows(grid))}}

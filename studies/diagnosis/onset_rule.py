@@ -54,10 +54,10 @@ from pathlib import Path
 import numpy as np
 
 from postprocess.verdicts import response_branch
-from studies.kit.provenance import ROOT
+from studies.kit import study as kit
 from studies.kit.records import read_json
 
-RESULTS = ROOT / "results" / "diagnosis"
+RESULTS = kit.results_dir("diagnosis")
 KINDS = ("relative", "deformation", "absolute")
 #: the damping ratios scanned, 0-1 (critical); E1's quiet runs read as a damped mode give
 #: 0.13-0.33 per model (median; :func:`damped_table`)
@@ -221,7 +221,7 @@ def outcomes(keys: dict, fns: dict, results: Path = RESULTS) -> list[dict]:
     and model (``fn_source``: median | imputed; seed-wise f_n beside it)."""
     out = []
     for key, cand_of in keys.items():
-        data = read_json(results / key / "points.json") or {}
+        data = kit.records(results / key)
         sweep = data.get("sweep") or (E4_SWEEP if key == "e4" else None)
         for name, r in _rows(data):
             if r.get("run_status") != "ok" or not r.get("amplitude_m"):
@@ -255,11 +255,11 @@ def e1_quiet_rows(results: Path = RESULTS) -> dict:
     results/prediction/<sweep>/points.json)."""
     out = {}
     for key in [k for k in FIT_KEYS if k.startswith("e1-model-")]:
-        data = read_json(results / key / "points.json") or {}
+        data = kit.records(results / key)
         for name, r in _rows(data):
             out.setdefault((name, data["sweep"]), []).append(r)
     for sweep in sorted({s for _c, s in out}):
-        data = read_json(results.parent / "prediction" / sweep / "points.json") or {}
+        data = kit.records(results.parent / "prediction" / sweep)
         out[(BASELINE, sweep)] = [r for r in data.get("rows", [])
                                   if r.get("run_status") == "ok" and r["seed"] in (0, 1, 2)
                                   and abs(r["frequency_hz"] - 2.0) < 1e-9]

@@ -16,6 +16,7 @@ import numpy as np
 import typer
 
 from studies.kit import cli
+from studies.kit.provenance import ROOT
 from studies.impact_dissipation.dem_runs import run_block, run_portion, run_stack
 from studies.impact_dissipation.physics import BRICK
 from studies import impact_dissipation
@@ -51,7 +52,6 @@ def _impact_dissipation(args) -> dict | None:
         print(markdown_tables(json.loads((Path(args.out) / "summary.json").read_text())))
         return None
     os.environ.setdefault("DEM_THREADS", "1")
-    root = Path(__file__).resolve().parents[2]
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     summary_path = out / "summary.json"
@@ -95,7 +95,7 @@ def _impact_dissipation(args) -> dict | None:
             "portion-kick": dict(free="portion", start="kick"),
         }
         for name, kw in variants.items():
-            r = run_portion(root, duration=args.portion_duration, **kw)
+            r = run_portion(ROOT, duration=args.portion_duration, **kw)
             hist["b:" + name] = r
             res[name] = rounded_record(r)
             print(f"b {name}: Housner r {r['housner_r_outer_to_inner']:.4f} | DEM peaks "
@@ -168,7 +168,7 @@ def _impact_dissipation(args) -> dict | None:
                   flush=True)
         for z in (0.1, 0.9):
             for key, sw in (("upper", True), ("upper-no-side-walls", False)):
-                r = run_portion(root, "upper", "tilt", side_walls=sw, damping=z,
+                r = run_portion(ROOT, "upper", "tilt", side_walls=sw, damping=z,
                                 duration=args.portion_duration)
                 hist[f"d:{key}:{z}"] = r
                 res[key][str(z)] = rounded_record(r)

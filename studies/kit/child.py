@@ -14,9 +14,8 @@ import signal
 import subprocess
 import sys
 import time
-from pathlib import Path
+from studies.kit.provenance import ROOT
 
-ROOT = Path(__file__).resolve().parents[2]
 _CHILDREN: list[subprocess.Popen] = []
 _STOP = [False]
 

@@ -61,8 +61,8 @@ from postprocess.block_limit import (Blocks2D, crack_profile, leeward_wedges, lp
                                      rotation_factor, upward_closure)
 from postprocess.limit_analysis import in_plane_limit
 from studies.kit import cli
+from studies.kit.provenance import ROOT
 
-ROOT = Path(__file__).resolve().parents[2]
 CASES = ROOT / "cases" / "tilt" / "in-plane"
 WALLS = {  # name: (case file, s/h of the thesis' analysis, thesis lambda)
     "large-english-5x6": ("large-english-5x6.yaml", 0.76, 0.45),

@@ -12,12 +12,11 @@ from pathlib import Path
 
 import yaml
 
-from dem.engine import RESULTS_REVISION
 from studies.kit.provenance import git_state, NotInGit, source_state
+from studies.kit.study import fingerprint as kit_fingerprint
 from studies.prediction.protocol import (ORDER, PARAM_KEYS, PredictionInputError, PROVENANCE_KEYS,
                                          ROOT)
 from studies.shake.study import CASES, SWEEPS
-from dem.case.identity import identity_json
 
 
 # ---- the frozen set -----------------------------------------------------------------------------
@@ -131,10 +130,7 @@ def sweep_case(name: str, params: dict):
 def fingerprint(case, freqs, seeds, cycles, max_steps) -> str:
     """What a finished sweep must match to be skipped (the engine's results revision included,
     dem.engine.RESULTS_REVISION)."""
-    h = hashlib.sha256(identity_json(case).encode())
-    h.update(json.dumps([list(freqs), list(seeds), cycles, max_steps,
-                         RESULTS_REVISION]).encode())
-    return h.hexdigest()[:16]
+    return kit_fingerprint(case, list(freqs), list(seeds), cycles, max_steps)
 
 
 def sweep_cycles(plan: dict, name: str) -> float:

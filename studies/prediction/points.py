@@ -8,13 +8,14 @@ from pathlib import Path
 
 from studies.kit.provenance import rel, source_state
 from studies.kit.records import locked, read_json
+from studies.kit.study import records_path
 from studies.prediction.plan import sweep_cycles
 from studies.prediction.protocol import ROW_QUANTITIES
 
 
 # ---- running one sweep --------------------------------------------------------------------------
 def points_path(out: Path, name: str) -> Path:
-    return Path(out) / name / "points.json"
+    return records_path(Path(out) / name)
 
 
 SURVIVAL_KEYS = ("verdict", "n_fallen", "first_fall_time_s", "first_fall_cycle", "by_wall")

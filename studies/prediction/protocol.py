@@ -5,10 +5,8 @@ cycles check.  The protocol itself: studies/prediction/__init__.py.
 
 from __future__ import annotations
 
-from pathlib import Path
+from studies.kit.provenance import ROOT
 
-
-ROOT = Path(__file__).resolve().parents[2]
 DEFAULT_FROZEN = ROOT / "studies" / "calibration" / "frozen.yaml"
 DEFAULT_CYCLES = 50          # thesis: 50 cycles per test (REFERENCE.md, Excitation)
 DEFAULT_REALISATIONS = 10    # protocol step 3: at least 10 realisations per frequency

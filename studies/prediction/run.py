@@ -7,9 +7,8 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-import yaml
-
 from studies.kit import child as dem_child
+from studies.kit import study as kit
 from studies.kit.records import read_json
 from studies.prediction.cycles import record_truncated
 from studies.prediction.plan import fingerprint, sweep_case, sweep_cycles
@@ -19,10 +18,7 @@ from studies.prediction.points import (collect_rows, finished_rows, point_key, p
 
 def write_run_case(runs: Path, name: str, case) -> Path:
     """``<runs>/<sweep>.yaml``: the sweep's case as dem sweep reads it (also point_pool's)."""
-    case_file = Path(runs) / f"{name}.yaml"
-    case_file.parent.mkdir(parents=True, exist_ok=True)
-    case_file.write_text(yaml.safe_dump(case.model_dump(mode="json"), sort_keys=False))
-    return case_file
+    return kit.write_case(case, Path(runs) / f"{name}.yaml")
 
 
 def run_sweep_point(out: Path, runs: Path, name: str, plan: dict, workers: int | None = None,
@@ -64,15 +60,8 @@ def run_sweep_point(out: Path, runs: Path, name: str, plan: dict, workers: int |
         todo = [f for f in my_freqs if point_key(s, f) not in done]
         if not todo:
             continue
-        args = ["sweep", str(case_file), "--out", str(sweep_dir),
-                "--frequencies", ",".join(f"{f:g}" for f in todo), "--cycles", f"{cycles:g}",
-                "--realisations", "1", "--seed", str(s)]
-        if workers is not None:
-            args += ["--workers", str(workers)]
-        if plan["max_steps"] is not None:
-            args += ["--max-steps", str(plan["max_steps"])]
-        if drain_file is not None:
-            args += ["--drain-file", str(drain_file)]
+        args = kit.sweep_args(case_file, sweep_dir, todo, cycles, s, workers, plan["max_steps"],
+                              drain_file)
         log(f"[{time.strftime('%H:%M:%S', time.gmtime())} UTC] {name} seed {s}: "
             f"{', '.join(f'{f:g}' for f in todo)} Hz")
         rc, cpu, wall = dem_child.run_dem(args, log)

@@ -10,7 +10,7 @@ import time
 from pathlib import Path
 
 from studies.kit import child as dem_child
-from studies.kit import session
+from studies.kit import session, study as kit
 from studies.kit.records import read_json
 from studies.prediction.plan import frozen_or_none
 from studies.prediction.run import write_run_case
@@ -52,11 +52,8 @@ def sweep_realisations(runs: Path, name: str, case, freqs, cycles: float, seeds:
     child's process tree)."""
     case_file = write_run_case(runs, name, case)
     fs = ",".join(f"{f:g}" for f in freqs)
-    args = ["sweep", str(case_file), "--out", str(Path(runs) / name), "--frequencies", fs,
-            "--cycles", f"{cycles:g}", "--realisations", str(seeds), "--seed", "0",
-            "--workers", "1"]
-    if drain_file is not None:
-        args += ["--drain-file", str(drain_file)]
+    args = kit.sweep_args(case_file, Path(runs) / name, freqs, cycles, 0, workers=1,
+                          drain=drain_file, realisations=seeds)
     log(f"[{time.strftime('%H:%M:%S', time.gmtime())} UTC] {name}: {seeds} realisations at "
         f"{fs.replace(',', ', ')} Hz, {cycles:g} cycles ...")
     rc, cpu, _ = dem_child.run_dem(args, log)

@@ -62,7 +62,7 @@ import typer
 from studies.calibration import points as cal_points
 from studies.calibration import report as cal_report
 from studies.calibration import specimens as cal_specimens
-from studies.kit import cli, session
+from studies.kit import cli, session, study as kit
 from studies.kit.provenance import repo_rel
 from studies.kit.records import read_json
 from studies.tilt.study import rate_extrapolation
@@ -272,15 +272,12 @@ def _qs_validation(args) -> int:
     out, runs = session.begin(args.out, args.runs)
     command = _command(args)
     if not args.report:
+        study = cal_points.Ensembles(args.realisations, args.max_steps)
         for s, spec in specs.items():
             for r in sorted(args.rates, reverse=True):        # the fast rate first: cheapest
-                if session.should_stop(stop_at=args.stop_at,
-                                       log=lambda m: print(m, flush=True)):
-                    break
-                cal_points.run_point(rate_dir(out, r), runs / f"rate-{r:g}", args.candidate, params, s,
-                             spec, args.realisations, args.max_steps,
-                             log=lambda m: print(m, flush=True),
-                             record={"rate_deg_per_s": r}, rate=r)
+                study.add(rate_dir(out, r), runs / f"rate-{r:g}", args.candidate, params, s,
+                          spec, record={"rate_deg_per_s": r}, rate=r)
+        kit.run(study, args.stop_at, log=lambda m: print(m, flush=True))
     report(out, args.calibration, args.candidate, all_s, args.rates, command)
     return 0
 

@@ -57,8 +57,8 @@ from studies.prediction.points import collect_rows, points_path
 from studies.prediction import side
 from studies.prediction.protocol import DEFAULT_FROZEN
 from studies.prediction.side import sweep_realisations
+from studies.kit.provenance import ROOT
 
-ROOT = Path(__file__).resolve().parents[2]
 
 # chosen from the fits above (II y f_n 7.3 Hz, per seed 6.7-8.2; II x 10.0 Hz, 8.7-11.9);
 # 3.8, 4.0 and 4.2 Hz in y were added after the first runs had shown a jump between the

@@ -27,8 +27,8 @@ import typer
 import yaml
 
 from studies.kit import cli
+from studies.kit.provenance import ROOT
 
-ROOT = Path(__file__).resolve().parents[2]
 CASES = ROOT / "cases" / "shake"
 CYCLES = 10
 AMPLIFIED = 4.0  # m/s2

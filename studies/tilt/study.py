@@ -29,8 +29,8 @@ import typer
 from dem.case import Case, load_case
 from dem.output.plotting import agg_pyplot
 from studies.kit import cli
+from studies.kit.provenance import ROOT
 
-ROOT = Path(__file__).resolve().parents[2]
 CASES = ROOT / "cases" / "tilt"
 RATES = (8.0, 4.0, 1.0, 0.5)  # deg/s, besides the default 2 deg/s of the case files
 

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import math
 import sys
-from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
@@ -29,8 +28,8 @@ from dem.rocking.runner import run_rocking_case
 from dem.rocking.schema import load_rocking_case
 from dem.rocking.sweep import sweep
 from studies.kit import cli
+from studies.kit.provenance import ROOT
 
-ROOT = Path(__file__).resolve().parents[2]
 CASES = ROOT / "cases" / "rocking"
 MODEL = {
     "II": dict(thickness=0.05, h1=0.14, m1=6.05, h2=0.14, m2=9.41),

@@ -54,8 +54,8 @@ from dem.rocking.params import RockingParams
 from dem.table_motion import SineMotion
 from postprocess.signal_analysis import amplification, cycle_extrema, phase_lag, steady_window
 from studies.kit import cli
+from studies.kit.provenance import ROOT
 
-ROOT = Path(__file__).resolve().parents[2]
 DEM_SWEEP = ROOT / "results" / "shake" / "model-ii-y-amplified"
 TABLE_5_1_II = dict(thickness=0.05, h1=0.14, m1=6.05, h2=0.14, m2=9.41)
 TOP_LOAD, TOP_FRICTION = 58.8, 0.81

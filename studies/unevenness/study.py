@@ -46,8 +46,8 @@ from studies.prediction.points import collect_rows
 from studies.prediction import side
 from studies.prediction.protocol import DEFAULT_FROZEN
 from studies.prediction.side import sweep_realisations
+from studies.kit.provenance import ROOT
 
-ROOT = Path(__file__).resolve().parents[2]
 
 LEVELS_M = (0.05e-3, 0.1e-3, 0.15e-3, 0.2e-3)   # bed unevenness (m); the grid's 0.05-0.2 mm
 FREQUENCY_HZ = 2.8
