@@ -22,7 +22,7 @@ def grid(keys: list[str] = typer.Argument(..., help="experiments to run together
          report: bool = typer.Option(False, "--report", help="only rebuild the reports (the rows "
                                      "again from the run directories kept here)")) -> None:
     """Case variants x frequencies x 3 seeds from rest, each run judged rocking or not and
-    standing or not (resumable: finished runs are skipped; touch runs/diagnosis/DRAIN to end
+    standing or not (resumable: finished runs are skipped; touch runs/as-built/DRAIN to end
     softly after the sweep in flight).  studies/as_built/grids.py."""
     from studies.as_built.grids import GRIDS
     from studies.diagnosis import grid as exp

@@ -67,6 +67,8 @@ class Grid:
     #: go: another study's folders for a grid of its own (None: results/diagnosis, runs/diagnosis)
     results_dir: Path | None = None
     runs_dir: Path | None = None
+    #: the study command whose ``grid`` subcommand runs it (the report's regenerating command)
+    study: str = "diagnosis"
 
     @property
     def out(self) -> Path:
@@ -286,7 +288,7 @@ def report(grid: Grid, log=print) -> dict:
                                "phase_min_deg": BRANCH_PHASE_DEG},
                "variants": table,
                "cpu_seconds": (read_json(grid.out / "cpu.json") or {}).get(grid.key),
-               "command": f"python -m studies diagnosis grid {grid.key}"}
+               "command": f"python -m studies {grid.study} grid {grid.key}"}
     grid.out.mkdir(parents=True, exist_ok=True)
     write_json(grid.out / "summary.json", summary, indent=1)
     if any(t["cells"] for t in table.values()):
