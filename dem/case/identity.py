@@ -19,6 +19,9 @@ import json
 # (section, field) -> the value that reproduces the behaviour from before the field existed
 LATER_FIELDS = {
     ("solver", "overlap_reuse"): 0.0,   # issue 32 item 8, 2026-11-27: off
+    # the normal dashpot as a fraction of critical (material.damping), the law of before
+    ("material", "normal_damping"): "critical",
+    ("material", "damping_time"): None,
 }
 
 
