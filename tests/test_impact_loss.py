@@ -148,3 +148,30 @@ def test_pair_rule_brings_the_rocking_impact_below_housner():
     assert today > 1.0
     assert 0.95 <= new <= 0.97
     assert more < new
+
+
+def test_todays_law_named_is_the_default_case_and_record():
+    """Naming today's law (normal_damping: critical) changes neither the case's identity (the
+    studies' resume fingerprints, dem.case.identity) nor its dump, nor the pair record; the
+    other laws reach the record as its damping code (and beta)."""
+    from dem.case.identity import identity_json
+    from dem.engine.containers import pair_table
+    from dem.engine.pair import DAMPING_LAWS, PairMaterial
+    from dem.run.build import joint_law
+
+    base = {"name": "x", "scene": {"blocks": _block(0.4)}, "run": {"duration": 1.0}}
+    plain = parse_case({**base, "material": {"friction": 0.8}})
+    named = parse_case({**base, "material": {"friction": 0.8, "normal_damping": "critical"}})
+    assert identity_json(named) == identity_json(plain)
+    assert named.model_dump_json() == plain.model_dump_json()
+
+    def record(material):
+        case = parse_case({**base, "material": {"friction": 0.8, **material}})
+        return PairMaterial.from_row(pair_table(["brick", "table"], joint_law(case.material))[0, 0])
+
+    assert record({"normal_damping": "critical"}) == record({})
+    assert record({}).damping == DAMPING_LAWS["critical"] and record({}).beta == 0.0
+    pair = record({"normal_damping": "pair", "damping": 0.75})
+    assert (pair.damping, pair.zeta, pair.beta) == (DAMPING_LAWS["pair"], 0.75, 0.0)
+    stiff = record({"normal_damping": "stiffness", "damping_time": 7.5e-4})
+    assert (stiff.damping, stiff.beta) == (DAMPING_LAWS["stiffness"], 7.5e-4)
