@@ -702,7 +702,8 @@ def _launch_cost(repeats):
         return float(np.median(times))
 
     out = {}
-    flags = (False, False, False, False)  # warped, hyperbolic, overlap, batched: a plain wall
+    flags = (False, False, False, False, False)  # warped, hyperbolic, overlap, batched,
+    #                                              pair_damping: a plain wall
     out["serial, Taichi call"] = per_call(lambda: step.advance_serial(0, 0, 1e-5, *packs, *flags))
     fast = CachedLaunch(step.advance_serial, (0, 0, 1e-5), *packs, *flags)
     out["serial, cached launch"] = per_call(lambda: fast(0, 0, 1e-5), 3000)

@@ -266,7 +266,7 @@ def critical_step(case: Case, scene) -> float:
     face, _ = ts.face_area_caps(scene.size, scene.mass, scene.inertia(), movable,
                                 kn, ks, case.solver.safety)
     return float(ts.critical_time_step(scene.size, scene.mass, scene.inertia(), movable,
-                                       kn, ks, zeta, face))
+                                       kn, ks, zeta, face, beta=jl.step_beta()))
 
 
 def table_plausibility(peak_acceleration: float, stroke: float, frequency: float | None,

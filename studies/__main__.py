@@ -32,6 +32,8 @@ STUDIES = {
                   "the sweeps continued above the thesis' range: where is the resonance?"),
     "impact-dissipation": ("studies.impact_dissipation.cli",
                            "energy lost per impact: DEM against Housner and the two-body model"),
+    "impact-loss": ("studies.impact_loss.cli",
+                    "r / r_Housner against slenderness for each normal dashpot of the joint"),
     "large-brick": ("studies.large_brick.study",
                     "the large-brick in-plane walls: limit analysis and DEM diagnostics"),
     "two-body-report": ("studies.two_body.report",

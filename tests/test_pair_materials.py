@@ -67,7 +67,8 @@ def test_record_table_defaults_and_overrides():
     assert rec("timber", "table").mu == 0.6
     assert np.array_equal(m.mat_pair_np, np.swapaxes(m.mat_pair_np, 0, 1))
     # the record's fields by name, in the row's order
-    assert PAIR_FIELDS == ("mu", "kn", "ks", "zeta", "law", "d_max", "d_lim")
+    assert PAIR_FIELDS == ("mu", "kn", "ks", "zeta", "law", "d_max", "d_lim", "damping",
+                           "beta")
     # the step is made for the stiffest pair
     assert m.stiffest() == (5e9, 2e9, 0.5)
 

@@ -19,6 +19,9 @@ import json
 # (section, field) -> the value that reproduces the behaviour from before the field existed
 LATER_FIELDS = {
     ("solver", "overlap_reuse"): 0.0,   # off: the full narrow phase every step
+    # the normal dashpot as a fraction of critical (material.damping), the law of before
+    ("material", "normal_damping"): "critical",
+    ("material", "damping_time"): None,
 }
 
 

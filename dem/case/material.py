@@ -107,6 +107,20 @@ class Material(StrictModel):
         "there (p = p(d_lim) + kt(d_lim) (d - d_lim): a capped hyperbolic law, the stiffness "
         "of the closed joint frozen at kt(d_lim); summary.json's hyperbolic_closure says how "
         "deep the deepest joint went; docs/engine.md section 4.2)")
+    normal_damping: Literal["critical", "pair", "stiffness"] = Field(
+        default="critical", exclude_if=lambda v: v == "critical",
+        description="the normal dashpot of a joint: 'critical', damping x the pair's critical "
+        "value, each contact point released as soon as its dashpot would pull harder than its "
+        "spring pushes; 'pair', the same dashpot, an opening point held back by it as long as "
+        "the joint as a whole still pushes (rocking impacts lose a little more than Housner's "
+        "rigid block, as measured on rigid bases; docs/engine.md section 6); 'stiffness', "
+        "beta kn per unit area with beta = damping_time and the pair's rule (Rayleigh's "
+        "stiffness-proportional damping; damping then damps the shear only)")
+    damping_time: float | None = Field(
+        default=None, gt=0.0, le=1.0, exclude_if=lambda v: v is None,
+        description="beta, s: the damping time of the stiffness-proportional normal dashpot "
+        "(required by normal_damping: stiffness); a joint mode of frequency omega gets the "
+        "damping ratio beta omega / 2")
     materials: list[MaterialName] = Field(
         default_factory=list, exclude_if=lambda v: not v,
         description="names of block materials besides 'brick' (every block's default) and "
@@ -130,6 +144,13 @@ class Material(StrictModel):
         elif self.max_closure is not None:
             errs.append((("max_closure",), "applies to normal_law: hyperbolic only (the "
                          "default law is linear)", self.max_closure))
+        if self.normal_damping == "stiffness" and self.damping_time is None:
+            errs.append((("damping_time",), "normal_damping: stiffness needs damping_time "
+                         "(beta, s)", None))
+        elif self.normal_damping != "stiffness" and self.damping_time is not None:
+            errs.append((("damping_time",), "applies to normal_damping: stiffness only (the "
+                         "default dashpot is a fraction of critical, material.damping)",
+                         self.damping_time))
         if self.normal_law != "hyperbolic" and self.beyond_closure_limit != "stop":
             errs.append((("beyond_closure_limit",), "applies to normal_law: hyperbolic only "
                          "(the default law is linear)", self.beyond_closure_limit))

@@ -47,7 +47,7 @@ import numpy as np
 import taichi as ti
 
 from dem.engine.geometry import MAXP
-from dem.engine.pair import LAWS, N_PAIR_FIELDS, PairMaterial
+from dem.engine.pair import DAMPING_LAWS, LAWS, N_PAIR_FIELDS, PairMaterial
 from dem.scene import Scene
 from dem.ti_runtime import real_dtype
 
@@ -87,9 +87,9 @@ MODEL_FIELDS = (
     _f("radius", "real", "B", "m", "Model.from_scene", "bounding-sphere radius |half|"),
     _f("material", "i32", "B", "-", "Model.from_scene",
        "index into the material names (the scene's, then the table's; default 0 blocks, 1 table)"),
-    _f("mat_pair", "pair", ("M", "M"), "-, Pa/m, Pa/m, -, -, m, m", "Model.from_scene",
+    _f("mat_pair", "pair", ("M", "M"), "-, Pa/m, Pa/m, -, -, m, m, -, s", "Model.from_scene",
        "the pair material record per pair of materials (dem.engine.pair.PAIR_FIELDS: mu, kn, ks, "
-       "zeta, law, d_max, d_lim), read by name through pair.pair_material"),
+       "zeta, law, d_max, d_lim, damping, beta), read by name through pair.pair_material"),
     _f("face_offset", "vec4", ("B", 6), "m", "Model.from_scene",
        "imperfect faces: corner offsets along the outward normal (dem.scene, face_contact)"),
     _f("arris", "real", "B", "m", "Model.from_scene", "rounded-edge radius: patches inset by it"),
@@ -349,6 +349,19 @@ class Model(_Container):
         return (max(r.stable_stiffness() for r in recs), max(r.ks for r in recs),
                 max(r.zeta for r in recs))
 
+    def largest_beta(self) -> float:
+        """The largest damping time (s) of a pair's stiffness-proportional normal dashpot
+        (PairMaterial.beta), 0 if no pair has one."""
+        return max(self.pair_material(a, b).beta for a in range(len(self.material_names))
+                   for b in range(len(self.material_names)))
+
+    def pair_damping(self) -> bool:
+        """Whether a pair's normal dashpots follow the pair's no-tension rule (PAIR or
+        STIFFNESS: the kernels compiled with ``pair_damping``)."""
+        return any(self.pair_material(a, b).damping != DAMPING_LAWS["critical"]
+                   for a in range(len(self.material_names))
+                   for b in range(len(self.material_names)))
+
     def closure_limit(self) -> float | None:
         """The smallest d_lim (m) of the hyperbolic pairs, None if every pair is linear."""
         lims = [r.d_lim for a in range(len(self.material_names))
@@ -409,7 +422,9 @@ def pair_table(names: list[str], joints) -> np.ndarray:
     if law == LAWS["hyperbolic"]:
         d_max = float(joints.max_closure)
         d_lim = float(joints.closure_limit) * d_max
-    default = PairMaterial(joints.friction, kn, ks, zeta, law, d_max, d_lim)
+    damping = DAMPING_LAWS[getattr(joints, "normal_damping", "critical")]
+    beta = float(joints.damping_time) if damping == DAMPING_LAWS["stiffness"] else 0.0
+    default = PairMaterial(joints.friction, kn, ks, zeta, law, d_max, d_lim, damping, beta)
     table = names.index("table")
     m = len(names)
     out = np.zeros((m, m, N_PAIR_FIELDS))

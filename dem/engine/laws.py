@@ -34,7 +34,10 @@ Shear (Coulomb with elastic stick, shear displacement kept per point across step
     else:               Ft = Ft* - ct v_t  (capped at mu Fn),  u = u*  (sticking)
 
 Damping coefficients cn, ct (N s/m) are fractions of critical of the pair, split over the points
-in proportion to their area (see ``dem.engine.step``).  The returned dissipation (J) is the work
+in proportion to their area (see ``dem.engine.step``).  With ``material.normal_damping: pair``
+or ``stiffness`` the no-tension rule of the dashpots is the pair's, not the point's
+(:func:`normal_law_pair_damped`, :func:`pull_scale`); ``stiffness`` also makes the normal
+dashpot beta k A (beta in s).  The returned dissipation (J) is the work
 of the contact force that is not stored elastically in this step: friction when sliding, viscous
 otherwise.
 """
@@ -62,6 +65,55 @@ def normal_law(kn_area, depth, depth_rate, cn):
         f_el = 0.0
         f_visc = 0.0
     return f_el, f_visc
+
+
+@ti.func
+def normal_law_pair_damped(f_el, c, depth_rate, pull_scale):
+    """Normal force of a point whose dashpot follows the pair's no-tension rule: (elastic
+    part, viscous part) in N.
+
+        f_visc = c ddot          closing (ddot > 0): pushes                          [N]
+        f_visc = s c ddot        opening (ddot < 0): holds back the opening           [N]
+
+    f_el: the elastic force of the point (N: kn A d, or A p(d) for the hyperbolic law);
+    c: the point's dashpot (N s/m): the fraction zeta of the pair's critical value,
+    cn A = 2 zeta sqrt(k m_eff / A_pair) A (``material.normal_damping: pair``), or the
+    stiffness-proportional beta k A (``stiffness``: Rayleigh's beta damping of the joint, each
+    joint mode of frequency omega getting zeta = beta omega / 2; the contact damping 3DEC's
+    users give rocking blocks, Vlachakis, Giouvanidis, Mehrotra & Lourenco 2021, J. Eng. Mech.
+    147(11) 04021089); depth_rate: ddot (m/s, > 0 closing), read at the polygon vertex behind
+    the point; s = pull_scale in [0, 1] (:func:`pull_scale`).
+
+    :func:`normal_law` releases a point (both parts 0) as soon as its own dashpot would pull
+    harder than its spring pushes.  Here the no-tension rule is the pair's: an opening
+    dashpot keeps holding back while the joint as a whole still pushes, sum over the pair's
+    points of (f_el + f_visc) >= 0 (a point's net force may then be negative: the part of a
+    joint that unloads while the rest is compressed is held by its dashpots).  Why: with
+    compressive point forces only, a slender rigid block rocking onto a new edge keeps at
+    least Housner's rebound (every such force acts inside the new pivot and adds to the
+    angular momentum about it; docs/engine.md section 6), whereas blocks on rigid bases
+    measure less (ElGawady et al. 2011, Earthquake Eng. Struct. Dyn. 40:375); the held
+    unloading of the slap's far side takes that angular momentum.
+
+    Energy: every dashpot opposes its own normal rate, f_visc ddot >= 0 (its power is
+    dissipated, never supplied, also when held: s >= 0), the elastic part is the spring's, and
+    the pair never pulls its blocks together (its total normal force is >= 0)."""
+    f_visc = c * depth_rate
+    if f_visc < 0.0:
+        f_visc *= pull_scale
+    return f_el + 0.0, f_visc
+
+
+@ti.func
+def pull_scale(push, pull):
+    """The factor s in [0, 1] on the opening dashpots of a pair (N): push >= 0 the sum of its
+    points' elastic forces and closing dashpots, pull <= 0 the sum of its opening dashpots;
+    s = 1 unless the pulls would exceed the pushes, then s = push / (-pull), so that the pair's
+    normal force push + s pull >= 0 (:func:`normal_law_pair_damped`)."""
+    s = 1.0
+    if push + pull < 0.0:
+        s = push / (-pull)
+    return s
 
 
 @ti.func

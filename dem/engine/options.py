@@ -42,6 +42,12 @@ class JointLaw:
     closure_limit     the step is made for closures up to closure_limit x d_max, -
     beyond_closure_limit  "stop": a joint closing beyond closure_limit x d_max stops the run;
                       "tangent": the law goes on along its tangent there (a capped law)
+    normal_damping    the normal dashpot: "critical", ``damping`` x the pair's critical value,
+                      released point by point (dem.engine.laws.normal_law); "pair", the same
+                      dashpot, its pulls held to the pair's pushes (laws.normal_law_pair_damped);
+                      "stiffness", beta k per unit area with the pair's rule, beta =
+                      damping_time (``damping`` then damps the shear only)
+    damping_time      beta of the stiffness-proportional dashpot, s
     pairs             PairLaw per pair of named materials (later entries win); every other
                       pair takes the values above (with the table: base_friction)
     """
@@ -56,6 +62,8 @@ class JointLaw:
     closure_limit: float = 0.5
     beyond_closure_limit: Literal["stop", "tangent"] = "stop"
     pairs: tuple[PairLaw, ...] = ()
+    normal_damping: Literal["critical", "pair", "stiffness"] = "critical"
+    damping_time: float | None = None
 
     def step_stiffness(self) -> tuple[float, float, float]:
         """(kn, ks, zeta) bounding every pair this law can give, for a critical-step estimate
@@ -72,12 +80,23 @@ class JointLaw:
                   else 1.0)
         return max(kns) * factor, max(kss), max(zetas)
 
+    def step_beta(self) -> float:
+        """The damping time (s) of the stiffness-proportional dashpot, 0 without one (the
+        critical step's beta, dem.engine.timestep.critical_time_step)."""
+        return float(self.damping_time) if self.normal_damping == "stiffness" else 0.0
+
     def __post_init__(self) -> None:
         if self.normal_law == "hyperbolic":
             if self.max_closure is None or not self.max_closure > 0:
                 raise ValueError("the hyperbolic normal law needs max_closure > 0 (m)")
             if not 0.0 < self.closure_limit < 1.0:
                 raise ValueError(f"closure_limit must lie in (0, 1), got {self.closure_limit}")
+        if self.normal_damping not in ("critical", "pair", "stiffness"):
+            raise ValueError("normal_damping is 'critical', 'pair' or 'stiffness', got "
+                             f"{self.normal_damping!r}")
+        if self.normal_damping == "stiffness" and not (self.damping_time is not None
+                                                       and self.damping_time > 0):
+            raise ValueError("normal_damping 'stiffness' needs damping_time > 0 (s)")
         if self.beyond_closure_limit not in ("stop", "tangent"):
             raise ValueError("beyond_closure_limit is 'stop' or 'tangent', got "
                              f"{self.beyond_closure_limit!r}")

@@ -15,6 +15,12 @@ scene's material names, the table last); every ordered pair of materials has one
     d_lim        the largest closure the time step is made for, m (hyperbolic: a fraction
                  ``closure_limit`` of d_max; beyond it the law goes on with the tangent at
                  d_lim and the run stops after the launch; 0 for the linear law)
+    damping      the normal dashpot: CRITICAL (0) the fraction zeta of critical below, released
+                 point by point (laws.normal_law); PAIR (1) the same dashpot, its pulls held
+                 to the pair's pushes (laws.normal_law_pair_damped, laws.pull_scale);
+                 STIFFNESS (2) beta k per unit area with the pair's rule (zeta then damps the
+                 shear only)
+    beta         the STIFFNESS dashpot's damping time, s (0 otherwise)
 
 On the host the record is :class:`PairMaterial` (``Model.pair_material(a, b)``); a kernel reads it
 by name through :func:`pair_material` (``pm.mu``, ``pm.kn`` ...), never by slot number, so that
@@ -30,7 +36,11 @@ pair a fraction zeta of critical damping (3DEC's contact damping; Cundall & Stra
 with A the total area of the pair's contact points (m^2) and k = kn for the linear law, the
 tangent stiffness kn0 / (1 - d/d_max)^2 at the pair's area-weighted mean closure d for the
 hyperbolic one (so that zeta stays the fraction of critical as the joint stiffens); a point of
-area a then gets the dashpots cn a and ct a (N s/m).  No damping for a pair without area or between
+area a then gets the dashpots cn a and ct a (N s/m).  A STIFFNESS pair gets the normal
+dashpot beta k a instead (k: kn, or the hyperbolic law's tangent at the pair's mean closure,
+:func:`normal_stiffness_for_damping`), in the kernels compiled with ``beta_damping``
+(dem.engine.step); PAIR and STIFFNESS pairs run in the kernels compiled with
+``pair_damping``.  No damping for a pair without area or between
 two fixed bodies.
 """
 
@@ -45,6 +55,8 @@ ti_runtime.quick_front_end()  # before this module's kernels are decorated
 
 LINEAR, HYPERBOLIC = 0, 1
 LAWS = {"linear": LINEAR, "hyperbolic": HYPERBOLIC}
+CRITICAL, PAIR, STIFFNESS = 0, 1, 2
+DAMPING_LAWS = {"critical": CRITICAL, "pair": PAIR, "stiffness": STIFFNESS}
 
 
 @dataclass(frozen=True)
@@ -58,6 +70,8 @@ class PairMaterial:
     law: int = LINEAR
     d_max: float = 0.0
     d_lim: float = 0.0
+    damping: int = CRITICAL
+    beta: float = 0.0
 
     def row(self) -> tuple[float, ...]:
         """The record as the row of ``model.mat_pair`` (order of PAIR_FIELDS)."""
@@ -67,6 +81,7 @@ class PairMaterial:
     def from_row(cls, row) -> "PairMaterial":
         vals = [float(v) for v in row]
         vals[PAIR_FIELDS.index("law")] = int(round(vals[PAIR_FIELDS.index("law")]))
+        vals[PAIR_FIELDS.index("damping")] = int(round(vals[PAIR_FIELDS.index("damping")]))
         return cls(*vals)
 
     def stable_stiffness(self) -> float:
@@ -80,7 +95,7 @@ class PairMaterial:
 PAIR_FIELDS = tuple(f.name for f in fields(PairMaterial))
 N_PAIR_FIELDS = len(PAIR_FIELDS)
 # slots of the record in model.mat_pair (compile-time constants of the kernels)
-_MU, _KN, _KS, _ZETA, _LAW, _DMAX, _DLIM = range(N_PAIR_FIELDS)
+_MU, _KN, _KS, _ZETA, _LAW, _DMAX, _DLIM, _DAMPING, _BETA = range(N_PAIR_FIELDS)
 
 
 @ti.func
@@ -88,7 +103,7 @@ def pair_material(model: ti.template(), i, j):
     """The record of bodies i, j as a struct with the fields of PAIR_FIELDS."""
     r = model.mat_pair[model.material[i], model.material[j]]
     return ti.Struct(mu=r[_MU], kn=r[_KN], ks=r[_KS], zeta=r[_ZETA], law=r[_LAW],
-                     d_max=r[_DMAX], d_lim=r[_DLIM])
+                     d_max=r[_DMAX], d_lim=r[_DLIM], damping=r[_DAMPING], beta=r[_BETA])
 
 
 @ti.func
@@ -98,6 +113,18 @@ def hyperbolic_tangent(kn0, d_max, d_lim, d):
     dd = ti.min(ti.max(d, 0.0), d_lim)
     r = 1.0 - dd / d_max
     return kn0 / (r * r)
+
+
+@ti.func
+def normal_stiffness_for_damping(kn, law, d_max, d_lim, depth_mean, hyperbolic: ti.template()):
+    """The normal stiffness per unit area a pair's dashpots are made for, Pa/m: kn (linear),
+    the hyperbolic tangent at the area-weighted mean closure depth_mean (m) in kernels compiled
+    with ``hyperbolic``."""
+    k = kn
+    if ti.static(hyperbolic):
+        if law == HYPERBOLIC:
+            k = hyperbolic_tangent(kn, d_max, d_lim, depth_mean)
+    return k
 
 
 @ti.func

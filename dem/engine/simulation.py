@@ -176,6 +176,8 @@ class Engine:
         stiff = [m.stiffest() for m in models]
         self._kn_step, self._ks_step, self._zeta_step = (max(x[k] for x in stiff)
                                                          for k in range(3))
+        # the largest damping time of a stiffness-proportional dashpot (s; 0: none)
+        self._beta_step = max(m.largest_beta() for m in models)
         # per scene, the closure its hyperbolic pairs may reach before the run stops (None:
         # linear, or a capped law that goes on along its tangent: JointLaw.beyond_closure_limit);
         # the step is made for the stiffest tangent of them all, so each scene's own limit holds
@@ -226,7 +228,7 @@ class Engine:
         m = self.model
         return critical_time_step(2 * m.half_np, m.mass_np, m.inertia_np, self._movable,
                                   self._kn_step, self._ks_step, self._zeta_step,
-                                  self.clock.face_area)
+                                  self.clock.face_area, beta=self._beta_step)
 
     def _set_dt(self, new: float, why: dict | None = None) -> None:
         """Change the time step of every scene: each clock is re-anchored at its present step
@@ -589,6 +591,9 @@ class Engine:
         self._warped = bool(self.model.imperfect.any())
         self._hyperbolic = any(sim.model.closure_limit() is not None
                                for sim in self.simulations)
+        # the pair's no-tension rule of the normal dashpots only for scenes with a pair that
+        # has it (material.normal_damping: pair or stiffness)
+        self._pair_damping = any(sim.model.pair_damping() for sim in self.simulations)
         self._choose_launch()
         m, st, c, _ = self.containers()
         depth = ti_nd_real(1)
@@ -603,11 +608,12 @@ class Engine:
 
     def _choose_launch(self) -> None:
         """Record the stepping kernel's launch for the compile-time variants (warped,
-        hyperbolic, overlap, batched; dem.engine.step.advance_serial).  ``overlap`` follows
+        hyperbolic, overlap, batched, pair_damping; dem.engine.step.advance_serial).  ``overlap`` follows
         coherence.set_overlap_reuse, which may be called after construction: _launch checks it
         before each launch of a warped scene and records a new launch when it changed."""
         self._overlap = self._overlap_wanted()
-        variants = (self._warped, self._hyperbolic, self._overlap, self.batched)
+        variants = (self._warped, self._hyperbolic, self._overlap, self.batched,
+                    self._pair_damping)
         if self.mode == "serial":
             kernel, scalars = stepk.advance_serial, (0, 0, float(self.dt))
         else:  # "step -2": the recording launch does nothing (steps_done is 0, not -2 or -1)

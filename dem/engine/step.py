@@ -61,7 +61,8 @@ from dem.engine.containers import (ENERGY_TERMS, NONFINITE, P_MAX_SPEED, P_PATCH
                                    ModelArgs, StateArgs)
 from dem.engine.geometry import point_buffer
 from dem.engine.mathutil import TINY_ANGLE, quat_angle_between, quat_mul, quat_to_mat, vec3, vec4
-from dem.engine.pair import HYPERBOLIC, pair_material, pair_properties
+from dem.engine.pair import (CRITICAL, HYPERBOLIC, STIFFNESS, normal_stiffness_for_damping,
+                             pair_material, pair_properties)
 
 ti_runtime.quick_front_end()  # before this module's kernels are decorated
 
@@ -203,6 +204,17 @@ def matched_point(q, lq, n_old, match_tol2, lx: ti.template(), ly: ti.template()
 
 
 @ti.func
+def point_elastic(props, area, depth, hyperbolic: ti.template()):
+    """The elastic normal force of a contact point (N): kn A d, or A p(d) for a hyperbolic
+    pair (laws.hyperbolic_pressure) in kernels compiled with ``hyperbolic``."""
+    f = props.kn * area * depth
+    if ti.static(hyperbolic):
+        if props.law == HYPERBOLIC:
+            f = area * laws.hyperbolic_pressure(props.kn, props.d_max, props.d_lim, depth)
+    return f
+
+
+@ti.func
 def slots_per_scene(contacts: ti.template()):
     """P, the pair slots of one scene (dem.engine.containers: scene g owns g P ... g P + P)."""
     return contacts.pairs.shape[0] // contacts.scene_pairs.shape[0]
@@ -238,14 +250,19 @@ def slot_live(p, contacts: ti.template(), control: ti.template(), batched: ti.te
 @ti.func
 def contact_stage(p, dt, model: ti.template(), state: ti.template(), contacts: ti.template(),
                   control: ti.template(), warped: ti.template(), hyperbolic: ti.template(),
-                  overlap: ti.template() = False, batched: ti.template() = False):
+                  overlap: ti.template() = False, batched: ti.template() = False,
+                  pair_damping: ti.template() = False):
     """Narrow phase, pair properties, history and joint law of pair p.  ``warped``
     (compile time): the kernel handles imperfect faces (docs/imperfections.md);
     ``hyperbolic`` (compile time): the kernel reads each pair's normal law (linear or
     hyperbolic, dem.engine.laws); without it every pair is linear, the code that ran before
     the hyperbolic law existed (the same results bit for bit); ``overlap`` (compile time, False
     by default): the warped kernels' overlap reuse (:func:`narrow_phase`); ``batched`` (compile
-    time): an engine of several scenes (:func:`pair_bodies`)."""
+    time): an engine of several scenes (:func:`pair_bodies`); ``pair_damping`` (compile time,
+    False by default): the kernel reads each pair's normal dashpot (PairMaterial.damping) and
+    holds the pulls of the opening dashpots of a PAIR or STIFFNESS pair to the pair's pushes
+    (laws.normal_law_pair_damped, laws.pull_scale); without it every pair's dashpots are
+    released point by point (laws.normal_law), the code of before (bit for bit)."""
     i, j = pair_bodies(p, model, contacts, batched)
     pA = state.pos[i]
     pB = state.pos[j]
@@ -291,6 +308,28 @@ def contact_stage(p, dt, model: ti.template(), state: ti.template(), contacts: t
     v0 = state.vel[j] - state.vel[i] + state.omega[j].cross(pA - pB)
     nxw = n.cross(dw)
     inv_shrink = 1.0 / shrink
+    damping = CRITICAL  # the pair's normal dashpot (PairMaterial.damping)
+    cn_pair = 0.0  # its coefficient per unit area (N s/m^3)
+    s_pull = 1.0  # the pair's factor on its opening dashpots (laws.pull_scale)
+    if ti.static(pair_damping):
+        pm = pair_material(model, i, j)
+        damping = ti.cast(pm.damping, ti.i32)
+        cn_pair = props.cn_per_area
+        if damping == STIFFNESS:
+            cn_pair = pm.beta * normal_stiffness_for_damping(pm.kn, pm.law, pm.d_max, pm.d_lim,
+                                                             depth_mean, hyperbolic)
+        if damping != CRITICAL:
+            push = 0.0
+            pull = 0.0
+            for q in range(npts):
+                pw = vec3(px[q], py[q], pz[q])
+                vn_v = (v0 + dw.cross(pw - pA)).dot(n) + (
+                    (pw - centroid) * (inv_shrink - 1.0)).dot(nxw)
+                fe = point_elastic(props, w[q], dep[q], hyperbolic)
+                fv = cn_pair * w[q] * (-vn_v)
+                push += fe + ti.max(fv, 0.0)
+                pull += ti.min(fv, 0.0)
+            s_pull = laws.pull_scale(push, pull)
     F_i = vec3(0.0)
     T_i = vec3(0.0)
     hmin = ti.min(model.half[i].min(), model.half[j].min())
@@ -328,7 +367,23 @@ def contact_stage(p, dt, model: ti.template(), state: ti.template(), contacts: t
         vn_v = vn + dv.dot(nxw)
         f_el = 0.0
         f_visc = 0.0
-        if ti.static(hyperbolic):
+        if ti.static(pair_damping):
+            if damping != CRITICAL:
+                f_el, f_visc = laws.normal_law_pair_damped(
+                    point_elastic(props, w[q], dep[q], hyperbolic), cn_pair * w[q], -vn_v,
+                    s_pull)
+            elif ti.static(hyperbolic):
+                if props.law == HYPERBOLIC:
+                    f_el, f_visc = laws.normal_law_hyperbolic(
+                        w[q], props.kn, props.d_max, props.d_lim, dep[q], -vn_v,
+                        props.cn_per_area * w[q])
+                else:
+                    f_el, f_visc = laws.normal_law(props.kn * w[q], dep[q], -vn_v,
+                                                   props.cn_per_area * w[q])
+            else:
+                f_el, f_visc = laws.normal_law(props.kn * w[q], dep[q], -vn_v,
+                                               props.cn_per_area * w[q])
+        elif ti.static(hyperbolic):
             if props.law == HYPERBOLIC:
                 f_el, f_visc = laws.normal_law_hyperbolic(
                     w[q], props.kn, props.d_max, props.d_lim, dep[q], -vn_v,
@@ -340,9 +395,12 @@ def contact_stage(p, dt, model: ti.template(), state: ti.template(), contacts: t
             f_el, f_visc = laws.normal_law(props.kn * w[q], dep[q], -vn_v,
                                            props.cn_per_area * w[q])
         fn = f_el + f_visc
+        fn_cap = fn  # the normal force that caps friction
+        if ti.static(pair_damping):
+            fn_cap = ti.max(fn, 0.0)  # a point's dashpot may pull (the pair's sum does not)
         v_t = vrel - vn * n
         ft, u_new, sliding, diss = laws.coulomb_shear(
-            u_old, n, v_t, dt, props.ks * w[q], props.ct_per_area * w[q], props.mu, fn)
+            u_old, n, v_t, dt, props.ks * w[q], props.ct_per_area * w[q], props.mu, fn_cap)
         fv = f_visc * n  # on j, at the vertex
         f = f_el * n + ft + fv  # on j; moment about A's centre rA x f + dv x fv
         F_i -= f
@@ -605,7 +663,7 @@ def body_sums_atomic(b, k, state: ti.template(), control: ti.template()):
 def advance_serial(n_steps: ti.i32, n_slots: ti.i32, dt: float, model: ModelArgs,
                    state: StateArgs, contacts: ContactArgs, control: ControlArgs,
                    warped: ti.template(), hyperbolic: ti.template(), overlap: ti.template(),
-                   batched: ti.template()):
+                   batched: ti.template(), pair_damping: ti.template()):
     """Run up to n_steps steps on one thread; stop after a step that raised a status bit (of
     any scene).  control.steps_done returns the number of steps done; control.loads[s, k] holds
     step s's loads of scene k.  n_slots: the pairs of a lone scene, else the pair slots up to
@@ -616,8 +674,10 @@ def advance_serial(n_steps: ti.i32, n_slots: ti.i32, dt: float, model: ModelArgs
     ``hyperbolic`` for scenes with a hyperbolic joint (dem.engine.laws), ``overlap`` for warped
     scenes with the overlap reuse on (coherence.set_overlap_reuse; :func:`narrow_phase`),
     ``batched`` for an engine of several scenes (dem.engine.containers: the scene offsets, the
-    frozen scenes); (False, False, False, False) is the perfect, linear model's code of a lone
-    scene, without a branch of the others (see :func:`contact_stage`).
+    frozen scenes), ``pair_damping`` for scenes whose normal dashpots follow the pair's
+    no-tension rule (laws.normal_law_pair_damped); (False, False, False, False, False) is the perfect,
+    linear model's code of a lone scene, without a branch of the others (see
+    :func:`contact_stage`).
     """
     n_bodies = state.pos.shape[0]
     n_scenes = control.status.shape[0]
@@ -626,7 +686,7 @@ def advance_serial(n_steps: ti.i32, n_slots: ti.i32, dt: float, model: ModelArgs
         for p in range(n_slots):
             if slot_live(p, contacts, control, batched) == 1:
                 contact_stage(p, dt, model, state, contacts, control, warped, hyperbolic,
-                              overlap, batched)
+                              overlap, batched, pair_damping)
         for b in range(n_bodies):
             integrate_stage(b, s, dt, model, state, contacts, control, batched)
         for k in range(n_scenes):
@@ -644,7 +704,8 @@ def advance_serial(n_steps: ti.i32, n_slots: ti.i32, dt: float, model: ModelArgs
 def advance_parallel(s: ti.i32, n_slots: ti.i32, dt: float, model: ModelArgs,
                      state: StateArgs, contacts: ContactArgs, control: ControlArgs,
                      warped: ti.template(), hyperbolic: ti.template(), overlap: ti.template(),
-                     batched: ti.template(), atomic_sums: ti.template()):
+                     batched: ti.template(), pair_damping: ti.template(),
+                     atomic_sums: ti.template()):
     """Step s of a chunk of launches (control.loads[s]) as parallel loops: over pair slots,
     over bodies, then over scenes (each scene's energy and deepest stages on one thread, in
     the serial kernel's order); a probed body is copied in the body loop (:func:`probe_stage`).
@@ -652,7 +713,8 @@ def advance_parallel(s: ti.i32, n_slots: ti.i32, dt: float, model: ModelArgs,
     GPU's way): a launch whose chunk already stopped (an earlier
     step raised a status bit) does nothing, so the chunk stops where the serial kernel would,
     and control.steps_done counts the steps done (the host zeroes it before s = 0).
-    ``warped``, ``hyperbolic``, ``overlap``, ``batched`` as in :func:`advance_serial`;
+    ``warped``, ``hyperbolic``, ``overlap``, ``batched``, ``pair_damping`` as in
+    :func:`advance_serial`;
     ``atomic_sums`` (an engine on a device): the energy sums and the deepest penetration added
     by each pair and body with atomics (scene_sums_atomic) instead of one thread per scene
     summing its pairs in order, which on a GPU costs more than the step (latency-bound loops
@@ -662,7 +724,7 @@ def advance_parallel(s: ti.i32, n_slots: ti.i32, dt: float, model: ModelArgs,
     for p in range(n_slots):
         if control.steps_done[0] == s + 1 and slot_live(p, contacts, control, batched) == 1:
             contact_stage(p, dt, model, state, contacts, control, warped, hyperbolic, overlap,
-                          batched)
+                          batched, pair_damping)
             if ti.static(atomic_sums):
                 k = 0
                 if ti.static(batched):

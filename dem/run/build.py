@@ -127,6 +127,9 @@ def joint_law(material: Material, scene: Scene | None = None, direction=None,
         extra = dict(normal_law=material.normal_law, max_closure=material.max_closure,
                      closure_limit=material.closure_limit,
                      beyond_closure_limit=material.beyond_closure_limit)
+    if material.normal_damping != "critical":
+        extra.update(normal_damping=material.normal_damping,
+                     damping_time=material.damping_time)
     return JointLaw(friction=material.friction, base_friction=material.mu_base,
                     normal_stiffness=kn, shear_stiffness=material.ks(kn),
                     damping=material.damping, pairs=pairs, **extra)
