@@ -73,17 +73,25 @@ def main(
                                  help="print the version and exit"),
 ) -> None:
     """Rigid-block DEM of dry masonry on a tilting or shaking table."""
+    from dem.environment import environment_errors
+
+    errors = environment_errors()  # before any command: a bad DEM_* is one line, exit 2
+    for line in errors:
+        _err(f"error: {line}")
+    if errors:
+        raise typer.Exit(ExitCode.BAD_INPUT)
 
 
 def _is_rocking_file(path: Path) -> bool:
     """A two-body rocking case (top-level key ``rocking``): dispatched on the content."""
-    import yaml
+    from dem.case import CaseError
+    from dem.case.document import read_case_yaml
 
     try:
-        data = yaml.safe_load(path.read_text())
-    except (OSError, UnicodeDecodeError, yaml.YAMLError):
+        data, _ = read_case_yaml(path)  # parsed once: the case's loader reuses it
+    except CaseError:
         return False
-    return isinstance(data, dict) and "rocking" in data and "scene" not in data
+    return "rocking" in data and "scene" not in data
 
 
 @app.command()
@@ -113,8 +121,10 @@ def check(
     if checked is None:
         raise typer.Exit(ExitCode.BAD_INPUT)
     c = checked.case
+    # with --show-defaults stdout is the resolved case alone (valid YAML, to be saved): the
+    # report goes to stderr then
     typer.echo(f"{case}: ok: '{c.name}', loading {c.loading.type}\n{checked.report.format()}\n"
-               f"{checked.size_line()}")
+               f"{checked.size_line()}", err=show_defaults)
     if show_defaults:
         from dem.commands.defaults import resolved_case_yaml
 
