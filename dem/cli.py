@@ -220,6 +220,9 @@ def sweep(
                                          "in flight finish (default: OUT/DRAIN)"),
     batch: int = typer.Option(None, "--batch", help=BATCH_HELP),
     arch: str = typer.Option("cpu", "--arch", help=ARCH_HELP),
+    max_points: int = typer.Option(None, "--max-points",
+                                   help="refuse more frequencies than this (default 100: a "
+                                        "larger sweep is almost always a typo in --range)"),
 ) -> None:
     """Frequency sweep of a shake case at its constant peak acceleration (or amplitude): one run
     per frequency on dask, each analysed (postprocess.shake), then the amplification curves,
@@ -234,7 +237,7 @@ def sweep(
     clear_drain_file(drain_file, say)
     raise typer.Exit(run_sweep(case, out, frequencies, range_, cycles, margin, scheduler, workers,
                                max_steps, realisations, seed, drain_file=drain_file, batch=batch,
-                               arch=arch))
+                               arch=arch, max_points=max_points))
 
 
 @app.command()

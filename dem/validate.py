@@ -532,40 +532,26 @@ def load_and_check(path: str | Path, say, max_blocks: int | None = None) -> Chec
     return checked if checked.ok else None
 
 
-def check_case(case: Case, source: str | Path | None = None,
-               max_blocks: int | None = None, build: bool = True) -> Checked:
-    """Check a validated case (module docstring).  Never raises for a bad case: the problems are
-    in ``Checked.errors`` / ``warnings``; ``Checked.scene`` is the built scene (None when the
-    check stopped before building it)."""
+SCENE_FIELDS = ("scene", "material", "solver", "imperfections", "gravity")
+
+
+def same_scene(a: Case, b: Case) -> bool:
+    """True when two cases build the same scene with the same joints and step (they differ at
+    most in name, loading and run: a sweep's points)."""
+    return all(getattr(a, f) == getattr(b, f) for f in SCENE_FIELDS)
+
+
+def _check_scene(case: Case, out: Checked, where) -> float | None:
+    """check_case's scene part: build it, check it, its joints and its critical step (s; None
+    when the scene could not be built)."""
     from dem.builders import check_scene
     from dem.run.build import scene_from_case
 
-    where = _Where(source)
-    out = Checked(case=case)
-    max_blocks = max_blocks_default() if max_blocks is None else int(max_blocks)
-    run = case.run
-    n_est = estimate_blocks(case)
-    out.blocks_estimate = n_est
-    frames = int(math.floor(run.duration / run.output_interval + 1e-9)) + 2
-    out.n_frames = frames
-    out.memory_bytes = n_est * (ENGINE_BYTES_PER_BLOCK + frames * FRAME_BYTES_PER_BLOCK)
-    per_frame = DISK_BYTES_PER_BLOCK if run.vtk else NPZ_BYTES_PER_BLOCK
-    out.disk_bytes = n_est * frames * per_frame
-    ram = _machine_memory()
-    if n_est > max_blocks:
-        out.errors.append(
-            f"{where(('scene',))}: about {n_est:,} blocks (estimated memory "
-            f"{_fmt_bytes(out.memory_bytes)}, output {_fmt_bytes(out.disk_bytes)}), above the "
-            f"limit of {max_blocks:,} blocks; not built.  Raise the limit with --max-blocks or "
-            f"DEM_MAX_BLOCKS if this is meant")
-        return out
-    if not build:
-        return out
     try:
         scene = scene_from_case(case, check=False)
     except ValueError as err:
         out.errors.append(f"{where(('scene',))}: {err}")
-        return out
+        return None
     out.scene = scene
     n = scene.n_blocks
     out.blocks_estimate = n
@@ -607,6 +593,51 @@ def check_case(case: Case, source: str | Path | None = None,
         nominal = scene_from_case(case, check=False, imperfect=False).size
         out.imperfections = realised_summary(scene, imperfection_params(case), nominal)
     dt_crit = critical_step(case, scene)
+    return dt_crit
+
+
+def check_case(case: Case, source: str | Path | None = None,
+               max_blocks: int | None = None, build: bool = True,
+               like: Checked | None = None) -> Checked:
+    """Check a validated case (module docstring).  Never raises for a bad case: the problems are
+    in ``Checked.errors`` / ``warnings``; ``Checked.scene`` is the built scene (None when the
+    check stopped before building it).  ``like``: the result of an earlier check of a case with
+    the same scene (:func:`same_scene`): its scene and step are reused, and only what depends on
+    the loading and the run is checked again."""
+    where = _Where(source)
+    out = Checked(case=case)
+    max_blocks = max_blocks_default() if max_blocks is None else int(max_blocks)
+    run = case.run
+    n_est = estimate_blocks(case)
+    out.blocks_estimate = n_est
+    frames = int(math.floor(run.duration / run.output_interval + 1e-9)) + 2
+    out.n_frames = frames
+    out.memory_bytes = n_est * (ENGINE_BYTES_PER_BLOCK + frames * FRAME_BYTES_PER_BLOCK)
+    per_frame = DISK_BYTES_PER_BLOCK if run.vtk else NPZ_BYTES_PER_BLOCK
+    out.disk_bytes = n_est * frames * per_frame
+    ram = _machine_memory()
+    if n_est > max_blocks:
+        out.errors.append(
+            f"{where(('scene',))}: about {n_est:,} blocks (estimated memory "
+            f"{_fmt_bytes(out.memory_bytes)}, output {_fmt_bytes(out.disk_bytes)}), above the "
+            f"limit of {max_blocks:,} blocks; not built.  Raise the limit with --max-blocks or "
+            f"DEM_MAX_BLOCKS if this is meant")
+        return out
+    if not build:
+        return out
+    if like is not None and like.scene is not None and same_scene(case, like.case):
+        # the same scene, material, solver and imperfections as a case checked already (a
+        # sweep's points): its scene, joints and critical step are those
+        out.scene, out.report, out.joints = like.scene, like.report, like.joints
+        out.imperfections = like.imperfections
+        dt_crit = like.dt_critical if like.dt_critical is not None else math.inf
+    else:
+        dt_crit = _check_scene(case, out, where)
+        if dt_crit is None:
+            return out
+    scene = out.scene
+    n = scene.n_blocks
+    out.blocks_estimate = n
     out.dt_critical = dt_crit if math.isfinite(dt_crit) else None
     sv = case.solver
     if sv.dt is not None:
@@ -730,3 +761,24 @@ def check_case(case: Case, source: str | Path | None = None,
             f"{where(('run', 'output_interval'))}: {run.output_interval:g} s is longer than "
             f"run.duration = {run.duration:g} s: only the first and the last states are written")
     return out
+
+
+def check_points(cases, source, max_blocks: int | None = None) -> tuple[list[str], list[str]]:
+    """(warnings, errors) of every point of a sweep or realisation of an ensemble (``cases``:
+    (name, Case) pairs), each checked as ``dem check`` checks a case (:func:`check_case`; points
+    that share a scene share its build), before anything runs: each line names the point.  A
+    problem of the scene itself (the same for every point) is named once."""
+    warnings, errors = [], []
+    seen: set[str] = set()
+    like = None
+    for name, case in cases:
+        checked = check_case(case, source, max_blocks=max_blocks, like=like)
+        if checked.scene is not None:
+            like = checked
+        for kind, lines in (("warning", checked.warnings), ("error", checked.errors)):
+            for line in lines:
+                if line in seen:  # the scene's own: the same text at every point
+                    continue
+                seen.add(line)
+                (warnings if kind == "warning" else errors).append(f"{name}: {line}")
+    return warnings, errors

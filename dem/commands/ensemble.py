@@ -28,7 +28,7 @@ import json
 from pathlib import Path
 
 from dem.commands.exit_codes import ExitCode, exit_code_for
-from dem.commands.sweep import batching, finished_run, say, workers_text
+from dem.commands.sweep import batching, finished_run, points_ok, say, workers_text
 from dem.run.sweep import EnsembleInputError, realisation_cases
 from postprocess.ensemble import aggregate, plot_lambda, realisation_scalars
 
@@ -100,7 +100,6 @@ def run_ensemble(case_path, out, realisations: int, seed: int | None = None,
     from dem.batch import Drained, drain_file_check, run_batch
     from dem.case import CaseError, ShakeLoading, load_case
     from dem.commands.run import RUN_ANALYSES
-    from dem.run.build import scene_from_case
     from postprocess.sweep import analyze_point
 
     out = Path(out)
@@ -111,7 +110,6 @@ def run_ensemble(case_path, out, realisations: int, seed: int | None = None,
             raise EnsembleInputError(f"--workers must be >= 1, got {workers}")
         if max_steps is not None and max_steps < 1:
             raise EnsembleInputError(f"--max-steps must be >= 1, got {max_steps}")
-        scene_from_case(cases[0][1])  # a bad scene fails here, before any worker starts
         batch_options = batching(batch, arch)
     except CaseError as err:
         say(f"error: {err}")
@@ -119,6 +117,8 @@ def run_ensemble(case_path, out, realisations: int, seed: int | None = None,
     except ValueError as err:
         say(f"error: {case_path}: {err}")
         return exit_code_for(err)
+    if not points_ok(cases, case_path, "realisation"):  # each as dem check, before any runs
+        return ExitCode.BAD_INPUT
     if out.exists() and not out.is_dir():
         say(f"error: --out {out}: exists and is not a directory")
         return ExitCode.BAD_INPUT

@@ -81,7 +81,7 @@ def run_sweep(case_path, out, frequencies: str | None = None, rng: str | None = 
               max_steps: int | None = None, realisations: int | None = None,
               seed: int | None = None, case=None, reraise_interrupt: bool = False,
               drain_file: Path | None = None, batch: int | None = None,
-              arch: str = "cpu") -> int:
+              arch: str = "cpu", max_points: int | None = None) -> int:
     """Body of ``dem sweep``; returns the exit code (0 all ok, 1 a point failed, 2 bad input).
 
     ``realisations``: the sweep runs once per realisation of the case's imperfections (seeds
@@ -95,18 +95,19 @@ def run_sweep(case_path, out, frequencies: str | None = None, rng: str | None = 
     ``batch``: the points K to an engine; ``arch``: "cpu" or "cuda" (dem.batch.run_batch)."""
     from dem.batch import Drained, drain_file_check, run_batch
     from dem.case import CaseError, load_case
-    from dem.run.build import scene_from_case
 
     out = Path(out)
     if realisations is not None or seed is not None:
         return run_sweep_realisations(case_path, out, frequencies, rng, cycles, margin,
                                       scheduler, workers, max_steps, realisations, seed,
-                                      drain_file, batch, arch)
+                                      drain_file, batch, arch, max_points)
     try:
         case = load_case(case_path) if case is None else case
-        freqs = parse_frequencies(frequencies, rng)
+        freqs = parse_frequencies(frequencies, rng, max_points)
+        if rng:
+            own = parse_frequencies(None, rng, max_points)
+            say(f"--range {rng}: {len(own)} frequencies, {own[0]:g} - {own[-1]:g} Hz")
         cases = sweep_cases(case, freqs, cycles, margin)
-        scene_from_case(cases[0][1])  # overlaps, floating blocks: before any worker starts
         if workers is not None and workers < 1:
             raise SweepInputError(f"--workers must be >= 1, got {workers}")
         if max_steps is not None and max_steps < 1:
@@ -118,6 +119,8 @@ def run_sweep(case_path, out, frequencies: str | None = None, rng: str | None = 
     except ValueError as err:  # SweepInputError, SceneError, BatchInputError
         say(f"error: {case_path}: {err}")
         return exit_code_for(err)
+    if not points_ok(cases, case_path, "point"):
+        return ExitCode.BAD_INPUT
     if out.exists() and not out.is_dir():
         say(f"error: --out {out}: exists and is not a directory")
         return ExitCode.BAD_INPUT
@@ -203,6 +206,23 @@ def run_sweep(case_path, out, frequencies: str | None = None, rng: str | None = 
     return ExitCode.OK
 
 
+def points_ok(cases, case_path, what: str) -> bool:
+    """Every point (realisation) checked as ``dem check`` checks a case (dem.validate.
+    check_points: scene, time step, loading against the step and the run), before anything
+    runs or is written; each warning and error printed naming its point.  False: bad input."""
+    from dem.validate import check_points
+
+    warnings, errors = check_points(cases, case_path)
+    for line in warnings:
+        say(f"warning: {what} {line}")
+    for line in errors:
+        say(f"error: {what} {line}")
+    if errors:
+        bad = len({line.split(":", 1)[0] for line in errors})
+        say(f"error: {bad} of {len(cases)} {what}s cannot run as given; nothing was run")
+    return not errors
+
+
 def batching(batch: int | None, arch: str) -> dict:
     """run_batch's keywords for ``--batch`` and ``--arch`` (none where both are the defaults,
     so that the default path is today's); raises BatchInputError (a ValueError: exit code 2)
@@ -231,7 +251,7 @@ def workers_text(scheduler: str | None, workers: int | None, batch: int | None,
 
 def run_sweep_realisations(case_path, out: Path, frequencies, rng, cycles, margin, scheduler,
                            workers, max_steps, realisations, seed, drain_file=None,
-                           batch=None, arch="cpu") -> int:
+                           batch=None, arch="cpu", max_points=None) -> int:
     """``dem sweep --realisations N``: one sweep per realisation, then their statistics."""
     from dem.batch import Drained
     from dem.case import CaseError, load_case
@@ -239,14 +259,18 @@ def run_sweep_realisations(case_path, out: Path, frequencies, rng, cycles, margi
 
     try:
         case = load_case(case_path)
-        parse_frequencies(frequencies, rng)
+        freqs = parse_frequencies(frequencies, rng, max_points)
         cases = realisation_cases(case, 1 if realisations is None else realisations, seed)
+        points = [(f"{name} {n}", p) for name, c in cases
+                  for n, p in sweep_cases(c, freqs, cycles, margin)]
     except CaseError as err:
         say(f"error: {err}")
         return exit_code_for(err)
     except ValueError as err:
         say(f"error: {case_path}: {err}")
         return exit_code_for(err)
+    if not points_ok(points, case_path, "point"):
+        return ExitCode.BAD_INPUT
     from dem.signals import signal_name, stop_on_signals
 
     codes = []
@@ -256,7 +280,8 @@ def run_sweep_realisations(case_path, out: Path, frequencies, rng, cycles, margi
                 say(f"realisation {name} ({len(codes) + 1} of {len(cases)})")
                 code = run_sweep(case_path, out / name, frequencies, rng, cycles, margin,
                                  scheduler, workers, max_steps, case=c, reraise_interrupt=True,
-                                 drain_file=drain_file, batch=batch, arch=arch)
+                                 drain_file=drain_file, batch=batch, arch=arch,
+                                 max_points=max_points)
                 if code == ExitCode.BAD_INPUT:
                     return code
                 codes.append(code)
