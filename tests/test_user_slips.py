@@ -313,3 +313,85 @@ def test_a_case_file_is_parsed_once(tmp_path, monkeypatch):
     res = _invoke("check", path)
     assert res.exit_code == 0, res.output
     assert len(n) <= 1
+
+
+# ------------------------------------------------------------------------------------------
+# write errors: one line, 2 for a path that cannot be written, 1 for a fault while writing
+# ------------------------------------------------------------------------------------------
+def _planted_run(root, status="ok", frames=3, extra=None):
+    """A run directory as dem run leaves it: case.json (a tilt of one block), frames.npz,
+    summary.json (``status``, with ``extra`` merged)."""
+    import numpy as np
+
+    from dem.case import load_case
+
+    case = load_case(CASES / "analytic" / "block-on-tilt.yaml")
+    root.mkdir()
+    (root / "case.json").write_text(case.model_dump_json(indent=1))
+    n = len(case.scene.blocks)
+    t = np.linspace(0.0, 0.2, frames)
+    pos = np.tile(np.array([b.position for b in case.scene.blocks], float), (frames, 1, 1))
+    pos[:, :, 0] += np.linspace(0.0, 0.01, frames)[:, None]
+    np.savez(root / "frames.npz", t=t, pos=pos,
+             quat=np.tile([1.0, 0.0, 0.0, 0.0], (frames, n, 1)), base_disp=np.zeros((frames, 3)),
+             tilt_angle=np.linspace(0.0, 0.4, frames))
+    (root / "summary.json").write_text(json.dumps({"name": case.name, "status": status,
+                                                   **(extra or {})}))
+    return root
+
+
+def test_view_into_a_directory_that_cannot_be_written_is_one_line_exit_2(tmp_path,
+                                                                        monkeypatch):
+    """A read-only file system (EROFS; a chmod would not stop root): refused before drawing,
+    so no matplotlib warning about an animation never rendered."""
+    import errno
+    import tempfile
+
+    run = _planted_run(tmp_path / "run")
+
+    def read_only(*a, **k):
+        raise OSError(errno.EROFS, "Read-only file system")
+
+    monkeypatch.setattr(tempfile, "TemporaryFile", read_only)
+    import warnings
+
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        res = _invoke("view", run, "--out", tmp_path / "ro", "--frames", "2")
+    assert res.exit_code == 2, res.output
+    assert res.output.strip().splitlines() == [
+        f"error: --out {tmp_path / 'ro'}: cannot write here (Read-only file system)"]
+    assert not [x for x in w if "Animation" in str(x.message)]
+
+
+def test_summary_csv_into_a_missing_directory_is_one_line_exit_2(tmp_path):
+    run = _planted_run(tmp_path / "run")
+    res = _invoke("summary", run, "--csv", tmp_path / "nodir" / "rows.csv")
+    assert res.exit_code == 2, res.output
+    assert "does not exist" in res.stderr and ".tmp" not in res.stderr
+    assert len(res.stderr.strip().splitlines()) == 1
+
+
+def test_summary_csv_on_a_full_disk_is_one_line_exit_1(tmp_path, monkeypatch):
+    import errno
+
+    import dem.output.atomic as atomic
+
+    def full(path, text):
+        raise OSError(errno.ENOSPC, "No space left on device", str(path.parent / ".r.1.tmp.csv"))
+
+    monkeypatch.setattr(atomic, "write_text", full)
+    res = _invoke("summary", _planted_run(tmp_path / "run"), "--csv", tmp_path / "rows.csv")
+    assert res.exit_code == 1, res.output
+    assert "No space left on device" in res.stderr and ".tmp" not in res.stderr
+    assert "unexpected" not in res.stderr
+
+
+def test_an_unreachable_scheduler_fails_fast_and_writes_nothing(tmp_path):
+    t0 = time.perf_counter()
+    res = _invoke("sweep", _case(tmp_path), "--out", tmp_path / "sw", "--frequencies", "2",
+                  "--scheduler", "tcp://127.0.0.1:1")
+    assert time.perf_counter() - t0 < 15.0
+    assert res.exit_code == 2, res.output
+    assert "--scheduler" in res.output and "unexpected" not in res.output
+    assert not (tmp_path / "sw").exists()

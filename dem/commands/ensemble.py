@@ -110,7 +110,7 @@ def run_ensemble(case_path, out, realisations: int, seed: int | None = None,
             raise EnsembleInputError(f"--workers must be >= 1, got {workers}")
         if max_steps is not None and max_steps < 1:
             raise EnsembleInputError(f"--max-steps must be >= 1, got {max_steps}")
-        batch_options = batching(batch, arch)
+        batch_options = batching(batch, arch, scheduler)
     except CaseError as err:
         say(f"error: {err}")
         return exit_code_for(err)

@@ -305,8 +305,9 @@ def summary_command(paths: list[Path], csv_path: Path | None = None,
         else:
             print_table(rows)
         if csv_path is not None:
-            from dem.output.atomic import write_text
+            from dem.commands.exit_codes import write_output_file
 
-            write_text(Path(csv_path), to_csv(rows))
-            err(f"wrote {csv_path}")
+            code = write_output_file(Path(csv_path), to_csv(rows), err, err, option="--csv")
+            if code != ExitCode.OK:
+                return code
     return ExitCode.BAD_INPUT if bad else ExitCode.OK

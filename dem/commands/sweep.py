@@ -112,7 +112,7 @@ def run_sweep(case_path, out, frequencies: str | None = None, rng: str | None = 
             raise SweepInputError(f"--workers must be >= 1, got {workers}")
         if max_steps is not None and max_steps < 1:
             raise SweepInputError(f"--max-steps must be >= 1, got {max_steps}")
-        batch_options = batching(batch, arch)
+        batch_options = batching(batch, arch, scheduler)
     except CaseError as err:
         say(f"error: {err}")
         return exit_code_for(err)
@@ -223,7 +223,7 @@ def points_ok(cases, case_path, what: str) -> bool:
     return not errors
 
 
-def batching(batch: int | None, arch: str) -> dict:
+def batching(batch: int | None, arch: str, scheduler: str | None = None) -> dict:
     """run_batch's keywords for ``--batch`` and ``--arch`` (none where both are the defaults,
     so that the default path is today's); raises BatchInputError (a ValueError: exit code 2)
     for --batch < 1, an unknown arch, or cuda where Taichi finds no CUDA device (checked here,
@@ -233,6 +233,10 @@ def batching(batch: int | None, arch: str) -> dict:
     if batch is not None and batch < 1:
         raise BatchInputError(f"--batch must be >= 1, got {batch}")
     check_arch(arch)
+    if scheduler is not None:  # before anything is written (dask would wait 30 s, then fail)
+        from dem.batch import check_scheduler
+
+        check_scheduler(scheduler)
     return {} if batch is None and arch == "cpu" else {"batch": batch, "arch": arch}
 
 

@@ -222,12 +222,15 @@ def write_animation(path, size, poses: Poses, title: str, fps: float = 10.0,
     drawing = _Drawing(ax, size, poses, vmax, view)
     _colourbar(fig, vmax, magnify, 0.86)
     fig.suptitle(title, fontsize=9)
-    anim = FuncAnimation(fig, lambda k: drawing.draw(k), frames=len(poses.labels),
-                         blit=False, repeat=False)
     writer = FFMpegWriter(fps=fps) if mp4 else PillowWriter(fps=fps)
-    with atomic_path(path) as tmp:  # the temporary name keeps the suffix (the format)
-        anim.save(str(tmp), writer=writer, dpi=dpi)
-    plt.close(fig)
+    try:
+        with atomic_path(path) as tmp:  # the temporary name keeps the suffix (the format)
+            # made once the file can be written: an animation never saved warns on deletion
+            anim = FuncAnimation(fig, lambda k: drawing.draw(k), frames=len(poses.labels),
+                                 blit=False, repeat=False)
+            anim.save(str(tmp), writer=writer, dpi=dpi)
+    finally:
+        plt.close(fig)
     return "ffmpeg" if mp4 else "pillow"
 
 
