@@ -395,3 +395,79 @@ def test_an_unreachable_scheduler_fails_fast_and_writes_nothing(tmp_path):
     assert res.exit_code == 2, res.output
     assert "--scheduler" in res.output and "unexpected" not in res.output
     assert not (tmp_path / "sw").exists()
+
+
+# ------------------------------------------------------------------------------------------
+# interrupted is not finished
+# ------------------------------------------------------------------------------------------
+def test_view_stopped_by_sigterm_says_so_and_leaves_no_temporary_file(tmp_path, monkeypatch):
+    import os
+    import signal
+
+    from dem.output import animation
+    from dem.output.atomic import atomic_path
+
+    def drawing_killed(path, *a, **k):
+        with atomic_path(path) as tmp:
+            tmp.write_bytes(b"GIF89a")
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(5)  # the signal lands here
+
+    monkeypatch.setattr(animation, "write_animation", drawing_killed)
+    run = _planted_run(tmp_path / "run")
+    before = sorted(p.name for p in run.iterdir())
+    res = _invoke("view", run, "--frames", "2")
+    assert res.exit_code == 1, res.output
+    assert "interrupted by SIGTERM" in res.output
+    assert sorted(p.name for p in run.iterdir()) == before
+
+
+def test_a_tilt_stopped_by_a_signal_is_not_reported_as_no_collapse(tmp_path):
+    run = _planted_run(tmp_path / "run", status="interrupted",
+                       extra={"error": "stopped by SIGTERM", "sim_time": 0.2})
+    res = _invoke("post", run)
+    assert "collapse False" not in res.output, res.output
+    assert "did not finish" in res.output and "stopped by SIGTERM at t = 0.2 s" in res.output
+
+
+def test_post_and_summary_of_a_run_in_progress_say_running_with_pid_and_time(tmp_path):
+    import fcntl
+    import os
+
+    run = _planted_run(tmp_path / "run", status="running", extra={"sim_time": 0.125})
+    lock = run / "run.lock"
+    lock.write_text(f"{os.getpid()}\n")
+    with open(lock, "rb") as fh:
+        fcntl.flock(fh.fileno(), fcntl.LOCK_EX)
+        post = _invoke("post", run)
+        summ = _invoke("summary", run, "--format", "csv")
+        (run / "summary.json").unlink()
+        early = _invoke("post", run)
+    text = f"running, pid {os.getpid()}, t = 0.125 s"
+    assert text in post.output, post.output
+    assert text in summ.output, summ.output
+    assert "never started" not in early.output and f"pid {os.getpid()}" in early.output
+    assert "before its first checkpoint" in early.output and early.exit_code == 2
+
+
+def test_runs_of_a_stopped_batch_are_marked_stopped_and_their_locks_released(tmp_path):
+    """What the workers of a local cluster leave when the client is stopped: summary.json
+    'running' (the last checkpoint) and a run.lock nobody holds."""
+    from dem.commands.sweep import mark_stopped_runs, resume_notes
+
+    out = tmp_path / "ens"
+    out.mkdir()
+    for name, t in (("seed-0", 0.5), ("seed-1", 1.25)):
+        d = out / name
+        d.mkdir()
+        (d / "summary.json").write_text(json.dumps({"status": "running", "sim_time": t}))
+        (d / "run.lock").write_text("999999\n")
+        (d / "restart.npz").write_bytes(b"")
+    assert resume_notes(out, ["seed-0", "seed-1"]) == ["seed-0 from t = 0.5 s",
+                                                       "seed-1 from t = 1.25 s"]
+    texts = mark_stopped_runs(out, ["seed-0", "seed-1"], "SIGTERM")
+    assert texts == ["seed-0 at t = 0.5 s", "seed-1 at t = 1.25 s"]
+    for name in ("seed-0", "seed-1"):
+        summ = json.loads((out / name / "summary.json").read_text())
+        assert summ["status"] == "interrupted" and "SIGTERM" in summ["error"]
+        assert not (out / name / "run.lock").exists()

@@ -28,7 +28,8 @@ import json
 from pathlib import Path
 
 from dem.commands.exit_codes import ExitCode, exit_code_for
-from dem.commands.sweep import batching, finished_run, points_ok, say, workers_text
+from dem.commands.sweep import (batching, finished_run, mark_stopped_runs, points_ok,
+                                resume_notes, say, workers_text)
 from dem.run.sweep import EnsembleInputError, realisation_cases
 from postprocess.ensemble import aggregate, plot_lambda, realisation_scalars
 
@@ -146,6 +147,10 @@ def run_ensemble(case_path, out, realisations: int, seed: int | None = None,
     if records:
         say(f"{len(records)} realisation(s) already finished in {out}, kept")
     todo = [(n, c) for n, c in cases if n not in records]
+    notes = resume_notes(out, [n for n, _ in todo])
+    if notes:
+        say(f"{len(notes)} realisation(s) resume from their last checkpoint (what ran after it "
+            f"is computed again): {', '.join(notes)}")
     write_ensemble(out, meta, names, records, plots=False)
     n_done = [0]
 
@@ -179,8 +184,11 @@ def run_ensemble(case_path, out, realisations: int, seed: int | None = None,
             f"are in {out}/ensemble.json (a rerun of the same command keeps them)")
         return ExitCode.RUN_FAILED
     except KeyboardInterrupt as err:
+        stopped = mark_stopped_runs(out, [n for n, _ in todo], signal_name(err))
         say(f"interrupted by {signal_name(err)}; finished realisations are in "
-            f"{out}/ensemble.json (a rerun of the same command keeps them)")
+            f"{out}/ensemble.json (a rerun of the same command keeps them)"
+            + (f"; stopped: {', '.join(stopped)} (a rerun resumes each from that checkpoint)"
+               if stopped else ""))
         return exit_code_for(err)
     data = write_ensemble(out, meta, names, records, plots=True)
     agg = data["aggregate"]

@@ -96,14 +96,18 @@ def _sum(values) -> float | None:
 def run_row(path: Path) -> dict:
     """The row of one run directory (summary.json, and analysis.json of a shake run)."""
     s = _json(path / "summary.json")
+    from dem.commands.post import run_state
+
+    state = run_state(path)
     if s is None:
-        raise SummaryError(path, "no readable summary.json (the run never started, or was "
-                                 "killed before its first checkpoint)")
+        raise SummaryError(path, f"no readable summary.json: {state}")
     loading = s.get("loading") or {}
     kind = loading.get("type") or "none"
     status = s.get("status")
     if status == "ok" and s.get("step_limit") is not None:
         status = "smoke"  # capped by --max-steps: not a finished run
+    elif state is not None and state.startswith(("running", "killed")):
+        status = state.split(":")[0]  # "running, pid N, t = x s ...", "killed (SIGKILL ...)"
     row = {"kind": f"run-{kind}", "name": s.get("name"), "status": status,
            "wall_s": _num(s.get("wall_seconds")), "cpu_s": _num(s.get("cpu_seconds")),
            "runs": "1"}

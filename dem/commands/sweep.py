@@ -27,6 +27,7 @@ The exit code: dem.commands.exit_codes.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import sys
@@ -148,6 +149,10 @@ def run_sweep(case_path, out, frequencies: str | None = None, rng: str | None = 
         say(f"{len(reused)} point(s) already finished in {out}, kept: "
              + ", ".join(f"{by_name[n][0]:g} Hz" for n in reused))
     todo = [(n, c) for n, c in cases if n not in reused]
+    notes = resume_notes(out, [n for n, _ in todo])
+    if notes:
+        say(f"{len(notes)} point(s) resume from their last checkpoint (what ran after it is "
+            f"computed again): {', '.join(notes)}")
     write_sweep(out, meta, list(points.values()), plots=False)
     n_done = [0]
 
@@ -188,8 +193,11 @@ def run_sweep(case_path, out, frequencies: str | None = None, rng: str | None = 
             raise
         return ExitCode.RUN_FAILED
     except KeyboardInterrupt as err:
+        stopped = mark_stopped_runs(out, [n for n, _ in todo], signal_name(err))
         say(f"interrupted by {signal_name(err)}; finished points are in {out}/sweep.json (a rerun"
-            f" of the same command keeps them and runs the others)")
+            f" of the same command keeps them and runs the others)"
+            + (f"; stopped: {', '.join(stopped)} (a rerun resumes each from that checkpoint)"
+               if stopped else ""))
         if reraise_interrupt:       # --realisations: the loop over realisations stops too
             raise
         return exit_code_for(err)
@@ -204,6 +212,63 @@ def run_sweep(case_path, out, frequencies: str | None = None, rng: str | None = 
              + ", ".join(f"{x['frequency_hz']:g} Hz" for x in data["failed"]))
         return ExitCode.RUN_FAILED
     return ExitCode.OK
+
+
+def mark_stopped_runs(out: Path, names, signame: str) -> list[str]:
+    """After a sweep or an ensemble is stopped by a signal: each run directory OUT/<name> whose
+    summary.json still says 'running' and that no process holds any more (its worker went with
+    the local cluster, before its run could write 'interrupted') is marked 'interrupted' and its
+    stale run.lock removed, so that it reads as what it is (docs/interrupted-runs.md).  Returns
+    one text per run: its name and the checkpoint time a rerun resumes it from."""
+    from dem.output.atomic import write_json
+    from dem.rundir import LOCK, RESTART_FILE, lock_holder
+
+    texts = []
+    for name in names:
+        d = Path(out) / name
+        try:
+            summ = json.loads((d / "summary.json").read_text())
+        except (OSError, ValueError):
+            summ = None
+        if lock_holder(d) is not None:
+            continue  # still running (a worker of an external cluster): not ours to mark
+        if isinstance(summ, dict) and summ.get("status") == "running":
+            summ["status"] = "interrupted"
+            summ["error"] = (f"stopped by {signame} (its worker ended with the sweep or "
+                             f"ensemble)")
+            try:
+                write_json(d / "summary.json", summ, indent=1, strict=True)
+            except (OSError, ValueError):
+                continue
+        if (d / LOCK).is_file():
+            with contextlib.suppress(OSError):
+                (d / LOCK).unlink()
+        if isinstance(summ, dict) and summ.get("status") in ("running", "interrupted"):
+            t = summ.get("sim_time")
+            texts.append(f"{name} at t = {float(t or 0.0):.3g} s" if (d / RESTART_FILE).is_file()
+                         else f"{name} (no restart point: starts over)")
+    return texts
+
+
+def resume_notes(out: Path, names) -> list[str]:
+    """Before a rerun: the runs among ``names`` that will go on from a checkpoint
+    (OUT/<name>/restart.npz, summary.json not 'ok'), each with its time, so that a rerun says
+    where each resumes (a checkpoint is up to dem.run.write.CHECKPOINT_SECONDS old: what ran
+    after it is computed again)."""
+    from dem.rundir import RESTART_FILE
+
+    notes = []
+    for name in names:
+        d = Path(out) / name
+        if not (d / RESTART_FILE).is_file():
+            continue
+        try:
+            summ = json.loads((d / "summary.json").read_text())
+        except (OSError, ValueError):
+            continue
+        if summ.get("status") in ("running", "interrupted"):
+            notes.append(f"{name} from t = {float(summ.get('sim_time') or 0.0):.3g} s")
+    return notes
 
 
 def points_ok(cases, case_path, what: str) -> bool:
