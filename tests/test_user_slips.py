@@ -471,3 +471,52 @@ def test_runs_of_a_stopped_batch_are_marked_stopped_and_their_locks_released(tmp
         summ = json.loads((out / name / "summary.json").read_text())
         assert summ["status"] == "interrupted" and "SIGTERM" in summ["error"]
         assert not (out / name / "run.lock").exists()
+
+
+# ------------------------------------------------------------------------------------------
+# mechanism names that fit the scene
+# ------------------------------------------------------------------------------------------
+def _column(n=3):
+    from dem.case import BlockSpec
+    from dem.scene import blocks_to_scene
+
+    return blocks_to_scene([BlockSpec(size=[0.105, 0.05, 0.035],
+                                      position=[0.0, 0.0, 0.0175 + 0.035 * k], mass=0.336)
+                            for k in range(n)])
+
+
+def _turned(scene, blocks, angle, toe):
+    """Poses with ``blocks`` turned by ``angle`` rad about +x through ``toe``."""
+    from scipy.spatial.transform import Rotation
+
+    from dem import quaternion
+
+    rot = Rotation.from_rotvec([angle, 0.0, 0.0])
+    pos, quat = scene.position.copy(), scene.quat.copy()
+    pos[blocks] = toe + rot.apply(scene.position[blocks] - toe)
+    quat[blocks] = quaternion.from_rotation(rot * quaternion.rotation(scene.quat[blocks]))
+    return pos, quat
+
+
+def test_a_column_overturning_whole_is_labelled_as_a_column():
+    """cases/tilt/column-3-uneven.yaml's column turning about its toe (tilt about +x, load
+    -y): 'overturning of the whole column at its base', not a facade's 'D'."""
+    from dem.case import load_case
+    from postprocess.tilt import classify
+
+    case = load_case(CASES / "tilt" / "column-3-uneven.yaml")
+    sc = _column()
+    pos, quat = _turned(sc, [0, 1, 2], 0.1, [0.0, -0.025, 0.0])
+    res = classify(case, sc, sc.position, sc.quat, pos, quat, [0.0, -1.0, 0.0])
+    assert res["kind"] == "column"
+    assert res["mechanism"] == "overturning of the whole column at its base"
+    pos, quat = _turned(sc, [2], 0.1, [0.0, -0.025, 0.07])
+    res = classify(case, sc, sc.position, sc.quat, pos, quat, [0.0, -1.0, 0.0])
+    assert res["mechanism"] == "overturning of the top 1 of 3 blocks at joint 2"
+
+
+def test_ensemble_mechanism_counts_are_text():
+    from dem.commands.ensemble import counts_text
+
+    assert counts_text({"B2": 1, "D": 7}) == "7 x D, 1 x B2"
+    assert "{" not in counts_text({"overturning of the whole column at its base": 8})

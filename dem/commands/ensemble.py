@@ -72,6 +72,15 @@ def scalar_text(sc: dict) -> str:
     return ", ".join(parts)
 
 
+def counts_text(counts: dict) -> str:
+    """Mechanism counts as text, most frequent first: '7 x overturning, 1 x sliding' (not a
+    Python dict)."""
+    if not counts:
+        return "none"
+    return ", ".join(f"{n} x {name}" for name, n in sorted(counts.items(),
+                                                           key=lambda kv: (-kv[1], kv[0])))
+
+
 def write_ensemble(out: Path, meta: dict, names: list[str], records: dict, plots: bool) -> dict:
     from dem.output.atomic import write_json
 
@@ -195,6 +204,6 @@ def run_ensemble(case_path, out, realisations: int, seed: int | None = None,
     lam = agg["statistics"].get("lambda")
     if lam and lam["n"]:
         say(f"lambda: median {lam['median']:.4f}, 10-90 % {lam['q10']:.4f} - {lam['q90']:.4f} "
-            f"({lam['n']} realisations); mechanisms {agg['mechanisms']}")
+            f"({lam['n']} realisations); mechanisms: {counts_text(agg['mechanisms'])}")
     say(f"{agg['n_ok']} of {agg['n_realisations']} realisations ok; {out}/ensemble.json")
     return ExitCode.RUN_FAILED if agg["n_failed"] else ExitCode.OK
