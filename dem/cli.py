@@ -96,7 +96,7 @@ def _is_rocking_file(path: Path) -> bool:
 
 @app.command()
 def check(
-    case: Path = typer.Argument(..., help="case YAML file"),
+    case: Path = typer.Argument(..., metavar="CASE", help="case YAML file"),
     max_blocks: int = typer.Option(None, "--max-blocks", help=MAX_BLOCKS_HELP),
     show_defaults: bool = typer.Option(False, "--show-defaults",
                                        help="print the case as it runs: every default filled "
@@ -157,7 +157,7 @@ def schema(
 
 @app.command()
 def run(
-    case: Path = typer.Argument(..., help="case YAML file"),
+    case: Path = typer.Argument(..., metavar="CASE", help="case YAML file"),
     out: Path = typer.Option(..., "--out", "-o", help="output directory"),
     progress: bool = typer.Option(True, help="show a progress bar"),
     force: bool = typer.Option(False, "--force",
@@ -191,7 +191,8 @@ def _rocking(case: Path, out: Path, plots: bool, force: bool) -> int:
 
 @app.command()
 def rocking(
-    case: Path = typer.Argument(..., help="rocking case YAML file (see dem/rocking/schema.py)"),
+    case: Path = typer.Argument(..., metavar="CASE",
+                                help="two-body case YAML file (cases/rocking/)"),
     out: Path = typer.Option(..., "--out", "-o", help="output directory"),
     plots: bool = typer.Option(True, help="write PNG plots"),
     force: bool = typer.Option(False, "--force", help="clear OUT if it holds another run"),
@@ -202,7 +203,7 @@ def rocking(
 
 @app.command()
 def sweep(
-    case: Path = typer.Argument(..., help="shake case YAML file"),
+    case: Path = typer.Argument(..., metavar="CASE", help="shake case YAML file"),
     out: Path = typer.Option(..., "--out", "-o", help="output directory"),
     frequencies: str = typer.Option(None, "--frequencies", help="comma-separated, Hz: 1.8,2.0,2.4"),
     range_: str = typer.Option(None, "--range", help="start:stop:step, Hz (stop included)"),
@@ -242,7 +243,7 @@ def sweep(
 
 @app.command()
 def ensemble(
-    case: Path = typer.Argument(..., help="case YAML file with an imperfections: section"),
+    case: Path = typer.Argument(..., metavar="CASE", help="case YAML file with imperfections:"),
     out: Path = typer.Option(..., "--out", "-o", help="output directory"),
     realisations: int = typer.Option(..., "--realisations", "-n", help="number of realisations"),
     seed: int = typer.Option(None, "--seed", help="first seed (default: the case's)"),
@@ -270,7 +271,8 @@ def ensemble(
 
 @app.command()
 def post(
-    directory: Path = typer.Argument(..., help="run, sweep or ensemble directory"),
+    directory: Path = typer.Argument(..., metavar="DIR",
+                                     help="run, sweep or ensemble directory"),
 ) -> None:
     """(Re)build the analysis of a run directory (shake: analysis.json, PNGs, excited.vtu; tilt:
     collapse and mechanism into analysis.json), of a sweep directory (every point re-analysed,
@@ -284,7 +286,8 @@ def post(
 
 @app.command()
 def summary(
-    directories: list[Path] = typer.Argument(..., help="run, sweep or ensemble directories"),
+    directories: list[Path] = typer.Argument(..., metavar="DIR",
+                                         help="run, sweep or ensemble directories"),
     csv_file: Path = typer.Option(None, "--csv", help="also write the rows as CSV to this file"),
     fmt: str = typer.Option("table", "--format", help="table (rich, on screen) or csv (stdout)"),
 ) -> None:
@@ -299,7 +302,8 @@ def summary(
 
 @app.command()
 def view(
-    directory: Path = typer.Argument(..., help="run directory (or a sweep / ensemble directory)"),
+    directory: Path = typer.Argument(..., metavar="DIR",
+                                     help="run, sweep or ensemble directory"),
     out: Path = typer.Option(None, "--out", "-o", help="write here (default: the drawn run's "
                                                        "directory)"),
     point: str = typer.Option(None, "--point", help="the sweep point (f2.800Hz, or 2.8) or "
@@ -363,9 +367,20 @@ def _polish_help() -> None:
             info.help = _plain_help(doc)
             info.short_help = info.short_help or SHORT_HELP.get(name) or _first_sentence(doc)
     try:
-        from typer.core import TyperOption
+        from typer.core import TyperArgument, TyperOption
     except ImportError:  # pragma: no cover - another typer
         return
+    if hasattr(TyperArgument, "_usage_display_name") and \
+            not getattr(TyperArgument, "_dem_plain_usage", False):
+        # the usage line names arguments as the help text does, CASE and DIR... (this typer
+        # writes a required one {case})
+        def _usage_display_name(self):
+            name = (self.metavar or self.name or "").upper()
+            name = name if self.required else f"[{name}]"
+            return name + ("..." if self.nargs != 1 else "")
+
+        TyperArgument._usage_display_name = _usage_display_name
+        TyperArgument._dem_plain_usage = True
     if not getattr(TyperOption, "_dem_no_bool", False):
         shown = TyperOption.display_type_rich
 

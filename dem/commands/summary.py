@@ -120,6 +120,10 @@ def run_row(path: Path) -> dict:
     mech = s.get("mechanism")
     if isinstance(mech, dict) and (mech.get("mechanism") or mech.get("kind")):
         row["mechanism"] = str(mech.get("mechanism") or mech.get("kind"))
+    if col.get("detected") and row.get("lambda") is None:
+        # a collapse whose onset the detector could not place (dem.collapse): say so, an empty
+        # lambda cell alone reads as "no result"
+        row["mechanism"] = f"{row.get('mechanism') or 'collapse'} (onset not resolved: no lambda)"
     if kind in ("shake", "record"):
         row["frequency_hz"] = _num(loading.get("frequency_hz"))
         ana = _json(path / "analysis.json")
@@ -271,7 +275,10 @@ def print_table(rows: list[dict]) -> None:
 
     shown = [c for c in COLUMNS if c[0] not in ("lambda_q10", "lambda_q90")
              and any(r.get(c[0]) is not None for r in rows)]
-    table = Table(title="dem summary", show_lines=False)
+    summed = any(not str(r.get("kind", "")).startswith(("run", "rocking")) for r in rows)
+    table = Table(title="dem summary", show_lines=False,
+                  caption="wall and cpu of a sweep or an ensemble: the sum over its runs (what "
+                          "the study cost, not its elapsed time)" if summed else None)
     for key, title, unit in shown:
         table.add_column(header(key, title, unit) if key != "lambda" else "lambda (-)",
                          overflow="fold", no_wrap=bool(unit), justify="right" if unit else "left")

@@ -221,7 +221,8 @@ def view_command(path, out=None, point: str | None = None, frames: int = 40, fps
             f"are as they were)")
         return ExitCode.RUN_FAILED
     echo(f"wrote {movie} ({len(idx)} of {len(t_all)} frames, t = {t_all[idx[0]]:.3f} - "
-         f"{t_all[idx[-1]]:.3f} s, {fps:g} fps) and {strip} ({len(drawn)} panels at t = "
+         f"{t_all[idx[-1]]:.3f} s, {fps:g} fps) and {strip} ({len(drawn)} "
+         f"panel{'s' if len(drawn) != 1 else ''} at t = "
          + ", ".join(f"{t_all[idx[k]]:.3f}" for k in drawn) + " s)")
     return ExitCode.OK
 
