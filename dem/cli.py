@@ -293,8 +293,9 @@ def summary(
 ) -> None:
     """One row per run, sweep or ensemble directory: kind, case name, status, lambda (a tilt;
     an ensemble's median and 10-90 %), ds amplification and f_c (a shake run, a sweep), the
-    mechanism, wall and CPU seconds; read from the files the runs wrote (dem/commands/summary.py
-    says where each column comes from).  Exit 0, or 2 when a directory is none of those."""
+    mechanism, wall and CPU seconds (a sweep's or an ensemble's: the sums over its runs); read
+    from the files the runs wrote.  Exit 0, or 2 when a directory is none of those (1 when
+    --csv cannot be written for a fault of the disk)."""
     from dem.commands.summary import summary_command
 
     raise typer.Exit(summary_command(directories, csv_file, fmt, echo=typer.echo, err=_err))
