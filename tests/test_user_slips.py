@@ -520,3 +520,67 @@ def test_ensemble_mechanism_counts_are_text():
 
     assert counts_text({"B2": 1, "D": 7}) == "7 x D, 1 x B2"
     assert "{" not in counts_text({"overturning of the whole column at its base": 8})
+
+
+# ------------------------------------------------------------------------------------------
+# small things
+# ------------------------------------------------------------------------------------------
+def test_arch_cuda_without_a_driver_is_one_clean_line():
+    import subprocess
+    import sys
+
+    from dem.run.batched import cuda_present
+
+    if cuda_present():
+        pytest.skip("a CUDA driver is present here")
+    r = subprocess.run([sys.executable, "-c", "from dem.commands.sweep import batching; "
+                        "batching(None, 'cuda')"], capture_output=True, text=True)
+    assert "libcuda" not in r.stderr and "[W " not in r.stderr, r.stderr
+
+
+def test_an_output_error_never_says_errno_none():
+    from dem.output.atomic import OutputError
+
+    assert "Errno None" not in str(OutputError(None, "cannot write the output in x"))
+    assert str(OutputError(28, "No space left on device")) == \
+        "No space left on device (errno 28)"
+
+
+@pytest.mark.parametrize("command, name", [("run", "CASE"), ("rocking", "CASE"),
+                                           ("post", "DIR"), ("summary", "DIR...")])
+def test_usage_lines_name_arguments_in_capitals_and_help_names_no_source_file(command, name):
+    res = _invoke(command, "--help")
+    usage = next(line for line in res.output.splitlines() if "Usage:" in line)
+    assert usage.split()[-1] == name and "{" not in usage
+    assert ".py" not in res.output
+
+
+def test_view_faces_of_one_colour_are_shaded_apart():
+    import numpy as np
+
+    from dem.output.animation import FACES, face_shading
+    from dem.output.vtk import block_corners
+
+    c = block_corners(np.array([[0.1, 0.1, 0.2]]), np.zeros((1, 3)),
+                      np.array([[1.0, 0.0, 0.0, 0.0]]))[0]
+    lit = face_shading(np.array([c[list(f)] for f in FACES]))
+    assert len(set(np.round(lit, 6))) == 3  # top/bottom, x faces, y faces: three shades
+
+
+def test_view_says_one_panel(tmp_path):
+    res = _invoke("view", _planted_run(tmp_path / "run"), "--frames", "2", "--panels", "1")
+    assert res.exit_code == 0, res.output
+    assert "(1 panel at" in res.output
+
+
+def test_summary_names_an_unresolved_onset_and_what_an_ensembles_wall_is(tmp_path):
+    run = _planted_run(tmp_path / "run", extra={
+        "collapse": {"detected": True, "load_factor": None, "onset_resolved": False},
+        "loading": {"type": "tilt"}})
+    res = _invoke("summary", run, "--format", "csv")
+    assert "onset not resolved" in res.output, res.output
+    from tests.test_user_defects import _planted_tilt_ensemble
+
+    _planted_tilt_ensemble(tmp_path / "ens", [0.4, 0.5])
+    res = _invoke("summary", tmp_path / "ens")
+    assert "sum over its runs" in " ".join(res.output.split()), res.output
