@@ -26,6 +26,8 @@ import os
 # Taichi's thread pool would only contend for the cores there are)
 MAX_THREADS = 1024
 ARCHS = ("cpu", "cuda")
+# the scene size limit without --max-blocks or DEM_MAX_BLOCKS (dem.validate: why)
+DEFAULT_MAX_BLOCKS = 20_000
 FLAGS = ("DEM_TRACEBACK", "DEM_TI_SOURCE_CARETS", "DEM_TI_PLAIN_FRONT_END", "DEM_DEVICE_ARRAYS")
 
 
@@ -48,6 +50,13 @@ def int_variable(name: str, lo: int, hi: int | None = None) -> int | None:
         raise EnvironmentInputError(
             f"environment variable {name}={raw!r}: must be a whole number {rng} (or unset)")
     return value
+
+
+def max_blocks_default() -> int:
+    """``DEM_MAX_BLOCKS`` if set (a bad value raises EnvironmentInputError, naming it), else
+    DEFAULT_MAX_BLOCKS."""
+    env = int_variable("DEM_MAX_BLOCKS", 1)
+    return DEFAULT_MAX_BLOCKS if env is None else env
 
 
 def environment_errors() -> list[str]:

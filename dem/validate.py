@@ -8,7 +8,7 @@ the time step or the loading together:
 size (before anything is built)
     the block count is estimated from the case (:func:`estimate_blocks`, an upper bound) with the
     memory the run will take (engine arrays, frames kept in memory, files written); above
-    ``max_blocks`` (default :data:`DEFAULT_MAX_BLOCKS`, or ``DEM_MAX_BLOCKS``, or
+    ``max_blocks`` (default dem.environment.DEFAULT_MAX_BLOCKS, or ``DEM_MAX_BLOCKS``, or
     ``--max-blocks``) the case is refused without building it, as it is when the estimated memory
     exceeds the machine's.
 scene
@@ -57,6 +57,7 @@ from pathlib import Path
 import numpy as np
 
 from dem.case import Case, RecordLoading, ShakeLoading, SteppedShakeLoading
+from dem.environment import max_blocks_default
 
 # --- plausibility (issue 36 defect 3): warn loudly on the implausible, refuse the impossible ---
 # density of a block, kg/m3.  Plausible: what masonry, timber and steel span, from the lightest
@@ -91,7 +92,7 @@ ELASTIC_OFFSET_WARN = 0.05
 # is almost always a typo (mm for m, a sign), and it stretches the neighbour grid.
 FAR_BLOCK_FACTOR = 100.0
 
-DEFAULT_MAX_BLOCKS = 20_000
+# DEFAULT_MAX_BLOCKS = 20 000 and max_blocks_default (DEM_MAX_BLOCKS): dem.environment
 MIN_STEPS_PER_PERIOD = 20
 RECORD_REST_FRACTION = 1e-3
 # memory per block of the engine (Model / State / Contacts: ~ 60 reals per body, pair buffers of
@@ -192,15 +193,6 @@ def _fmt_bytes(b: float) -> str:
             return f"{b:.3g} {unit}"
         b /= 1000
     return f"{b:.3g} TB"
-
-
-def max_blocks_default() -> int:
-    """``DEM_MAX_BLOCKS`` if set (a bad value raises, naming it: dem.environment), else
-    DEFAULT_MAX_BLOCKS."""
-    from dem.environment import int_variable
-
-    env = int_variable("DEM_MAX_BLOCKS", 1)
-    return DEFAULT_MAX_BLOCKS if env is None else env
 
 
 def estimate_blocks(case: Case) -> int:

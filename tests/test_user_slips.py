@@ -579,8 +579,15 @@ def test_summary_names_an_unresolved_onset_and_what_an_ensembles_wall_is(tmp_pat
         "loading": {"type": "tilt"}})
     res = _invoke("summary", run, "--format", "csv")
     assert "onset not resolved" in res.output, res.output
-    from tests.test_user_defects import _planted_tilt_ensemble
-
-    _planted_tilt_ensemble(tmp_path / "ens", [0.4, 0.5])
-    res = _invoke("summary", tmp_path / "ens")
+    ens = tmp_path / "ens"
+    ens.mkdir()
+    for i in range(2):
+        _planted_run(ens / f"seed-{i}", extra={"wall_seconds": 10.0,
+                                               "collapse": {"detected": True,
+                                                            "load_factor": 0.4 + 0.1 * i}})
+    (ens / "ensemble.json").write_text(json.dumps(
+        {"kind": "ensemble", "case": "block-on-tilt", "seeds": [0, 1],
+         "realisations": [{"name": f"seed-{i}", "seed": i, "status": "ok"} for i in range(2)],
+         "aggregate": {}}))
+    res = _invoke("summary", ens)
     assert "sum over its runs" in " ".join(res.output.split()), res.output

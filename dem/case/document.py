@@ -242,13 +242,13 @@ def explicit_block_count(data) -> int:
 
 def load_case(path: str | Path, max_blocks: int | None = None) -> Case:
     """The validated case of the file at ``path`` (CaseError naming the field and line).
-    ``max_blocks`` (default: dem.validate.max_blocks_default): a scene listing more explicit
+    ``max_blocks`` (default: dem.environment.max_blocks_default): a scene listing more explicit
     blocks is refused before validating them (30 000 blocks cost ~ 10 s and 300 MB of
     validation only to be refused by dem.validate's size check after)."""
     path = Path(path)
     data, node = read_case_yaml(path)
     if max_blocks is None:
-        from dem.validate import max_blocks_default
+        from dem.environment import max_blocks_default
 
         max_blocks = max_blocks_default()
     n_listed = explicit_block_count(data)
