@@ -27,13 +27,6 @@ from dem.run.sweep import SweepInputError
 from postprocess.sweep import characteristic_text, finite, is_sweep_dir, post_sweep
 
 
-def _locked(path: Path) -> bool:
-    """Whether a live run holds DIR/run.lock (dem.rundir)."""
-    from dem.rundir import lock_holder
-
-    return lock_holder(path) is not None
-
-
 def run_state(path: Path) -> str | None:
     """A run directory that is not a finished run, in words (docs/interrupted-runs.md), or None
     for a finished one (summary.json 'ok' or 'failed'):
@@ -160,7 +153,9 @@ def post_run(path: Path) -> int:
         return ExitCode.BAD_INPUT
     if state is not None:
         say(f"warning: {path}: the run is not finished: {state}; analysing the frames recorded "
-            f"so far (a rerun with --resume goes on from the last checkpoint)")
+            f"so far" + ("" if state.startswith("running") else
+                         " (dem run --resume goes on from its last checkpoint where it can: "
+                         "docs/interrupted-runs.md)"))
     case, _ = load_run(path)
     if isinstance(case.loading, ShakeLoading):
         res = analyze_run(path)
