@@ -44,6 +44,51 @@ class Drained(Exception):
 
 
 DRAIN_FILE = "DRAIN"
+# seconds to wait for a dask scheduler's port to answer before calling it unreachable (a
+# scheduler on the same network answers in milliseconds; dask's own wait is 30 s)
+SCHEDULER_CONNECT_SECONDS = 5.0
+
+
+class SchedulerUnreachable(ValueError):
+    """``--scheduler`` names an address where no scheduler answers (bad input: exit code 2)."""
+
+
+def check_scheduler(address: str, timeout: float = SCHEDULER_CONNECT_SECONDS) -> None:
+    """Raise SchedulerUnreachable unless a TCP connection to the scheduler's address opens within
+    ``timeout`` s: checked before a sweep or an ensemble writes anything.  Addresses as dask
+    takes them: tcp://HOST:PORT or HOST:PORT (port 8786 when none is given)."""
+    import socket
+    from urllib.parse import urlsplit
+
+    text = address if "://" in address else f"tcp://{address}"
+    try:
+        parts = urlsplit(text)
+        host, port = parts.hostname, parts.port or 8786
+    except ValueError as err:
+        raise SchedulerUnreachable(f"--scheduler {address}: not an address ({err}); give "
+                                   f"tcp://HOST:PORT") from None
+    if parts.scheme not in ("tcp", "tls") or not host:
+        raise SchedulerUnreachable(f"--scheduler {address}: not an address; give "
+                                   f"tcp://HOST:PORT")
+    try:
+        with socket.create_connection((host, port), timeout=timeout):
+            pass
+    except OSError as err:
+        why = err.strerror or ("no answer" if isinstance(err, TimeoutError) else
+                               type(err).__name__)
+        raise SchedulerUnreachable(
+            f"--scheduler {address}: no scheduler answers there ({why}, waited up to "
+            f"{timeout:g} s); start one with `dask scheduler`, or leave --scheduler out for a "
+            f"local cluster") from None
+    # something answers: it must speak dask's protocol (a wrong port may hold another server)
+    from dask.distributed import Client
+
+    try:
+        Client(address, timeout=timeout).close()
+    except Exception as err:  # noqa: BLE001 - whatever the handshake raises, the address is bad
+        raise SchedulerUnreachable(
+            f"--scheduler {address}: what answers there is not a dask scheduler "
+            f"({type(err).__name__}); check the address and port") from None
 
 
 def drain_file_check(path: Path) -> Callable[[], bool]:

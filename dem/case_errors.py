@@ -33,30 +33,97 @@ class DuplicateKeyError(ValueError):
         self.message, self.line = message, line
 
 
+# libyaml's loader where PyYAML was built with it (10-20 x faster on a large explicit scene),
+# else the pure-Python one: the same nodes and data
+SAFE_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+# the most values a case file may stand for once its aliases are expanded: a 20 000-block
+# explicit scene (the default size limit) is ~ 15 values a block, 300 000; a few nested aliases
+# can stand for billions ("billion laughs"), which every later walk of the data would visit
+MAX_EXPANDED_VALUES = 5_000_000
+
+
+class AliasError(ValueError):
+    """Aliases that refer to themselves, or that expand beyond MAX_EXPANDED_VALUES; ``line``
+    (1-based) of the anchor, ``message`` without the line."""
+
+    def __init__(self, message: str, line: int | None = None):
+        super().__init__(f"line {line}: {message}" if line else message)
+        self.message, self.line = message, line
+
+
 def compose(text: str) -> yaml.Node | None:
     """The YAML node tree of ``text`` (safe loader); raises DuplicateKeyError for a key given twice
-    in one mapping (yaml.safe_load would silently keep the last one)."""
-    node = yaml.compose(text, Loader=yaml.SafeLoader)
-    _no_duplicates(node)
+    in one mapping (yaml.safe_load would silently keep the last one), AliasError for an anchor
+    that contains itself or aliases that expand beyond MAX_EXPANDED_VALUES."""
+    node = yaml.compose(text, Loader=SAFE_LOADER)
+    check_nodes(node)
     return node
 
 
-def _no_duplicates(node) -> None:
+def load(text: str):
+    """(node tree, data) of ``text``, parsed once: :func:`compose`, then the data constructed
+    from its nodes (what yaml.safe_load gives)."""
+    node = compose(text)
+    if node is None:
+        return None, None
+    loader = SAFE_LOADER("")
+    try:
+        return node, loader.construct_document(node)
+    finally:
+        loader.dispose()
+
+
+def _children(node) -> list:
     if isinstance(node, yaml.MappingNode):
-        seen: dict[str, int] = {}
-        for k, v in node.value:
-            key = getattr(k, "value", None)
-            if isinstance(key, str):
-                if key in seen:
-                    raise DuplicateKeyError(
-                        f"duplicate key '{key}' (line {k.start_mark.line + 1}; first given "
-                        f"on line {seen[key]})",
-                        k.start_mark.line + 1)
-                seen[key] = k.start_mark.line + 1
-            _no_duplicates(v)
-    elif isinstance(node, yaml.SequenceNode):
-        for v in node.value:
-            _no_duplicates(v)
+        return [x for kv in node.value for x in kv]
+    if isinstance(node, yaml.SequenceNode):
+        return list(node.value)
+    return []
+
+
+def check_nodes(root) -> None:
+    """Duplicate keys, self-referring anchors and the expanded size, in one walk that visits each
+    node once (an alias is the same node object as its anchor: a walk that followed every alias
+    would take as long as the expanded document).  Iterative: no RecursionError on deep files."""
+    if root is None:
+        return
+    size: dict[int, int] = {}      # id(node) -> values it stands for, expanded
+    on_path: set[int] = set()
+    stack = [(root, False)]
+    while stack:
+        node, leaving = stack.pop()
+        key = id(node)
+        if leaving:
+            on_path.discard(key)
+            size[key] = 1 + sum(size[id(c)] for c in _children(node))
+            if size[key] > MAX_EXPANDED_VALUES:
+                raise AliasError(
+                    f"the aliases here expand to more than {MAX_EXPANDED_VALUES:,} values; a "
+                    f"case file is not meant to (a nesting of aliases?)",
+                    node.start_mark.line + 1)
+            continue
+        if key in size:
+            continue
+        on_path.add(key)
+        stack.append((node, True))
+        if isinstance(node, yaml.MappingNode):
+            seen: dict[str, int] = {}
+            for k, _ in node.value:
+                name = getattr(k, "value", None)
+                if isinstance(name, str):
+                    if name in seen:
+                        raise DuplicateKeyError(
+                            f"duplicate key '{name}' (line {k.start_mark.line + 1}; first given "
+                            f"on line {seen[name]})",
+                            k.start_mark.line + 1)
+                    seen[name] = k.start_mark.line + 1
+        for child in reversed(_children(node)):
+            if id(child) in on_path:
+                raise AliasError(
+                    "an anchor (&name) that contains an alias of itself (*name): a recursive "
+                    "structure, which a case cannot be", child.start_mark.line + 1)
+            if id(child) not in size:
+                stack.append((child, False))
 
 
 def walk_yaml(node, data, loc, name_missing: bool = True) -> tuple[list[str], int | None]:

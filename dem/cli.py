@@ -73,22 +73,30 @@ def main(
                                  help="print the version and exit"),
 ) -> None:
     """Rigid-block DEM of dry masonry on a tilting or shaking table."""
+    from dem.environment import environment_errors
+
+    errors = environment_errors()  # before any command: a bad DEM_* is one line, exit 2
+    for line in errors:
+        _err(f"error: {line}")
+    if errors:
+        raise typer.Exit(ExitCode.BAD_INPUT)
 
 
 def _is_rocking_file(path: Path) -> bool:
     """A two-body rocking case (top-level key ``rocking``): dispatched on the content."""
-    import yaml
+    from dem.case import CaseError
+    from dem.case.document import read_case_yaml
 
     try:
-        data = yaml.safe_load(path.read_text())
-    except (OSError, UnicodeDecodeError, yaml.YAMLError):
+        data, _ = read_case_yaml(path)  # parsed once: the case's loader reuses it
+    except CaseError:
         return False
-    return isinstance(data, dict) and "rocking" in data and "scene" not in data
+    return "rocking" in data and "scene" not in data
 
 
 @app.command()
 def check(
-    case: Path = typer.Argument(..., help="case YAML file"),
+    case: Path = typer.Argument(..., metavar="CASE", help="case YAML file"),
     max_blocks: int = typer.Option(None, "--max-blocks", help=MAX_BLOCKS_HELP),
     show_defaults: bool = typer.Option(False, "--show-defaults",
                                        help="print the case as it runs: every default filled "
@@ -113,8 +121,10 @@ def check(
     if checked is None:
         raise typer.Exit(ExitCode.BAD_INPUT)
     c = checked.case
+    # with --show-defaults stdout is the resolved case alone (valid YAML, to be saved): the
+    # report goes to stderr then
     typer.echo(f"{case}: ok: '{c.name}', loading {c.loading.type}\n{checked.report.format()}\n"
-               f"{checked.size_line()}")
+               f"{checked.size_line()}", err=show_defaults)
     if show_defaults:
         from dem.commands.defaults import resolved_case_yaml
 
@@ -147,7 +157,7 @@ def schema(
 
 @app.command()
 def run(
-    case: Path = typer.Argument(..., help="case YAML file"),
+    case: Path = typer.Argument(..., metavar="CASE", help="case YAML file"),
     out: Path = typer.Option(..., "--out", "-o", help="output directory"),
     progress: bool = typer.Option(True, help="show a progress bar"),
     force: bool = typer.Option(False, "--force",
@@ -181,7 +191,8 @@ def _rocking(case: Path, out: Path, plots: bool, force: bool) -> int:
 
 @app.command()
 def rocking(
-    case: Path = typer.Argument(..., help="rocking case YAML file (see dem/rocking/schema.py)"),
+    case: Path = typer.Argument(..., metavar="CASE",
+                                help="two-body case YAML file (cases/rocking/)"),
     out: Path = typer.Option(..., "--out", "-o", help="output directory"),
     plots: bool = typer.Option(True, help="write PNG plots"),
     force: bool = typer.Option(False, "--force", help="clear OUT if it holds another run"),
@@ -192,7 +203,7 @@ def rocking(
 
 @app.command()
 def sweep(
-    case: Path = typer.Argument(..., help="shake case YAML file"),
+    case: Path = typer.Argument(..., metavar="CASE", help="shake case YAML file"),
     out: Path = typer.Option(..., "--out", "-o", help="output directory"),
     frequencies: str = typer.Option(None, "--frequencies", help="comma-separated, Hz: 1.8,2.0,2.4"),
     range_: str = typer.Option(None, "--range", help="start:stop:step, Hz (stop included)"),
@@ -210,6 +221,9 @@ def sweep(
                                          "in flight finish (default: OUT/DRAIN)"),
     batch: int = typer.Option(None, "--batch", help=BATCH_HELP),
     arch: str = typer.Option("cpu", "--arch", help=ARCH_HELP),
+    max_points: int = typer.Option(None, "--max-points",
+                                   help="refuse more frequencies than this (default 100: a "
+                                        "larger sweep is almost always a typo in --range)"),
 ) -> None:
     """Frequency sweep of a shake case at its constant peak acceleration (or amplitude): one run
     per frequency on dask, each analysed (postprocess.shake), then the amplification curves,
@@ -224,12 +238,12 @@ def sweep(
     clear_drain_file(drain_file, say)
     raise typer.Exit(run_sweep(case, out, frequencies, range_, cycles, margin, scheduler, workers,
                                max_steps, realisations, seed, drain_file=drain_file, batch=batch,
-                               arch=arch))
+                               arch=arch, max_points=max_points))
 
 
 @app.command()
 def ensemble(
-    case: Path = typer.Argument(..., help="case YAML file with an imperfections: section"),
+    case: Path = typer.Argument(..., metavar="CASE", help="case YAML file with imperfections:"),
     out: Path = typer.Option(..., "--out", "-o", help="output directory"),
     realisations: int = typer.Option(..., "--realisations", "-n", help="number of realisations"),
     seed: int = typer.Option(None, "--seed", help="first seed (default: the case's)"),
@@ -257,7 +271,8 @@ def ensemble(
 
 @app.command()
 def post(
-    directory: Path = typer.Argument(..., help="run, sweep or ensemble directory"),
+    directory: Path = typer.Argument(..., metavar="DIR",
+                                     help="run, sweep or ensemble directory"),
 ) -> None:
     """(Re)build the analysis of a run directory (shake: analysis.json, PNGs, excited.vtu; tilt:
     collapse and mechanism into analysis.json), of a sweep directory (every point re-analysed,
@@ -271,14 +286,16 @@ def post(
 
 @app.command()
 def summary(
-    directories: list[Path] = typer.Argument(..., help="run, sweep or ensemble directories"),
+    directories: list[Path] = typer.Argument(..., metavar="DIR",
+                                         help="run, sweep or ensemble directories"),
     csv_file: Path = typer.Option(None, "--csv", help="also write the rows as CSV to this file"),
     fmt: str = typer.Option("table", "--format", help="table (rich, on screen) or csv (stdout)"),
 ) -> None:
     """One row per run, sweep or ensemble directory: kind, case name, status, lambda (a tilt;
     an ensemble's median and 10-90 %), ds amplification and f_c (a shake run, a sweep), the
-    mechanism, wall and CPU seconds; read from the files the runs wrote (dem/commands/summary.py
-    says where each column comes from).  Exit 0, or 2 when a directory is none of those."""
+    mechanism, wall and CPU seconds (a sweep's or an ensemble's: the sums over its runs); read
+    from the files the runs wrote.  Exit 0, or 2 when a directory is none of those (1 when
+    --csv cannot be written for a fault of the disk)."""
     from dem.commands.summary import summary_command
 
     raise typer.Exit(summary_command(directories, csv_file, fmt, echo=typer.echo, err=_err))
@@ -286,7 +303,8 @@ def summary(
 
 @app.command()
 def view(
-    directory: Path = typer.Argument(..., help="run directory (or a sweep / ensemble directory)"),
+    directory: Path = typer.Argument(..., metavar="DIR",
+                                     help="run, sweep or ensemble directory"),
     out: Path = typer.Option(None, "--out", "-o", help="write here (default: the drawn run's "
                                                        "directory)"),
     point: str = typer.Option(None, "--point", help="the sweep point (f2.800Hz, or 2.8) or "
@@ -350,9 +368,20 @@ def _polish_help() -> None:
             info.help = _plain_help(doc)
             info.short_help = info.short_help or SHORT_HELP.get(name) or _first_sentence(doc)
     try:
-        from typer.core import TyperOption
+        from typer.core import TyperArgument, TyperOption
     except ImportError:  # pragma: no cover - another typer
         return
+    if hasattr(TyperArgument, "_usage_display_name") and \
+            not getattr(TyperArgument, "_dem_plain_usage", False):
+        # the usage line names arguments as the help text does, CASE and DIR... (this typer
+        # writes a required one {case})
+        def _usage_display_name(self):
+            name = (self.metavar or self.name or "").upper()
+            name = name if self.required else f"[{name}]"
+            return name + ("..." if self.nargs != 1 else "")
+
+        TyperArgument._usage_display_name = _usage_display_name
+        TyperArgument._dem_plain_usage = True
     if not getattr(TyperOption, "_dem_no_bool", False):
         shown = TyperOption.display_type_rich
 

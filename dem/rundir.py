@@ -50,6 +50,26 @@ class RunDirError(ValueError):
     """The output directory cannot be used (exit code 2); the message says why and what to do."""
 
 
+def lock_holder(out: str | Path) -> int | None:
+    """The pid of the live process that holds OUT/run.lock (written into it by the holder;
+    0 where it cannot be read), or None when no process holds it (no lock, or a stale one left
+    by a killed process: the kernel dropped the flock when it ended)."""
+    lock = Path(out) / LOCK
+    try:
+        fh = open(lock, "rb")
+    except OSError:
+        return None
+    with fh:
+        try:
+            fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            with contextlib.suppress(OSError, ValueError, IndexError):
+                return int(lock.read_text().split()[0])
+            return 0
+        fcntl.flock(fh.fileno(), fcntl.LOCK_UN)
+    return None
+
+
 def _holder(path: Path) -> str:
     with contextlib.suppress(OSError, ValueError):
         return f" (pid {int(path.read_text().split()[0])})"

@@ -39,8 +39,10 @@ def init(threads: int | None = None, precision: str = "f64", debug: bool = False
                 (benchmarks/batch_speed.py --profile); off by default.
     """
     global _settings
-    if threads is None and os.environ.get("DEM_THREADS"):
-        threads = int(os.environ["DEM_THREADS"])
+    if threads is None:
+        from dem.environment import MAX_THREADS, int_variable
+
+        threads = int_variable("DEM_THREADS", 1, MAX_THREADS)  # a bad value: one clear line
     if arch is None and _settings is None:
         arch = os.environ.get("DEM_ARCH") or "cpu"
     if arch is not None and arch not in ARCHS:

@@ -8,7 +8,7 @@ the time step or the loading together:
 size (before anything is built)
     the block count is estimated from the case (:func:`estimate_blocks`, an upper bound) with the
     memory the run will take (engine arrays, frames kept in memory, files written); above
-    ``max_blocks`` (default :data:`DEFAULT_MAX_BLOCKS`, or ``DEM_MAX_BLOCKS``, or
+    ``max_blocks`` (default dem.environment.DEFAULT_MAX_BLOCKS, or ``DEM_MAX_BLOCKS``, or
     ``--max-blocks``) the case is refused without building it, as it is when the estimated memory
     exceeds the machine's.
 scene
@@ -57,6 +57,7 @@ from pathlib import Path
 import numpy as np
 
 from dem.case import Case, RecordLoading, ShakeLoading, SteppedShakeLoading
+from dem.environment import max_blocks_default
 
 # --- plausibility: warn loudly on the implausible, refuse the impossible ----------------------
 # density of a block, kg/m3.  Plausible: what masonry, timber and steel span, from the lightest
@@ -78,6 +79,10 @@ G_STANDARD = 9.80665
 TABLE_ACCELERATION_PLAUSIBLE_G = 5.0
 TABLE_STROKE_PLAUSIBLE_M = 1.0
 TABLE_SPEED_POSSIBLE_M_S = 100.0
+# gravity, m/s2: on the Earth's surface it spans 9.780 (equator) to 9.832 (poles) at sea level
+# (normal gravity, GRS80), a little less on mountains; outside 9.7 - 9.9 a case most likely
+# mixes units (9810: mm/s2) or forgot it (0: nothing holds the blocks on the table)
+GRAVITY_PLAUSIBLE_M_S2 = (9.7, 9.9)
 # the joints' elastic offset of tipping load factors (dem.compliance) above which dem check warns
 # instead of informing: at 5 % the joint law's compliance, a modelling choice and not a property
 # of the masonry, moves a load factor in its second digit, the digit the thesis' series differ in
@@ -87,7 +92,7 @@ ELASTIC_OFFSET_WARN = 0.05
 # is almost always a typo (mm for m, a sign), and it stretches the neighbour grid.
 FAR_BLOCK_FACTOR = 100.0
 
-DEFAULT_MAX_BLOCKS = 20_000
+# DEFAULT_MAX_BLOCKS = 20 000 and max_blocks_default (DEM_MAX_BLOCKS): dem.environment
 MIN_STEPS_PER_PERIOD = 20
 RECORD_REST_FRACTION = 1e-3
 # memory per block of the engine (Model / State / Contacts: ~ 60 reals per body, pair buffers of
@@ -204,16 +209,6 @@ def _fmt_bytes(b: float) -> str:
     return f"{b:.3g} TB"
 
 
-def max_blocks_default() -> int:
-    env = os.environ.get("DEM_MAX_BLOCKS")
-    if env:
-        try:
-            return int(env)
-        except ValueError:
-            pass
-    return DEFAULT_MAX_BLOCKS
-
-
 def estimate_blocks(case: Case) -> int:
     """Upper bound of the block count, from the case alone (nothing built)."""
     s = case.scene
@@ -298,6 +293,150 @@ def table_plausibility(peak_acceleration: float, stroke: float, frequency: float
     return warnings, errors
 
 
+def gravity_plausibility(case: Case, where) -> list[str]:
+    """Warnings (``IMPLAUSIBLE``) on a gravity magnitude outside GRAVITY_PLAUSIBLE_M_S2 (a
+    gravity that does not point down, and a tilt without gravity, are refused by the schema:
+    dem.case.document)."""
+    g = float(np.linalg.norm(case.gravity_vector()))
+    lo, hi = GRAVITY_PLAUSIBLE_M_S2
+    if lo <= g <= hi:
+        return []
+    if g == 0.0:
+        what = "no gravity: nothing holds the blocks on the table"
+    else:
+        what = f"gravity {g:.4g} m/s2 = {g / G_STANDARD:.3g} g"
+    return [f"{where(('gravity',))}: IMPLAUSIBLE: {what}; on the Earth's surface it is "
+            f"{lo:g} - {hi:g} m/s2; check the units (m/s2, not mm/s2)"]
+
+
+def shake_cut(ld, duration: float, where) -> tuple[list[str], list[str]]:
+    """(warnings, errors) of a shake (or stepped shake) that the run ends before it is over: the
+    engine stops at run.duration whatever the table still had to do, so a result would be that of
+    a shorter test than the case asks for (its description says 50 cycles, the blocks feel 34).
+    Refused when the run ends before the last full cycle of the shake (of the last step, for a
+    stepped shake) is over: the shake is cut by at least one cycle; warned of when only a
+    fraction of a cycle at the end is cut (cycles: 10.5, or a stepped shake's run-on to the
+    table's next extreme)."""
+    tol = 1e-9 * max(duration, 1.0)
+    if isinstance(ld, ShakeLoading):
+        f, end = ld.frequency, ld.cycles / ld.frequency
+        last_full = math.floor(ld.cycles + 1e-9) / f
+        shaken = duration * f
+        what = f"{ld.cycles:g} cycles at {f:g} Hz, {end:.4g} s"
+        fewer = "loading.cycles"
+    elif isinstance(ld, SteppedShakeLoading):
+        motion = ld.motion()
+        f = float(motion.freq[-1])
+        end = float(motion.t_end)
+        last_full = float(motion.t0[-2]) + math.floor(ld.steps[-1].cycles + 1e-9) / f
+        k = int(motion.step_of(duration)) if duration < end else len(ld.steps) - 1
+        shaken = None
+        what = (f"{len(ld.steps)} steps, {sum(s.cycles for s in ld.steps):g} cycles, ending at "
+                f"{end:.4g} s; the run ends in step {k} ({float(motion.freq[k]):g} Hz)")
+        fewer = "cycles in loading.steps"
+    else:
+        return [], []
+    if duration + tol >= end:
+        return [], []
+    head = f"{where(('run', 'duration'))}: {duration:g} s ends the run before the shake ({what})"
+    head += f" is over: the table shakes {shaken:.3g} of them" if shaken is not None else \
+        " is over"
+    fix = (f"; make run.duration at least {end:.4g} s (plus the free motion after it you want "
+           f"to see) or give fewer {fewer}")
+    if duration + tol < last_full:
+        return [], [head + fix]
+    return [head + " (the last fraction of a cycle is cut)" + fix], []
+
+
+def unused_pair_warnings(case: Case, scene, where) -> list[str]:
+    """``material.pairs`` entries naming a material no block of the built scene has (the table
+    is always there): their constants would apply to no joint."""
+    used = {scene.material_names[m] for m in np.unique(scene.material)} | {"table"}
+    out = []
+    for k, pair in enumerate(case.material.pairs):
+        for m, name in enumerate(pair.between):
+            if name not in used:
+                out.append(f"{where(('material', 'pairs', k, 'between', m))}: no block of this "
+                           f"scene is '{name}' (the blocks are {', '.join(sorted(used))}): this "
+                           f"pair's constants apply to no joint")
+                break
+    return out
+
+
+def static_pressure(scene, g: float) -> np.ndarray:
+    """Pa: an estimate of the static pressure on each block's bottom face: the weight of the
+    block and of every block whose centre stands above its footprint (axis-aligned, the block's
+    size), over that footprint.  Exact for a column of equal blocks; a running bond spreads
+    the load, so it errs high by up to the ratio of a block to its overlap with the ones above
+    (at most ~ 2).  Fixed blocks carry nothing (they are supports)."""
+    from scipy.spatial import cKDTree
+
+    pos = np.asarray(scene.position, dtype=float)
+    size = np.asarray(scene.size, dtype=float)
+    mass = np.asarray(scene.mass, dtype=float)
+    movable = ~np.asarray(scene.fixed, dtype=bool)
+    p = np.zeros(len(pos))
+    if not movable.any():
+        return p
+    tree = cKDTree(pos[:, :2])
+    for i in np.flatnonzero(movable):
+        half = 0.5 * size[i, :2]
+        near = np.asarray(tree.query_ball_point(pos[i, :2], float(np.linalg.norm(half))),
+                          dtype=int)
+        inside = near[(np.abs(pos[near, 0] - pos[i, 0]) <= half[0]) &
+                      (np.abs(pos[near, 1] - pos[i, 1]) <= half[1]) &
+                      (pos[near, 2] >= pos[i, 2]) & movable[near]]
+        p[i] = mass[inside].sum() * g / (size[i, 0] * size[i, 1])
+    return p
+
+
+# the first settling of a scene released touching overshoots its static closures: measured on
+# cases/joint/hyperbolic-column.yaml (nine bricks, hyperbolic joints), the base joint reaches
+# 0.52 d_max against 0.36 at rest, 1.44 times
+SETTLING_OVERSHOOT = 1.44
+
+
+def hyperbolic_closure_check(case: Case, scene, where) -> tuple[list[str], list[str]]:
+    """(warnings, errors) of a hyperbolic joint law's max_closure against the scene: larger than
+    the smallest block dimension (no joint closes by a brick), or so small that the static
+    closure under gravity alone, d = p / (kn0 + p / d_max) with p from :func:`static_pressure`,
+    passes closure_limit x d_max (the run would stop as it settles: refused when the static
+    closure passes it, warned of when the settling overshoot may: SETTLING_OVERSHOOT).  The
+    material's own constants; pairs with their own are not checked."""
+    mat = case.material
+    if mat.normal_law != "hyperbolic" or mat.max_closure is None:
+        return [], []
+    dmax, kn0, lim = float(mat.max_closure), float(mat.normal_stiffness), mat.closure_limit
+    movable = ~np.asarray(scene.fixed, dtype=bool)
+    size = np.asarray(scene.size, dtype=float)
+    smallest = float(size[movable].min()) if movable.any() else float(size.min())
+    loc = where(("material", "max_closure"))
+    if dmax >= smallest:
+        return [], [f"{loc}: {dmax:g} m is not smaller than the smallest block dimension "
+                    f"({smallest:g} m): a joint closes by fractions of a millimetre (a seating "
+                    f"test measures it: docs/engine.md); check the units (m)"]
+    g = float(np.linalg.norm(case.gravity_vector()))
+    p = float(static_pressure(scene, g).max())
+    if p <= 0.0:
+        return [], []
+    d = p / (kn0 + p / dmax)
+    needed = p * (1.0 - lim) / (lim * kn0)          # d_max with d = closure_limit d_max
+    text = (f"{loc}: under gravity alone the most loaded joint (static pressure about "
+            f"{p:.3g} Pa) closes by about {d:.3g} m = {d / dmax:.2f} x max_closure")
+    if mat.beyond_closure_limit == "stop" and d > lim * dmax:
+        return [], [text + f", beyond closure_limit = {lim:g}: the run would stop as the scene "
+                    f"settles; give max_closure >= {needed:.3g} m (or a larger closure_limit, "
+                    f"or beyond_closure_limit: tangent)"]
+    if d * SETTLING_OVERSHOOT > lim * dmax:
+        return [text + f"; the first settling overshoots it (~ {SETTLING_OVERSHOOT:g} x) "
+                f"past closure_limit = {lim:g}: the run may "
+                + ("stop at its start" if mat.beyond_closure_limit == "stop"
+                   else "go on along the tangent") + f" (max_closure >= "
+                f"{needed * SETTLING_OVERSHOOT:.3g} m, or closure_limit "
+                f"{min(d * SETTLING_OVERSHOOT / dmax, 0.99):.2g}, avoids it)"], []
+    return [], []
+
+
 def _block_loc(i: int, n_listed: int) -> tuple:
     return ("scene", "blocks", i) if i < n_listed else ("scene",)
 
@@ -360,12 +499,9 @@ class _Where:
         self.node = self.data = None
         if source is not None:
             try:
-                import yaml
+                from dem.case.document import read_case_yaml
 
-                from dem.case_errors import compose
-
-                text = Path(source).read_text()
-                self.node, self.data = compose(text), yaml.safe_load(text)
+                self.data, self.node = read_case_yaml(source)  # parsed once (kept)
             except Exception:  # noqa: BLE001 - the line is a nicety
                 pass
 
@@ -390,7 +526,7 @@ def load_and_check(path: str | Path, say, max_blocks: int | None = None) -> Chec
     from dem.case import CaseError, load_case
 
     try:
-        case = load_case(path)
+        case = load_case(path, max_blocks)
     except CaseError as err:
         say(f"error: {err}" if str(err).startswith(str(path)) else f"error: {path}: {err}")
         return None
@@ -402,40 +538,26 @@ def load_and_check(path: str | Path, say, max_blocks: int | None = None) -> Chec
     return checked if checked.ok else None
 
 
-def check_case(case: Case, source: str | Path | None = None,
-               max_blocks: int | None = None, build: bool = True) -> Checked:
-    """Check a validated case (module docstring).  Never raises for a bad case: the problems are
-    in ``Checked.errors`` / ``warnings``; ``Checked.scene`` is the built scene (None when the
-    check stopped before building it)."""
+SCENE_FIELDS = ("scene", "material", "solver", "imperfections", "gravity")
+
+
+def same_scene(a: Case, b: Case) -> bool:
+    """True when two cases build the same scene with the same joints and step (they differ at
+    most in name, loading and run: a sweep's points)."""
+    return all(getattr(a, f) == getattr(b, f) for f in SCENE_FIELDS)
+
+
+def _check_scene(case: Case, out: Checked, where) -> float | None:
+    """check_case's scene part: build it, check it, its joints and its critical step (s; None
+    when the scene could not be built)."""
     from dem.builders import check_scene
     from dem.run.build import scene_from_case
 
-    where = _Where(source)
-    out = Checked(case=case)
-    max_blocks = max_blocks_default() if max_blocks is None else int(max_blocks)
-    run = case.run
-    n_est = estimate_blocks(case)
-    out.blocks_estimate = n_est
-    frames = int(math.floor(run.duration / run.output_interval + 1e-9)) + 2
-    out.n_frames = frames
-    out.memory_bytes = n_est * (ENGINE_BYTES_PER_BLOCK + frames * FRAME_BYTES_PER_BLOCK)
-    per_frame = DISK_BYTES_PER_BLOCK if run.vtk else NPZ_BYTES_PER_BLOCK
-    out.disk_bytes = n_est * frames * per_frame
-    ram = _machine_memory()
-    if n_est > max_blocks:
-        out.errors.append(
-            f"{where(('scene',))}: about {n_est:,} blocks (estimated memory "
-            f"{_fmt_bytes(out.memory_bytes)}, output {_fmt_bytes(out.disk_bytes)}), above the "
-            f"limit of {max_blocks:,} blocks; not built.  Raise the limit with --max-blocks or "
-            f"DEM_MAX_BLOCKS if this is meant")
-        return out
-    if not build:
-        return out
     try:
         scene = scene_from_case(case, check=False)
     except ValueError as err:
         out.errors.append(f"{where(('scene',))}: {err}")
-        return out
+        return None
     out.scene = scene
     n = scene.n_blocks
     out.blocks_estimate = n
@@ -446,6 +568,10 @@ def check_case(case: Case, source: str | Path | None = None,
                          settle_gap=6.0 * max(case.imperfections.size_scatter))
     out.report = report
     w, e = scene_plausibility(scene, where, len(case.scene.blocks))
+    out.warnings += gravity_plausibility(case, where) + w
+    out.errors += e
+    out.warnings += unused_pair_warnings(case, scene, where)
+    w, e = hyperbolic_closure_check(case, scene, where)
     out.warnings += w
     out.errors += e
     if not report.ok:
@@ -473,6 +599,51 @@ def check_case(case: Case, source: str | Path | None = None,
         out.imperfections = realised_summary(scene, imperfection_params(case),
                                              size_reference(case), as_built_record(case))
     dt_crit = critical_step(case, scene)
+    return dt_crit
+
+
+def check_case(case: Case, source: str | Path | None = None,
+               max_blocks: int | None = None, build: bool = True,
+               like: Checked | None = None) -> Checked:
+    """Check a validated case (module docstring).  Never raises for a bad case: the problems are
+    in ``Checked.errors`` / ``warnings``; ``Checked.scene`` is the built scene (None when the
+    check stopped before building it).  ``like``: the result of an earlier check of a case with
+    the same scene (:func:`same_scene`): its scene and step are reused, and only what depends on
+    the loading and the run is checked again."""
+    where = _Where(source)
+    out = Checked(case=case)
+    max_blocks = max_blocks_default() if max_blocks is None else int(max_blocks)
+    run = case.run
+    n_est = estimate_blocks(case)
+    out.blocks_estimate = n_est
+    frames = int(math.floor(run.duration / run.output_interval + 1e-9)) + 2
+    out.n_frames = frames
+    out.memory_bytes = n_est * (ENGINE_BYTES_PER_BLOCK + frames * FRAME_BYTES_PER_BLOCK)
+    per_frame = DISK_BYTES_PER_BLOCK if run.vtk else NPZ_BYTES_PER_BLOCK
+    out.disk_bytes = n_est * frames * per_frame
+    ram = _machine_memory()
+    if n_est > max_blocks:
+        out.errors.append(
+            f"{where(('scene',))}: about {n_est:,} blocks (estimated memory "
+            f"{_fmt_bytes(out.memory_bytes)}, output {_fmt_bytes(out.disk_bytes)}), above the "
+            f"limit of {max_blocks:,} blocks; not built.  Raise the limit with --max-blocks or "
+            f"DEM_MAX_BLOCKS if this is meant")
+        return out
+    if not build:
+        return out
+    if like is not None and like.scene is not None and same_scene(case, like.case):
+        # the same scene, material, solver and imperfections as a case checked already (a
+        # sweep's points): its scene, joints and critical step are those
+        out.scene, out.report, out.joints = like.scene, like.report, like.joints
+        out.imperfections = like.imperfections
+        dt_crit = like.dt_critical if like.dt_critical is not None else math.inf
+    else:
+        dt_crit = _check_scene(case, out, where)
+        if dt_crit is None:
+            return out
+    scene = out.scene
+    n = scene.n_blocks
+    out.blocks_estimate = n
     out.dt_critical = dt_crit if math.isfinite(dt_crit) else None
     sv = case.solver
     if sv.dt is not None:
@@ -580,6 +751,10 @@ def check_case(case: Case, source: str | Path | None = None,
                     f"{where(('loading',))}: record samples {h:.3g} s apart, closer than the "
                     f"time step {dt:.3g} s: the engine samples the record once per step")
 
+    w, e = shake_cut(ld, run.duration, where)
+    out.warnings += w
+    out.errors += e
+
     # output
     if run.output_interval < dt:
         out.errors.append(
@@ -592,3 +767,24 @@ def check_case(case: Case, source: str | Path | None = None,
             f"{where(('run', 'output_interval'))}: {run.output_interval:g} s is longer than "
             f"run.duration = {run.duration:g} s: only the first and the last states are written")
     return out
+
+
+def check_points(cases, source, max_blocks: int | None = None) -> tuple[list[str], list[str]]:
+    """(warnings, errors) of every point of a sweep or realisation of an ensemble (``cases``:
+    (name, Case) pairs), each checked as ``dem check`` checks a case (:func:`check_case`; points
+    that share a scene share its build), before anything runs: each line names the point.  A
+    problem of the scene itself (the same for every point) is named once."""
+    warnings, errors = [], []
+    seen: set[str] = set()
+    like = None
+    for name, case in cases:
+        checked = check_case(case, source, max_blocks=max_blocks, like=like)
+        if checked.scene is not None:
+            like = checked
+        for kind, lines in (("warning", checked.warnings), ("error", checked.errors)):
+            for line in lines:
+                if line in seen:  # the scene's own: the same text at every point
+                    continue
+                seen.add(line)
+                (warnings if kind == "warning" else errors).append(f"{name}: {line}")
+    return warnings, errors

@@ -79,19 +79,81 @@ def isolated_blocks(scene) -> np.ndarray:
     return free & ~touching
 
 
+def column_order(scene) -> np.ndarray | None:
+    """The free blocks bottom to top if they stand as one column (at least two; each block's
+    centre over the footprint of the one below, no two side by side: their heights overlap by
+    less than half the lower one's), else None.  Fixed blocks (supports) are left out."""
+    free = np.flatnonzero(~scene.fixed)
+    if len(free) < 2:
+        return None
+    pos = np.asarray(scene.position, float)
+    size = np.asarray(scene.size, float)
+    order = free[np.argsort(pos[free, 2])]
+    for lo, hi in zip(order[:-1], order[1:]):
+        top_lo = pos[lo, 2] + 0.5 * size[lo, 2]
+        if pos[hi, 2] - 0.5 * size[hi, 2] < top_lo - 0.5 * size[lo, 2]:
+            return None  # side by side, not one on the other
+        if np.any(np.abs(pos[hi, :2] - pos[lo, :2]) > 0.5 * size[lo, :2]):
+            return None  # off the footprint below
+    return order
+
+
+def column_mechanism(scene, pos0, quat0, pos, quat, moved_mask, load_dir, order) -> dict:
+    """A column's mechanism in words a user recognises: sliding / overturning / mixed (the
+    share of rotation, in_plane_mechanism's measure) of the whole column ("at the base") or of
+    its top k blocks ("at joint j": the bed joint above block j, counted from 1 at the bottom)."""
+    normal = np.cross([0.0, 0.0, 1.0], load_dir)
+    mech = in_plane_mechanism(scene, pos0, quat0, pos, quat, moved_mask, load_dir, normal)
+    moving = moved_mask[order]
+    n = len(order)
+    lowest = int(np.argmax(moving)) if moving.any() else n
+    base = mech["mechanism"]
+    if lowest >= n:
+        text = "none"
+    elif lowest == 0:
+        text = f"{base} of the whole column at its base"
+    else:
+        text = f"{base} of the top {n - lowest} of {n} blocks at joint {lowest}"
+    return {"mechanism": text, "motion": base, "joint": lowest, "n_column_blocks": n,
+            **{k: mech[k] for k in ("overturning_mass_fraction", "n_moving",
+                                     "moving_mass_fraction")}}
+
+
+def lone_wall_labels(oop: dict) -> dict:
+    """out_of_plane_mechanism's result for a wall without returns (no facade, no wings): the
+    facade labels (A, B1, D, B2, G: thesis Fig. 3-4, facades with wings) do not apply; the
+    crack line in words: the whole wall overturning about its base, its top courses about a
+    horizontal crack, or a wedge above a diagonal or arched crack."""
+    out = {k: v for k, v in oop.items() if k not in ("mechanism", "wing_bricks_joined")}
+    n, k, shape = oop["facade_courses"], oop["collapsed_courses"], oop["crack_shape"]
+    if oop["mechanism"] == "none":
+        text = "none"
+    elif shape == "horizontal":
+        text = "overturning of the whole wall at its base" if k >= n else \
+            f"overturning of the top {k} of {n} courses (horizontal crack)"
+    else:
+        text = f"overturning of a {shape} wedge, up to {k} of {n} courses deep"
+    out["mechanism"] = text
+    out["wall_courses"] = out.pop("facade_courses")
+    return out
+
+
 def classify(case, scene, pos0, quat0, pos, quat, load_dir) -> dict:
     """Mechanism from the poses at one frame (see classification_frame), for any scene:
 
     * blocks standing alone (isolated_blocks: no other free block touches them): kind "block"
       (one moving) or "blocks", mechanism sliding / tipping / mixed from the share of rotation
       in their motion (in_plane_mechanism's measure); no wall labels;
+    * a column (column_order: one block on another): kind "column", "overturning of the whole
+      column at its base" or "... of the top k of n blocks at joint j" (column_mechanism);
     * a scene with a "facade" group: out of plane, A / B1 / D / B2 / G (out_of_plane_mechanism;
       the courses derived from the blocks where no builder laid them);
     * otherwise the wall (wall_geometry: a builder's, or derived from explicit blocks) is loaded
       in plane when the load is within ~45 deg of its axis: sliding / overturning / mixed with
       the overturning share, the main crack line and its angle (crack_angle_deg, defined in
-      crack_angle_definition), and for a bond with a stagger eq 3-1..3-3; else out of plane,
-      the wall taken as the facade;
+      crack_angle_definition), and for a bond with a stagger eq 3-1..3-3; else out of plane:
+      a wall without returns gets the crack line in words (lone_wall_labels; the facade labels
+      are for facades with wings);
     * every scene: the collapsed portion (postprocess.mechanisms.collapsed_portion).
     """
     from dem.collapse import motion_measure
@@ -111,6 +173,10 @@ def classify(case, scene, pos0, quat0, pos, quat, load_dir) -> dict:
                                          "moving_mass_fraction")})
         if out["mechanism"] == "overturning":
             out["mechanism"] = "tipping"
+    elif column_order(scene) is not None:
+        out["kind"] = "column"
+        out.update(column_mechanism(scene, pos0, quat0, pos, quat, moved_mask, load_dir,
+                                    column_order(scene)))
     elif "facade" in names:
         out["kind"] = "out-of-plane"
         free = ~scene.fixed
@@ -122,9 +188,9 @@ def classify(case, scene, pos0, quat0, pos, quat, load_dir) -> dict:
         geom = wall_geometry(scene, moved_mask, load_dir)
         if not geom.in_plane(load_dir):
             out["kind"] = "out-of-plane"
-            out.update(out_of_plane_mechanism(scene, pos0, quat0, pos, quat, load_dir,
-                                              facade_group=geom.group or "facade",
-                                              course=geom.course, facade=geom.members))
+            out.update(lone_wall_labels(out_of_plane_mechanism(
+                scene, pos0, quat0, pos, quat, load_dir, facade_group=geom.group or "facade",
+                course=geom.course, facade=geom.members)))
         else:
             out["kind"] = "in-plane"
             normal = np.cross([0.0, 0.0, 1.0], load_dir)

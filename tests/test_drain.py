@@ -16,7 +16,7 @@ from dem.case import load_case
 from dem.cli import app
 from dem.commands.exit_codes import ExitCode
 from dem.run.sweep import realisation_cases
-from tests.test_ensemble import stack_case
+from tests.test_ensemble import shaken_stack_case, stack_case
 from tests.test_shake_analysis import BLOCK, case_file, sequential_batch
 
 
@@ -80,8 +80,8 @@ def test_a_drain_ends_the_loop_over_realisations(tmp_path, monkeypatch):
 
     monkeypatch.setattr(cmd, "run_sweep", fake_run_sweep)
     drain = tmp_path / "sw" / "DRAIN"
-    code = cmd.run_sweep_realisations(stack_case(tmp_path), tmp_path / "sw", "2,3", None, 5.0,
-                                      1.0, None, 1, None, 4, 0, drain)
+    code = cmd.run_sweep_realisations(shaken_stack_case(tmp_path), tmp_path / "sw", "2,3", None,
+                                      5.0, 1.0, None, 1, None, 4, 0, drain)
     assert code == ExitCode.RUN_FAILED
     assert calls == [("seed-0", drain), ("seed-1", drain)]   # seed-2, seed-3 never started
     assert not (tmp_path / "sw" / "ensemble.json").exists()

@@ -70,6 +70,18 @@ def stack_case(tmp_path, **imp):
     return path
 
 
+def shaken_stack_case(tmp_path):
+    """stack_case's block and imperfections shaken (2 Hz, 1 m/s2, 2 cycles): a case a sweep
+    takes (every point is checked as a case before a sweep runs)."""
+    path = stack_case(tmp_path)
+    data = yaml.safe_load(path.read_text())
+    data["loading"] = {"type": "shake", "direction": [0, 1, 0], "frequency": 2.0,
+                       "peak_acceleration": 1.0, "cycles": 2}
+    data["run"] = {"duration": 2.0, "output_interval": 0.01, "vtk": False, "snapshot": False}
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
 @pytest.mark.slow
 def test_dem_ensemble_runs_resumes_and_reports_a_failed_realisation(tmp_path):
     case = stack_case(tmp_path)
@@ -185,8 +197,8 @@ def test_a_signal_stops_dem_sweep_realisations_instead_of_starting_the_next(tmp_
         return ExitCode.OK
 
     monkeypatch.setattr(cmd, "run_sweep", fake_run_sweep)
-    code = cmd.run_sweep_realisations(stack_case(tmp_path), tmp_path / "sw", "2,3", None, 5.0,
-                                      1.0, None, 1, None, 4, 0)
+    code = cmd.run_sweep_realisations(shaken_stack_case(tmp_path), tmp_path / "sw", "2,3", None,
+                                      5.0, 1.0, None, 1, None, 4, 0)
     assert code == ExitCode.RUN_FAILED
     assert calls == [("seed-0", True), ("seed-1", True)]    # seed-2, seed-3 never started
     assert not (tmp_path / "sw" / "ensemble.json").exists()

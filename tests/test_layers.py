@@ -38,7 +38,7 @@ FOLDERS = {
 #: the modules directly in dem/ (no folder of their own), by name
 LOOSE = {
     "dem.quaternion": "base", "dem.signals": "base", "dem.ti_runtime": "base",
-    "dem.ti_import": "base",
+    "dem.ti_import": "base", "dem.environment": "base",
     "dem.case_errors": "base", "dem.rundir": "base", "dem.collapse": "base", "dem.units": "base",
     # the sine of both models (numpy only): the case schema builds it (dem.case.loadings)
     "dem.table_motion": "base",

@@ -142,14 +142,17 @@ def test_planted_facade_mechanisms_same_for_explicit_blocks():
         assert b["collapsed"]["n_blocks"] == int(sel.sum())
 
 
-def test_explicit_wall_loaded_out_of_plane_is_a_facade():
+def test_explicit_wall_loaded_out_of_plane_reads_as_a_lone_wall():
+    """A wall without returns overturning whole about its base: the crack line in words (the
+    facade labels A / B1 / D / B2 / G are for facades with wings)."""
     sc = build_wall("small", 5, 9)
     ex = explicit(sc)
     rot = Rotation.from_rotvec([0.03, 0.0, 0.0])  # about +x: the top moves to -y
     quat = quaternion.from_rotation(rot * quaternion.rotation(sc.quat))
     pos = rot.apply(sc.position - [0.0, -0.025, 0.0]) + [0.0, -0.025, 0.0]
     res = classify(CASE, ex, sc.position, sc.quat, pos, quat, [0.0, -1.0, 0.0])
-    assert res["kind"] == "out-of-plane" and res["mechanism"] == "A"
+    assert res["kind"] == "out-of-plane"
+    assert res["mechanism"] == "overturning of the whole wall at its base"
     assert res["geometry"]["load_angle_to_axis_deg"] == pytest.approx(90.0)
     assert res["collapsed"]["n_blocks"] == sc.n_blocks
 
@@ -265,13 +268,14 @@ def test_stack_of_blocks_overturns_as_one_at_b_over_nh(tmp_path):
     assert 0.002 < de < 0.004
     upper = np.tan(np.arctan(rigid) + np.radians(0.2))
     assert rigid - 2 * de <= col["load_factor"] <= upper, (col["load_factor"], rigid, elastic)
-    assert mech["kind"] == "in-plane" and mech["mechanism"] == "overturning"
+    assert mech["kind"] == "column"
+    assert mech["mechanism"] == "overturning of the whole column at its base"
     assert mech["overturning_mass_fraction"] == pytest.approx(1.0)
     assert mech["collapsed"]["blocks"] == list(range(n))
     assert mech["collapsed"]["mass_fraction"] == pytest.approx(1.0)
-    assert mech["geometry"]["n_courses"] == n and mech["geometry"]["stagger_m"] is None
-    assert mech["crack"] is None and mech["crack_angle_deg"] is None  # the whole height goes
-    assert f"mechanism overturning, {n} of {n} blocks collapsed" in result_line(s)
+    assert mech["n_column_blocks"] == n and mech["joint"] == 0
+    assert f"mechanism overturning of the whole column at its base, {n} of {n} blocks " \
+        f"collapsed" in result_line(s)
     # the run's pictures: final.png with the table tilted, lean.png with the collapse marked
     assert (tmp_path / "final.png").stat().st_size > 0
     path = plot_lean(tmp_path)

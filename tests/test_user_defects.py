@@ -93,8 +93,9 @@ def test_resume_drops_the_stopped_runs_analysis_and_says_where_it_goes_on(tmp_pa
         "scene": {"blocks": [{"size": [0.2, 0.1, 0.05], "position": [0, 0, 0.025],
                               "density": 2000.0}]},
         "material": {"friction": 0.5},
+        # half a cycle: the whole shake within the 0.1 s run (a shake cut is refused)
         "loading": {"type": "shake", "direction": [0, 1, 0], "frequency": 5.0,
-                    "peak_acceleration": 2.0, "cycles": 1},
+                    "peak_acceleration": 2.0, "cycles": 0.5},
         "run": {"duration": 0.1, "output_interval": 0.01, "vtk": False, "snapshot": False},
     }
     path = tmp_path / "brick.yaml"
@@ -176,7 +177,7 @@ def test_an_impossible_table_motion_is_refused(tmp_path, motion):
 def test_a_table_far_above_any_shaking_table_warns(tmp_path):
     """8 g at 2 Hz: A = a / (2 pi f)^2 = 0.50 m, v = 6.2 m/s: possible, but no table does it."""
     path = _brick_case(tmp_path, loading={"type": "shake", "direction": [0, 1, 0],
-                                          "frequency": 2.0, "cycles": 2,
+                                          "frequency": 2.0, "cycles": 1,  # 0.5 s: the run's
                                           "peak_acceleration": 8 * 9.80665})
     res = _invoke("check", path)
     assert res.exit_code == 0, res.output

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 from pathlib import Path
 from typing import Union
@@ -50,7 +51,26 @@ class Case(StrictModel):
         if isinstance(v, (int, float)):
             if v < 0 or not math.isfinite(v):
                 raise ValueError(f"gravity magnitude must be >= 0, got {v}")
+        elif any(v) and v[2] >= 0:
+            # the table is the plane z = 0 with z up: a gravity without a downward component
+            # lifts the blocks off it (or slides them sideways forever); a tilt turns the
+            # table, not gravity (dem.loading)
+            raise ValueError(
+                f"gravity {list(v)} m/s2 does not point down (its z component must be "
+                f"negative: z is up, the table is the plane z = 0); give a magnitude "
+                f"(9.81) or a vector such as [0, 0, -9.81]")
         return v
+
+    @model_validator(mode="after")
+    def _tilt_needs_gravity(self) -> "Case":
+        """A tilt turns the table under gravity: without gravity nothing drives the blocks and
+        the load factor (tan of the tilt angle) means nothing."""
+        if self.loading.type == "tilt" and not any(self.gravity_vector()):
+            raise ValueError(
+                "gravity: a tilt without gravity (gravity 0): tilting the table moves nothing, "
+                "and its load factor (tan of the angle at collapse) is undefined; give "
+                "gravity: 9.81")
+        return self
 
     @model_validator(mode="after")
     def _imperfections_small(self) -> "Case":
@@ -97,6 +117,21 @@ class Case(StrictModel):
                 raise ValueError(
                     f"imperfections.plumb.sigma.{i}: {sig:g} m per course is more than "
                     f"{MAX_FRACTION:.0%} of the smallest brick dimension ({smallest:g} m)")
+
+    @model_validator(mode="after")
+    def _scatter_needs_builder_bricks(self) -> "Case":
+        """size_scatter scatters the builders' bricks (dem.builders.scatter): explicit blocks
+        keep the sizes the file gives them, so on a scene of explicit blocks alone it would be
+        accepted and do nothing."""
+        sc = self.scene
+        if any(v > 0 for v in self.imperfections.size_scatter) and \
+                sc.wall is None and sc.facade is None and sc.box_model is None:
+            raise ValueError(
+                "imperfections.size_scatter: applies to the bricks of a builder (scene.wall, "
+                "facade, box_model) only; the explicit blocks of scene.blocks keep the sizes "
+                "given, so it would change nothing here: give the sizes you want in "
+                "scene.blocks, or leave size_scatter out")
+        return self
 
     @model_validator(mode="after")
     def _material_names_known(self) -> "Case":
@@ -157,26 +192,20 @@ def read_case_yaml(path: str | Path, error: type[Exception] = None):
     the two-body model's, dem.rocking.schema: one dialect, one set of messages).  Refused with ``error`` (default
     CaseError), each message ``FILE[:LINE]: what``: a file that cannot be read, YAML that does
     not parse, a key given twice in one mapping (yaml.safe_load would keep the last one), an
+    anchor that contains itself or aliases that expand beyond reason (dem.case_errors), an
     empty file, a document that is not a mapping.  NaN and inf are refused by the models
-    (dem.case.base.StrictModel)."""
-    from dem.case_errors import DuplicateKeyError, compose
-
+    (dem.case.base.StrictModel).  The file is parsed once (libyaml's loader where there is one)
+    and the result kept for the next reader of the same unchanged file (dem check reads it to
+    dispatch, to validate and to name lines)."""
     error = error or CaseError
     path = Path(path)
     try:
-        text = path.read_text()
+        st = path.stat()
+        data, node = _parsed(str(path), st.st_mtime_ns, st.st_size)
     except (OSError, UnicodeDecodeError) as err:
         raise error(f"{path}: cannot read: {getattr(err, 'strerror', None) or err}") from None
-    try:
-        node = compose(text)
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as err:
-        mark = getattr(err, "problem_mark", None)
-        where = f"{path}:{mark.line + 1}" if mark is not None else f"{path}"
-        raise error(f"{where}: not valid YAML: {err}") from None
-    except DuplicateKeyError as err:
-        where = f"{path}:{err.line}" if getattr(err, "line", None) else f"{path}"
-        raise error(f"{where}: {err.message if hasattr(err, 'message') else err}") from None
+    except _ParseError as err:
+        raise error(f"{path}{err.where}: {err.message}") from None
     if data is None:
         raise error(f"{path}: the case file is empty (or only comments); a case is a YAML "
                     f"mapping: name:, scene:, material:, loading:, run: (cases/README.md)")
@@ -185,6 +214,46 @@ def read_case_yaml(path: str | Path, error: type[Exception] = None):
         raise error(f"{path}:{node.start_mark.line + 1}: the case must be a YAML mapping "
                     f"(key: value lines), got {kind}")
     return data, node
+
+
+class _ParseError(Exception):
+    def __init__(self, message: str, line: int | None = None):
+        super().__init__(message)
+        self.message, self.where = message, f":{line}" if line else ""
+
+
+@functools.lru_cache(maxsize=2)
+def _parsed(path: str, mtime_ns: int, size: int):
+    """(data, node) of the file at ``path`` as it was at (mtime_ns, size): the cache key."""
+    from dem.case_errors import AliasError, DuplicateKeyError, load
+
+    text = Path(path).read_text()
+    try:
+        node, data = load(text)
+    except yaml.YAMLError as err:
+        mark = getattr(err, "problem_mark", None)
+        raise _ParseError(f"not valid YAML: {yaml_problem(err)}",
+                          mark.line + 1 if mark is not None else None) from None
+    except (DuplicateKeyError, AliasError) as err:
+        raise _ParseError(err.message, err.line) from None
+    except RecursionError:
+        raise _ParseError("nested too deeply to be read (a case is a few levels deep)") from None
+    return data, node
+
+
+def yaml_problem(err: yaml.YAMLError) -> str:
+    """A YAML syntax error in one line: what is wrong and where (PyYAML's message spans 3-7 lines
+    with the offending text and a caret)."""
+    problem = getattr(err, "problem", None)
+    if not problem:
+        return " ".join(str(err).split())
+    mark = getattr(err, "problem_mark", None)
+    context = getattr(err, "context", None)
+    text = problem + (f" (column {mark.column + 1})" if mark is not None else "")
+    if context:
+        cmark = getattr(err, "context_mark", None)
+        text += f", {context}" + (f" (line {cmark.line + 1})" if cmark is not None else "")
+    return text
 
 
 def key_line(node, key: str) -> int | None:
@@ -196,9 +265,30 @@ def key_line(node, key: str) -> int | None:
     return None
 
 
-def load_case(path: str | Path) -> Case:
+def explicit_block_count(data) -> int:
+    """The number of entries of ``scene.blocks`` in a case's data (0 where there is none)."""
+    scene = data.get("scene") if isinstance(data, dict) else None
+    blocks = scene.get("blocks") if isinstance(scene, dict) else None
+    return len(blocks) if isinstance(blocks, list) else 0
+
+
+def load_case(path: str | Path, max_blocks: int | None = None) -> Case:
+    """The validated case of the file at ``path`` (CaseError naming the field and line).
+    ``max_blocks`` (default: dem.environment.max_blocks_default): a scene listing more explicit
+    blocks is refused before validating them (30 000 blocks cost ~ 10 s and 300 MB of
+    validation only to be refused by dem.validate's size check after)."""
     path = Path(path)
     data, node = read_case_yaml(path)
+    if max_blocks is None:
+        from dem.environment import max_blocks_default
+
+        max_blocks = max_blocks_default()
+    n_listed = explicit_block_count(data)
+    if n_listed > max_blocks:
+        raise CaseError(
+            f"{path}:{key_line(node, 'scene')}: scene.blocks: {n_listed:,} blocks listed, above "
+            f"the limit of {max_blocks:,} blocks; not read further.  Raise the limit with "
+            f"--max-blocks or DEM_MAX_BLOCKS if this is meant")
     if "rocking" in data and "scene" in data:
         line = key_line(node, "rocking")
         raise CaseError(

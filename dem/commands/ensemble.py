@@ -28,7 +28,8 @@ import json
 from pathlib import Path
 
 from dem.commands.exit_codes import ExitCode, exit_code_for
-from dem.commands.sweep import batching, finished_run, say, workers_text
+from dem.commands.sweep import (batching, finished_run, mark_stopped_runs, points_ok,
+                                resume_notes, say, workers_text)
 from dem.run.sweep import EnsembleInputError, realisation_cases
 from postprocess.ensemble import aggregate, plot_lambda, realisation_scalars
 
@@ -71,6 +72,15 @@ def scalar_text(sc: dict) -> str:
     return ", ".join(parts)
 
 
+def counts_text(counts: dict) -> str:
+    """Mechanism counts as text, most frequent first: '7 x overturning, 1 x sliding' (not a
+    Python dict)."""
+    if not counts:
+        return "none"
+    return ", ".join(f"{n} x {name}" for name, n in sorted(counts.items(),
+                                                           key=lambda kv: (-kv[1], kv[0])))
+
+
 def write_ensemble(out: Path, meta: dict, names: list[str], records: dict, plots: bool) -> dict:
     from dem.output.atomic import write_json
 
@@ -100,7 +110,6 @@ def run_ensemble(case_path, out, realisations: int, seed: int | None = None,
     from dem.batch import Drained, drain_file_check, run_batch
     from dem.case import CaseError, ShakeLoading, load_case
     from dem.commands.run import RUN_ANALYSES
-    from dem.run.build import scene_from_case
     from postprocess.sweep import analyze_point
 
     out = Path(out)
@@ -111,14 +120,15 @@ def run_ensemble(case_path, out, realisations: int, seed: int | None = None,
             raise EnsembleInputError(f"--workers must be >= 1, got {workers}")
         if max_steps is not None and max_steps < 1:
             raise EnsembleInputError(f"--max-steps must be >= 1, got {max_steps}")
-        scene_from_case(cases[0][1])  # a bad scene fails here, before any worker starts
-        batch_options = batching(batch, arch)
+        batch_options = batching(batch, arch, scheduler)
     except CaseError as err:
         say(f"error: {err}")
         return exit_code_for(err)
     except ValueError as err:
         say(f"error: {case_path}: {err}")
         return exit_code_for(err)
+    if not points_ok(cases, case_path, "realisation"):  # each as dem check, before any runs
+        return ExitCode.BAD_INPUT
     if out.exists() and not out.is_dir():
         say(f"error: --out {out}: exists and is not a directory")
         return ExitCode.BAD_INPUT
@@ -146,6 +156,10 @@ def run_ensemble(case_path, out, realisations: int, seed: int | None = None,
     if records:
         say(f"{len(records)} realisation(s) already finished in {out}, kept")
     todo = [(n, c) for n, c in cases if n not in records]
+    notes = resume_notes(out, [n for n, _ in todo])
+    if notes:
+        say(f"{len(notes)} realisation(s) resume from their last checkpoint (what ran after it "
+            f"is computed again): {', '.join(notes)}")
     write_ensemble(out, meta, names, records, plots=False)
     n_done = [0]
 
@@ -179,14 +193,17 @@ def run_ensemble(case_path, out, realisations: int, seed: int | None = None,
             f"are in {out}/ensemble.json (a rerun of the same command keeps them)")
         return ExitCode.RUN_FAILED
     except KeyboardInterrupt as err:
+        stopped = mark_stopped_runs(out, [n for n, _ in todo], signal_name(err))
         say(f"interrupted by {signal_name(err)}; finished realisations are in "
-            f"{out}/ensemble.json (a rerun of the same command keeps them)")
+            f"{out}/ensemble.json (a rerun of the same command keeps them)"
+            + (f"; stopped: {', '.join(stopped)} (a rerun resumes each from that checkpoint)"
+               if stopped else ""))
         return exit_code_for(err)
     data = write_ensemble(out, meta, names, records, plots=True)
     agg = data["aggregate"]
     lam = agg["statistics"].get("lambda")
     if lam and lam["n"]:
         say(f"lambda: median {lam['median']:.4f}, 10-90 % {lam['q10']:.4f} - {lam['q90']:.4f} "
-            f"({lam['n']} realisations); mechanisms {agg['mechanisms']}")
+            f"({lam['n']} realisations); mechanisms: {counts_text(agg['mechanisms'])}")
     say(f"{agg['n_ok']} of {agg['n_realisations']} realisations ok; {out}/ensemble.json")
     return ExitCode.RUN_FAILED if agg["n_failed"] else ExitCode.OK

@@ -27,20 +27,37 @@ from dem.run.sweep import SweepInputError
 from postprocess.sweep import characteristic_text, finite, is_sweep_dir, post_sweep
 
 
-def _locked(path: Path) -> bool:
-    """Whether a live run holds DIR/run.lock (dem.rundir)."""
-    import fcntl
+def run_state(path: Path) -> str | None:
+    """A run directory that is not a finished run, in words (docs/interrupted-runs.md), or None
+    for a finished one (summary.json 'ok' or 'failed'):
 
-    lock = path / "run.lock"
-    if not lock.is_file():
-        return False
-    with open(lock, "rb") as fh:
-        try:
-            fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            return True
-        fcntl.flock(fh.fileno(), fcntl.LOCK_UN)
-    return False
+    * a live process holds run.lock: "running, pid N, t = x s" (t: the simulated time of its
+      last checkpoint, "before its first checkpoint" without summary.json);
+    * summary.json 'running' and no holder: killed (SIGKILL, power loss) at its last
+      checkpoint;
+    * 'interrupted': stopped by a signal at t = x s;
+    * no summary.json and no holder: it never started, or was killed before its first
+      checkpoint."""
+    from dem.rundir import lock_holder
+
+    summ = _read_json(path / "summary.json")
+    pid = lock_holder(path)
+    t = (summ or {}).get("sim_time")
+    at = f"t = {float(t):.4g} s" if isinstance(t, (int, float)) else None
+    if pid is not None:
+        who = f"pid {pid}" if pid else "pid unknown"
+        return f"running, {who}, " + (f"{at} at its last checkpoint" if at and summ else
+                                       "before its first checkpoint")
+    if summ is None:
+        return ("never started, or was killed before its first checkpoint (no summary.json, "
+                "no process holds it)")
+    status = summ.get("status")
+    if status == "running":
+        return (f"killed (SIGKILL, power loss): no process holds it; its last checkpoint is at "
+                f"{at or 't = 0 s'}")
+    if status == "interrupted":
+        return f"{summ.get('error') or 'interrupted'} at {at or 't = 0 s'}"
+    return None
 
 
 def _read_json(path: Path) -> dict | None:
@@ -130,14 +147,15 @@ def post_run(path: Path) -> int:
     from postprocess.shake_signals import load_run
     from postprocess.tilt import analyze_tilt_run, plot_lean
 
+    state = run_state(path)
     if not (path / "summary.json").is_file():
-        say(f"error: {path}: not a run: no summary.json (the run never started, or was "
-            f"killed before its first checkpoint)")
+        say(f"error: {path}: not a finished run: {state}; nothing to analyse yet")
         return ExitCode.BAD_INPUT
-    status = (_read_json(path / "summary.json") or {}).get("status")
-    if status == "running" and not _locked(path):
-        say(f"warning: {path}: summary.json says 'running' but no process holds the run: it "
-            f"was killed (SIGKILL, power loss); analysing the frames of its last checkpoint")
+    if state is not None:
+        say(f"warning: {path}: the run is not finished: {state}; analysing the frames recorded "
+            f"so far" + ("" if state.startswith("running") else
+                         " (dem run --resume goes on from its last checkpoint where it can: "
+                         "docs/interrupted-runs.md)"))
     case, _ = load_run(path)
     if isinstance(case.loading, ShakeLoading):
         res = analyze_run(path)
@@ -154,9 +172,18 @@ def post_run(path: Path) -> int:
                if col.get("detected") and col.get("load_factor") is not None else
                " (onset not resolved)" if col.get("detected") else "")
         n_col = (mech.get("collapsed") or {}).get("n_blocks")
-        say(f"{path}/analysis.json: collapse {col['detected']}{lam}, mechanism "
-            f"{mech.get('mechanism') or mech.get('kind')}"
-            + (f", {n_col} blocks collapsed" if n_col is not None else ""))
+        if not col.get("detected") and state is not None:
+            # a tilt cut short says nothing about collapse: the table never reached the angle
+            # the case asked for
+            last = col.get("last_angle_deg")
+            say(f"{path}/analysis.json: no collapse up to "
+                + (f"{last:.2f} deg" if isinstance(last, (int, float)) else "the stop")
+                + f", but the run did not finish ({state}): not a result; the table was to turn "
+                  f"to {case.loading.max_angle:g} deg")
+        else:
+            say(f"{path}/analysis.json: collapse {col['detected']}{lam}, mechanism "
+                f"{mech.get('mechanism') or mech.get('kind')}"
+                + (f", {n_col} blocks collapsed" if n_col is not None else ""))
         say(f"{plot_lean(path, col)}: lean against the table angle")
     elif case.loading.type == "stepped_shake":   # per step: postprocess.stepped
         from postprocess.stepped import analyze_stepped_run, steps_line

@@ -116,7 +116,8 @@ def _run_case_file(path, out, progress, force, max_blocks, resume=False) -> int:
     except OSError as e:  # OutputError, or a write while the run was being set up
         msg = e.strerror or str(e)
         if not isinstance(e, OutputError):
-            msg = f"cannot write the output in {out}: {msg} (errno {e.errno})"
+            msg = f"cannot write the output in {out}: {msg}" + (f" (errno {e.errno})"
+                                                                 if e.errno else "")
         err(f"error: {msg}")
         return exit_code_for(e)
     except KeyboardInterrupt as e:

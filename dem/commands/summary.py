@@ -96,14 +96,18 @@ def _sum(values) -> float | None:
 def run_row(path: Path) -> dict:
     """The row of one run directory (summary.json, and analysis.json of a shake run)."""
     s = _json(path / "summary.json")
+    from dem.commands.post import run_state
+
+    state = run_state(path)
     if s is None:
-        raise SummaryError(path, "no readable summary.json (the run never started, or was "
-                                 "killed before its first checkpoint)")
+        raise SummaryError(path, f"no readable summary.json: {state}")
     loading = s.get("loading") or {}
     kind = loading.get("type") or "none"
     status = s.get("status")
     if status == "ok" and s.get("step_limit") is not None:
         status = "smoke"  # capped by --max-steps: not a finished run
+    elif state is not None and state.startswith(("running", "killed")):
+        status = state.split(":")[0]  # "running, pid N, t = x s ...", "killed (SIGKILL ...)"
     row = {"kind": f"run-{kind}", "name": s.get("name"), "status": status,
            "wall_s": _num(s.get("wall_seconds")), "cpu_s": _num(s.get("cpu_seconds")),
            "runs": "1"}
@@ -116,6 +120,10 @@ def run_row(path: Path) -> dict:
     mech = s.get("mechanism")
     if isinstance(mech, dict) and (mech.get("mechanism") or mech.get("kind")):
         row["mechanism"] = str(mech.get("mechanism") or mech.get("kind"))
+    if col.get("detected") and row.get("lambda") is None:
+        # a collapse whose onset the detector could not place (dem.collapse): say so, an empty
+        # lambda cell alone reads as "no result"
+        row["mechanism"] = f"{row.get('mechanism') or 'collapse'} (onset not resolved: no lambda)"
     if kind in ("shake", "record"):
         row["frequency_hz"] = _num(loading.get("frequency_hz"))
         ana = _json(path / "analysis.json")
@@ -267,7 +275,10 @@ def print_table(rows: list[dict]) -> None:
 
     shown = [c for c in COLUMNS if c[0] not in ("lambda_q10", "lambda_q90")
              and any(r.get(c[0]) is not None for r in rows)]
-    table = Table(title="dem summary", show_lines=False)
+    summed = any(not str(r.get("kind", "")).startswith(("run", "rocking")) for r in rows)
+    table = Table(title="dem summary", show_lines=False,
+                  caption="wall and cpu of a sweep or an ensemble: the sum over its runs (what "
+                          "the study cost, not its elapsed time)" if summed else None)
     for key, title, unit in shown:
         table.add_column(header(key, title, unit) if key != "lambda" else "lambda (-)",
                          overflow="fold", no_wrap=bool(unit), justify="right" if unit else "left")
@@ -305,8 +316,9 @@ def summary_command(paths: list[Path], csv_path: Path | None = None,
         else:
             print_table(rows)
         if csv_path is not None:
-            from dem.output.atomic import write_text
+            from dem.commands.exit_codes import write_output_file
 
-            write_text(Path(csv_path), to_csv(rows))
-            err(f"wrote {csv_path}")
+            code = write_output_file(Path(csv_path), to_csv(rows), err, err, option="--csv")
+            if code != ExitCode.OK:
+                return code
     return ExitCode.BAD_INPUT if bad else ExitCode.OK

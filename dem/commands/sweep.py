@@ -27,6 +27,7 @@ The exit code: dem.commands.exit_codes.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import sys
@@ -81,7 +82,7 @@ def run_sweep(case_path, out, frequencies: str | None = None, rng: str | None = 
               max_steps: int | None = None, realisations: int | None = None,
               seed: int | None = None, case=None, reraise_interrupt: bool = False,
               drain_file: Path | None = None, batch: int | None = None,
-              arch: str = "cpu") -> int:
+              arch: str = "cpu", max_points: int | None = None) -> int:
     """Body of ``dem sweep``; returns the exit code (0 all ok, 1 a point failed, 2 bad input).
 
     ``realisations``: the sweep runs once per realisation of the case's imperfections (seeds
@@ -95,29 +96,32 @@ def run_sweep(case_path, out, frequencies: str | None = None, rng: str | None = 
     ``batch``: the points K to an engine; ``arch``: "cpu" or "cuda" (dem.batch.run_batch)."""
     from dem.batch import Drained, drain_file_check, run_batch
     from dem.case import CaseError, load_case
-    from dem.run.build import scene_from_case
 
     out = Path(out)
     if realisations is not None or seed is not None:
         return run_sweep_realisations(case_path, out, frequencies, rng, cycles, margin,
                                       scheduler, workers, max_steps, realisations, seed,
-                                      drain_file, batch, arch)
+                                      drain_file, batch, arch, max_points)
     try:
         case = load_case(case_path) if case is None else case
-        freqs = parse_frequencies(frequencies, rng)
+        freqs = parse_frequencies(frequencies, rng, max_points)
+        if rng:
+            own = parse_frequencies(None, rng, max_points)
+            say(f"--range {rng}: {len(own)} frequencies, {own[0]:g} - {own[-1]:g} Hz")
         cases = sweep_cases(case, freqs, cycles, margin)
-        scene_from_case(cases[0][1])  # overlaps, floating blocks: before any worker starts
         if workers is not None and workers < 1:
             raise SweepInputError(f"--workers must be >= 1, got {workers}")
         if max_steps is not None and max_steps < 1:
             raise SweepInputError(f"--max-steps must be >= 1, got {max_steps}")
-        batch_options = batching(batch, arch)
+        batch_options = batching(batch, arch, scheduler)
     except CaseError as err:
         say(f"error: {err}")
         return exit_code_for(err)
     except ValueError as err:  # SweepInputError, SceneError, BatchInputError
         say(f"error: {case_path}: {err}")
         return exit_code_for(err)
+    if not points_ok(cases, case_path, "point"):
+        return ExitCode.BAD_INPUT
     if out.exists() and not out.is_dir():
         say(f"error: --out {out}: exists and is not a directory")
         return ExitCode.BAD_INPUT
@@ -145,6 +149,10 @@ def run_sweep(case_path, out, frequencies: str | None = None, rng: str | None = 
         say(f"{len(reused)} point(s) already finished in {out}, kept: "
              + ", ".join(f"{by_name[n][0]:g} Hz" for n in reused))
     todo = [(n, c) for n, c in cases if n not in reused]
+    notes = resume_notes(out, [n for n, _ in todo])
+    if notes:
+        say(f"{len(notes)} point(s) resume from their last checkpoint (what ran after it is "
+            f"computed again): {', '.join(notes)}")
     write_sweep(out, meta, list(points.values()), plots=False)
     n_done = [0]
 
@@ -185,8 +193,11 @@ def run_sweep(case_path, out, frequencies: str | None = None, rng: str | None = 
             raise
         return ExitCode.RUN_FAILED
     except KeyboardInterrupt as err:
+        stopped = mark_stopped_runs(out, [n for n, _ in todo], signal_name(err))
         say(f"interrupted by {signal_name(err)}; finished points are in {out}/sweep.json (a rerun"
-            f" of the same command keeps them and runs the others)")
+            f" of the same command keeps them and runs the others)"
+            + (f"; stopped: {', '.join(stopped)} (a rerun resumes each from that checkpoint)"
+               if stopped else ""))
         if reraise_interrupt:       # --realisations: the loop over realisations stops too
             raise
         return exit_code_for(err)
@@ -203,7 +214,81 @@ def run_sweep(case_path, out, frequencies: str | None = None, rng: str | None = 
     return ExitCode.OK
 
 
-def batching(batch: int | None, arch: str) -> dict:
+def mark_stopped_runs(out: Path, names, signame: str) -> list[str]:
+    """After a sweep or an ensemble is stopped by a signal: each run directory OUT/<name> whose
+    summary.json still says 'running' and that no process holds any more (its worker went with
+    the local cluster, before its run could write 'interrupted') is marked 'interrupted' and its
+    stale run.lock removed, so that it reads as what it is (docs/interrupted-runs.md).  Returns
+    one text per run: its name and the checkpoint time a rerun resumes it from."""
+    from dem.output.atomic import write_json
+    from dem.rundir import LOCK, RESTART_FILE, lock_holder
+
+    texts = []
+    for name in names:
+        d = Path(out) / name
+        try:
+            summ = json.loads((d / "summary.json").read_text())
+        except (OSError, ValueError):
+            summ = None
+        if lock_holder(d) is not None:
+            continue  # still running (a worker of an external cluster): not ours to mark
+        if isinstance(summ, dict) and summ.get("status") == "running":
+            summ["status"] = "interrupted"
+            summ["error"] = (f"stopped by {signame} (its worker ended with the sweep or "
+                             f"ensemble)")
+            try:
+                write_json(d / "summary.json", summ, indent=1, strict=True)
+            except (OSError, ValueError):
+                continue
+        if (d / LOCK).is_file():
+            with contextlib.suppress(OSError):
+                (d / LOCK).unlink()
+        if isinstance(summ, dict) and summ.get("status") in ("running", "interrupted"):
+            t = summ.get("sim_time")
+            texts.append(f"{name} at t = {float(t or 0.0):.3g} s" if (d / RESTART_FILE).is_file()
+                         else f"{name} (no restart point: starts over)")
+    return texts
+
+
+def resume_notes(out: Path, names) -> list[str]:
+    """Before a rerun: the runs among ``names`` that will go on from a checkpoint
+    (OUT/<name>/restart.npz, summary.json not 'ok'), each with its time, so that a rerun says
+    where each resumes (a checkpoint is up to dem.run.write.CHECKPOINT_SECONDS old: what ran
+    after it is computed again)."""
+    from dem.rundir import RESTART_FILE
+
+    notes = []
+    for name in names:
+        d = Path(out) / name
+        if not (d / RESTART_FILE).is_file():
+            continue
+        try:
+            summ = json.loads((d / "summary.json").read_text())
+        except (OSError, ValueError):
+            continue
+        if summ.get("status") in ("running", "interrupted"):
+            notes.append(f"{name} from t = {float(summ.get('sim_time') or 0.0):.3g} s")
+    return notes
+
+
+def points_ok(cases, case_path, what: str) -> bool:
+    """Every point (realisation) checked as ``dem check`` checks a case (dem.validate.
+    check_points: scene, time step, loading against the step and the run), before anything
+    runs or is written; each warning and error printed naming its point.  False: bad input."""
+    from dem.validate import check_points
+
+    warnings, errors = check_points(cases, case_path)
+    for line in warnings:
+        say(f"warning: {what} {line}")
+    for line in errors:
+        say(f"error: {what} {line}")
+    if errors:
+        bad = len({line.split(":", 1)[0] for line in errors})
+        say(f"error: {bad} of {len(cases)} {what}s cannot run as given; nothing was run")
+    return not errors
+
+
+def batching(batch: int | None, arch: str, scheduler: str | None = None) -> dict:
     """run_batch's keywords for ``--batch`` and ``--arch`` (none where both are the defaults,
     so that the default path is today's); raises BatchInputError (a ValueError: exit code 2)
     for --batch < 1, an unknown arch, or cuda where Taichi finds no CUDA device (checked here,
@@ -213,6 +298,10 @@ def batching(batch: int | None, arch: str) -> dict:
     if batch is not None and batch < 1:
         raise BatchInputError(f"--batch must be >= 1, got {batch}")
     check_arch(arch)
+    if scheduler is not None:  # before anything is written (dask would wait 30 s, then fail)
+        from dem.batch import check_scheduler
+
+        check_scheduler(scheduler)
     return {} if batch is None and arch == "cpu" else {"batch": batch, "arch": arch}
 
 
@@ -231,7 +320,7 @@ def workers_text(scheduler: str | None, workers: int | None, batch: int | None,
 
 def run_sweep_realisations(case_path, out: Path, frequencies, rng, cycles, margin, scheduler,
                            workers, max_steps, realisations, seed, drain_file=None,
-                           batch=None, arch="cpu") -> int:
+                           batch=None, arch="cpu", max_points=None) -> int:
     """``dem sweep --realisations N``: one sweep per realisation, then their statistics."""
     from dem.batch import Drained
     from dem.case import CaseError, load_case
@@ -239,14 +328,18 @@ def run_sweep_realisations(case_path, out: Path, frequencies, rng, cycles, margi
 
     try:
         case = load_case(case_path)
-        parse_frequencies(frequencies, rng)
+        freqs = parse_frequencies(frequencies, rng, max_points)
         cases = realisation_cases(case, 1 if realisations is None else realisations, seed)
+        points = [(f"{name} {n}", p) for name, c in cases
+                  for n, p in sweep_cases(c, freqs, cycles, margin)]
     except CaseError as err:
         say(f"error: {err}")
         return exit_code_for(err)
     except ValueError as err:
         say(f"error: {case_path}: {err}")
         return exit_code_for(err)
+    if not points_ok(points, case_path, "point"):
+        return ExitCode.BAD_INPUT
     from dem.signals import signal_name, stop_on_signals
 
     codes = []
@@ -256,7 +349,8 @@ def run_sweep_realisations(case_path, out: Path, frequencies, rng, cycles, margi
                 say(f"realisation {name} ({len(codes) + 1} of {len(cases)})")
                 code = run_sweep(case_path, out / name, frequencies, rng, cycles, margin,
                                  scheduler, workers, max_steps, case=c, reraise_interrupt=True,
-                                 drain_file=drain_file, batch=batch, arch=arch)
+                                 drain_file=drain_file, batch=batch, arch=arch,
+                                 max_points=max_points)
                 if code == ExitCode.BAD_INPUT:
                     return code
                 codes.append(code)

@@ -180,7 +180,12 @@ def view_command(path, out=None, point: str | None = None, frames: int = 40, fps
     if why is not None:
         echo(f"{path}: drawing {run_dir.name}: {why}")
     out = Path(out) if out is not None else run_dir
-    out.mkdir(parents=True, exist_ok=True)
+    from dem.commands.exit_codes import os_error_code, os_error_text, writable_directory
+
+    why_not = writable_directory(out, "--out" if out != run_dir else "the run directory")
+    if why_not is not None:  # before anything is drawn: one line, nothing half-written
+        err(f"error: {why_not}" + ("; give --out DIR" if out == run_dir else ""))
+        return ExitCode.BAD_INPUT
     t_all = data["t"]
     idx = animation.frame_indices(len(t_all), frames)
     shaken = data["tilt_angle"] is None and data["base_disp"] is not None
@@ -198,16 +203,26 @@ def view_command(path, out=None, point: str | None = None, frames: int = 40, fps
     view = animation.view_angles(data["tilt_axis"] if data["tilt_angle"] is not None else None)
     movie = out / f"animation.{fmt}"
     strip = out / "strip.png"
+    from dem.signals import signal_name, stop_on_signals
+
     try:
-        animation.write_animation(movie, data["size"], poses, title, fps=fps, magnify=magnify,
-                                  view=view)
-        drawn = animation.write_strip(strip, data["size"], poses, title, panels=panels,
+        # a stop signal ends the drawing like Ctrl-C: the atomic writer removes its temporary
+        # file, and the files already there stay as they were
+        with stop_on_signals():
+            animation.write_animation(movie, data["size"], poses, title, fps=fps,
                                       magnify=magnify, view=view)
+            drawn = animation.write_strip(strip, data["size"], poses, title, panels=panels,
+                                          magnify=magnify, view=view)
     except OSError as e:
-        err(f"error: cannot write in {out}: {e.strerror or e}")
+        err(f"error: cannot write in {out}: {os_error_text(e)}")
+        return os_error_code(e)
+    except KeyboardInterrupt as e:
+        err(f"interrupted by {signal_name(e)}: nothing new written in {out} (the files there "
+            f"are as they were)")
         return ExitCode.RUN_FAILED
     echo(f"wrote {movie} ({len(idx)} of {len(t_all)} frames, t = {t_all[idx[0]]:.3f} - "
-         f"{t_all[idx[-1]]:.3f} s, {fps:g} fps) and {strip} ({len(drawn)} panels at t = "
+         f"{t_all[idx[-1]]:.3f} s, {fps:g} fps) and {strip} ({len(drawn)} "
+         f"panel{'s' if len(drawn) != 1 else ''} at t = "
          + ", ".join(f"{t_all[idx[k]]:.3f}" for k in drawn) + " s)")
     return ExitCode.OK
 

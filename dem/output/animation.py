@@ -33,6 +33,20 @@ from dem.output.vtk import block_corners
 FACES = ((0, 1, 2, 3), (4, 5, 6, 7), (0, 1, 5, 4), (1, 2, 6, 5), (2, 3, 7, 6), (3, 0, 4, 7))
 
 
+# light from above and in front (table frame): each face is shaded by the cosine to it, so that
+# blocks of one colour (a first frame: no displacement yet) still read as boxes, not as one
+# silhouette
+LIGHT = np.array([0.35, -0.55, 0.76]) / np.linalg.norm([0.35, -0.55, 0.76])
+
+
+def face_shading(faces: np.ndarray) -> np.ndarray:
+    """[F] how lit quadrilateral faces [F, 4, 3] are, 0 - 1 (Lambert: |n . light|, n the unit
+    normal; its sign is not known from the corner order alone, hence |.|)."""
+    n = np.cross(faces[:, 1] - faces[:, 0], faces[:, 3] - faces[:, 0])
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+    return np.abs(n @ LIGHT)
+
+
 @dataclass
 class Poses:
     """Poses of the N blocks at T drawn frames: pos [T,N,3] (m), quat [T,N,4] (w,x,y,z); the
@@ -168,8 +182,13 @@ class _Drawing:
         p, q = self.poses.pos[k], self.poses.quat[k]
         corners = block_corners(self.size, p, q)
         colours = self.cmap(np.clip(self.poses.disp[k] / self.vmax, 0.0, 1.0))
-        self.blocks.set_verts([corners[i, list(f)] for i in range(len(p)) for f in FACES])
-        self.blocks.set_facecolor(np.repeat(colours, len(FACES), axis=0))
+        faces = [corners[i, list(f)] for i in range(len(p)) for f in FACES]
+        self.blocks.set_verts(faces)
+        rgba = np.repeat(colours, len(FACES), axis=0)
+        lit = face_shading(np.asarray(faces))[:, None]
+        # lit faces towards white, the others darker: readable on dark colours as on light ones
+        rgba[:, :3] = (rgba[:, :3] + (1.0 - rgba[:, :3]) * 0.4 * lit) * (0.7 + 0.3 * lit)
+        self.blocks.set_facecolor(rgba)
         self.table.set_verts([self.poses.table[k]])
         self.ax.set_title(title if title is not None else self.poses.labels[k], fontsize=8)
 
@@ -183,8 +202,13 @@ def view_angles(tilt_axis=None) -> tuple[float, float]:
     return 25.0, -120.0
 
 
+# m: the smallest top of the colour scale: below a micrometre a displacement is the joints'
+# elastic settling, and a scale of 1e-12 m would print noise as a range
+MIN_COLOUR_SCALE_M = 1e-6
+
+
 def _colour_scale(poses: Poses) -> float:
-    return float(poses.disp.max())
+    return max(float(poses.disp.max()), MIN_COLOUR_SCALE_M)
 
 
 def _colourbar(fig, vmax: float, magnify: float, left: float) -> None:
@@ -222,12 +246,15 @@ def write_animation(path, size, poses: Poses, title: str, fps: float = 10.0,
     drawing = _Drawing(ax, size, poses, vmax, view)
     _colourbar(fig, vmax, magnify, 0.86)
     fig.suptitle(title, fontsize=9)
-    anim = FuncAnimation(fig, lambda k: drawing.draw(k), frames=len(poses.labels),
-                         blit=False, repeat=False)
     writer = FFMpegWriter(fps=fps) if mp4 else PillowWriter(fps=fps)
-    with atomic_path(path) as tmp:  # the temporary name keeps the suffix (the format)
-        anim.save(str(tmp), writer=writer, dpi=dpi)
-    plt.close(fig)
+    try:
+        with atomic_path(path) as tmp:  # the temporary name keeps the suffix (the format)
+            # made once the file can be written: an animation never saved warns on deletion
+            anim = FuncAnimation(fig, lambda k: drawing.draw(k), frames=len(poses.labels),
+                                 blit=False, repeat=False)
+            anim.save(str(tmp), writer=writer, dpi=dpi)
+    finally:
+        plt.close(fig)
     return "ffmpeg" if mp4 else "pillow"
 
 

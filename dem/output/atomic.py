@@ -31,7 +31,15 @@ import numpy as np
 
 class OutputError(OSError):
     """An output file could not be written (disk full, I/O error, read-only file system): exit
-    code 1 for every command (dem.commands.exit_codes); ``dem.run.OutputError`` is this class."""
+    code 1 for every command (dem.commands.exit_codes); ``dem.run.OutputError`` is this class.
+    Made as OutputError(errno or None, message); its text is the message, with the errno in
+    words after it where there is one (never OSError's "[Errno None] ...")."""
+
+    def __str__(self) -> str:
+        if self.strerror is None:
+            return super().__str__()
+        return self.strerror + (f" (errno {self.errno})" if self.errno is not None and
+                                f"errno {self.errno}" not in self.strerror else "")
 
 
 @contextlib.contextmanager

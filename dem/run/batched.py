@@ -81,16 +81,35 @@ def check_arch(arch: str) -> None:
 
 
 def cuda_present() -> bool:
-    """Whether Taichi is built with CUDA and finds the driver (taichi's is_arch_supported: it
-    loads libcuda; Taichi's own warning when it is missing is kept off the terminal)."""
-    import contextlib
-    import io
+    """Whether Taichi is built with CUDA and finds the driver.  The driver library is looked for
+    first (ctypes: no Taichi, no message where there is none); where it loads, Taichi's
+    is_arch_supported decides, with the process's stderr (file descriptor 2: Taichi's C++
+    warnings go there, not through Python's sys.stderr) kept off the terminal meanwhile."""
+    import ctypes
+    import os
+
+    for name in ("libcuda.so.1", "libcuda.so", "nvcuda.dll", "libcuda.dylib"):
+        try:
+            ctypes.CDLL(name)
+            break
+        except OSError:
+            continue
+    else:
+        return False
+    import sys
 
     import taichi as ti
     from taichi.lang.misc import is_arch_supported
 
-    with contextlib.redirect_stderr(io.StringIO()):
-        return bool(is_arch_supported(ti.cuda))
+    sys.stderr.flush()
+    saved = os.dup(2)
+    try:
+        with open(os.devnull, "w") as null:
+            os.dup2(null.fileno(), 2)
+            return bool(is_arch_supported(ti.cuda))
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
 
 
 def init_taichi(arch: str, threads: int | None, precision: str = "f64") -> None:

@@ -203,9 +203,9 @@ def run_case(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
     except OSError as err:  # a checkpoint or a VTK frame could not be written
         bar.close()
         writer.write_errors["checkpoint (frames.npz, restart.npz, summary.json or a VTK frame)"] = \
-            f"{err.strerror or err} (errno {err.errno})"
+            f"{err.strerror or err}" + (f" (errno {err.errno})" if err.errno else "")
         finish("failed", None)
-        raise OutputError(err.errno, str(err)) from None  # finish raises first if it can
+        raise OutputError(err.errno, err.strerror or str(err)) from None  # finish raises first if it can
     bar.close()
     finish("ok")
     arrays = recording.frames.arrays()

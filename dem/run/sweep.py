@@ -22,8 +22,21 @@ class SweepInputError(ValueError):
     """Bad sweep input (exit code 2); the message names the option or field."""
 
 
-def parse_frequencies(frequencies: str | None = None, rng: str | None = None) -> list[float]:
-    """Frequencies (Hz, sorted, unique) from "1.8,2.0,2.4" and/or "start:stop:step" (inclusive)."""
+# the most frequencies a sweep takes unless told (--max-points): the thesis' sweeps have 5-19
+# (1.8 - 3.6 Hz by 0.1 Hz), and one point of Model II is minutes to hours of CPU, so a hundred
+# points is already a large study; beyond it a range is almost always a typo (1:1000:0.01 is
+# 99 901 runs, 1.8:36:0.2 for 1.8:3.6:0.2 is 172)
+MAX_SWEEP_POINTS = 100
+
+
+def parse_frequencies(frequencies: str | None = None, rng: str | None = None,
+                      max_points: int | None = None) -> list[float]:
+    """Frequencies (Hz, sorted, unique) from "1.8,2.0,2.4" and/or "start:stop:step" (inclusive);
+    more than ``max_points`` (default MAX_SWEEP_POINTS) refused, naming the count and the
+    override."""
+    limit = MAX_SWEEP_POINTS if max_points is None else max_points
+    if limit < 1:
+        raise SweepInputError(f"--max-points must be >= 1, got {limit}")
     out: list[float] = []
     if frequencies:
         for tok in frequencies.split(","):
@@ -43,6 +56,11 @@ def parse_frequencies(frequencies: str | None = None, rng: str | None = None) ->
         if not (step > 0) or stop < start:
             raise SweepInputError(f"--range: '{rng}' needs step > 0 and stop >= start")
         n = int(math.floor((stop - start) / step + 1e-6)) + 1
+        if n > limit:
+            raise SweepInputError(
+                f"--range: '{rng}' gives {n:,} frequencies ({start:g} to {stop:g} Hz by "
+                f"{step:g} Hz), more than {limit} (each one a run); check the range, or give "
+                f"--max-points {n} if this is meant")
         out += [round(start + k * step, 9) for k in range(n)]
     if not out:
         raise SweepInputError("give the frequencies: --frequencies 1.8,2.0 and/or "
@@ -50,7 +68,11 @@ def parse_frequencies(frequencies: str | None = None, rng: str | None = None) ->
     bad = [f for f in out if not (f > 0) or not math.isfinite(f)]
     if bad:
         raise SweepInputError(f"frequencies must be > 0 Hz, got {bad[0]}")
-    return sorted({round(f, 9) for f in out})
+    freqs = sorted({round(f, 9) for f in out})
+    if len(freqs) > limit:
+        raise SweepInputError(f"{len(freqs):,} frequencies, more than {limit} (each one a run); "
+                              f"give --max-points {len(freqs)} if this is meant")
+    return freqs
 
 
 def point_name(f: float) -> str:
