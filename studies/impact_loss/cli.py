@@ -82,10 +82,9 @@ def table(summary: dict) -> str:
 
 
 def plot(summary: dict, path: Path) -> None:
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from dem.output.plotting import agg_pyplot
 
+    plt = agg_pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
     lo, hi = summary["target_r_over_housner"]
     ax.axhspan(lo, hi, color="0.88", label="band aimed at (0.95-0.97)")
