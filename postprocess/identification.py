@@ -109,12 +109,13 @@ def receptance(f, H, kind: str) -> np.ndarray:
     "relative_acceleration" (R = -H / w^2) or "absolute_acceleration" (R = (1 - H) / w^2)."""
     f = np.asarray(f, float)
     w2 = np.where(f > 0, (2.0 * np.pi * f) ** 2, np.nan)   # no receptance at f = 0
-    if kind == "relative_displacement":
-        return np.asarray(H)
-    if kind == "relative_acceleration":
-        return -np.asarray(H) / w2
-    if kind == "absolute_acceleration":
-        return (1.0 - np.asarray(H)) / w2
+    with np.errstate(invalid="ignore"):
+        if kind == "relative_displacement":
+            return np.asarray(H)
+        if kind == "relative_acceleration":
+            return -np.asarray(H) / w2
+        if kind == "absolute_acceleration":
+            return (1.0 - np.asarray(H)) / w2
     raise ValueError(f"kind: {kind!r} is not relative_displacement, relative_acceleration or "
                      f"absolute_acceleration")
 
