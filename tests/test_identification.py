@@ -139,3 +139,24 @@ def test_a_block_on_a_penalty_joint_rocks_at_its_closed_form_frequency(tmp_path)
     cols = dict(zip(header.split(","), row.split(",")))
     assert float(cols["f_n (Hz)"]) == pytest.approx(res["f_n_hz"])
     assert float(cols["zeta (-)"]) == pytest.approx(res["zeta"])
+
+
+@pytest.mark.slow
+def test_doubling_the_level_past_uplift_lowers_the_identified_frequency(tmp_path):
+    """The same block and sweep at 0.2 and 0.4 m/s2: at 0.2 the rocking reaches about the
+    uplift angle theta_u = d0 / (b / 2) = m g / (kn b d) / (b / 2) = 7.8e-3 rad at the peaks,
+    at 0.4 beyond it; a heel that lifts off narrows the contact and the rocking stiffness
+    (kn d c^3 / 12 over the width c still in contact) falls, so the joint softens with the
+    amplitude and f_n drops (measured: 5.64 -> 5.11 Hz, -9 %; docs/identification.md).  Lower
+    by more than the identification's 2 % at least; both at or below the linear value (the
+    closed form + 2 %).  (The stress-dependent hyperbolic law stiffens as it closes, so it is
+    not what softens here: the softening is the joint opening.)  ~25 s of CPU: slow."""
+    from dem.run import run_case
+
+    f = {}
+    for ap in (0.2, 0.4):
+        run_case(_block_case({**SWEEP, "peak_acceleration": ap}), tmp_path / f"a{ap}")
+        f[ap] = analyze_identification_run(tmp_path / f"a{ap}", plots=False,
+                                           write=False)["f_n_hz"]
+    assert f[0.4] < 0.98 * f[0.2], f
+    assert f[0.2] < 1.02 * rocking_sliding_frequency(), f
