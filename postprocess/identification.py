@@ -18,7 +18,11 @@ Transfer functions (x = the table's acceleration a_g, m/s2; y = a response):
   rest at both ends of the record (the Fourier transform of a finite-support signal), which a
   sweep or a noise tapered to rest and followed by the response's decay are: no leakage, a
   resolution 1 / T_record.  Used where |X| is at least ``INPUT_FLOOR`` of its largest value
-  (the excited band).
+  (the excited band).  The headline identification uses it where it can.
+
+  H1's coherence presumes a stationary input: under a sweep a Welch segment sees the resonance
+  pass as a transient, and the coherence dips there whatever the system (a linear one too);
+  read it under noise.
 
 Frames (the thesis' instruments, postprocess.shake_signals): ``ds`` (the transducer at the
 facade centre, displacement RELATIVE TO THE TABLE, m), ``a`` (the accelerometer, ABSOLUTE,
@@ -348,13 +352,15 @@ def plot_identification(path, curves: dict, band, title: str = "") -> None:
     fig, axs = plt.subplots(3, n, figsize=(6.5 * n, 9), squeeze=False, sharex="col")
     for col, (axis, tf) in enumerate(curves.items()):
         ax_d, ax_a, ax_c = axs[0, col], axs[1, col], axs[2, col]
-        for name, e in tf.items():
+        for k, (name, e) in enumerate(tf.items()):
             ax = ax_d if e["kind"] == "relative_displacement" else ax_a
             h1, ra = e["h1"], e["ratio"]
             m = (h1["f"] >= band[0]) & (h1["f"] <= band[1])
-            line, = ax.semilogy(h1["f"][m], np.abs(h1["H"][m]), label=f"{name} (H1)")
-            ax.semilogy(ra["f"], np.abs(ra["H"]), ".", ms=2, color=line.get_color(), alpha=0.5)
-            ax_c.plot(h1["f"][m], h1["coherence"][m], label=name, color=line.get_color())
+            color = f"C{k % 10}"   # one colour per instrument on every panel
+            ax.semilogy(h1["f"][m], np.abs(h1["H"][m]), color=color,
+                        label=f"{name}: H1 (line), ratio of spectra (dots)")
+            ax.semilogy(ra["f"], np.abs(ra["H"]), ".", ms=2, color=color, alpha=0.5)
+            ax_c.plot(h1["f"][m], h1["coherence"][m], label=name, color=color)
         fit = best_mode(tf["ds"])
         if fit is not None and fit["method"] == "sdof_fit":
             f = np.linspace(band[0], band[1], 800)
@@ -364,7 +370,7 @@ def plot_identification(path, curves: dict, band, title: str = "") -> None:
                                       f"{fit['zeta']:.3g}")
         ax_d.set_ylabel("|ds / a_g| (s^2), relative")
         ax_a.set_ylabel("|a / a_g| (-)")
-        ax_c.set_ylabel("coherence (-)")
+        ax_c.set_ylabel("coherence of H1 (-)")
         ax_c.set_xlabel("frequency (Hz)")
         ax_c.set_ylim(0, 1.05)
         ax_d.set_title(f"axis {axis}")

@@ -222,3 +222,16 @@ def test_a_stepped_shake_with_a_level_on_every_step_needs_no_common_one():
                                                        "peak_acceleration": 1.53}]}})
     st = case.loading.motion().steps_run()
     assert [s["peak_acceleration_m_s2"] for s in st] == pytest.approx([2.3, 1.53])
+
+
+@pytest.mark.parametrize("law,rate,duration", [
+    ("linear", 0.5, (12.0 - 2.0) / 0.5),               # Hz/s: T = (f1 - f0) / rate
+    ("log", 6.0, 60.0 * math.log2(12.0 / 2.0) / 6.0),  # octaves/min: T = 60 log2(f1/f0) / rate
+])
+def test_a_sweep_rate_sets_its_duration(law, rate, duration):
+    from dem.case import parse_case
+
+    case = parse_case({**BLOCK, "loading": {**SWEEP, "duration": None, "rate": rate,
+                                            "law": law}})
+    assert case.loading.sweep_duration == pytest.approx(duration, rel=1e-12)
+    assert case.loading.motion().t_end == pytest.approx(duration, rel=1e-12)
