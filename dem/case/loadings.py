@@ -319,9 +319,9 @@ class SteppedShakeLoading(StrictModel):
 
     @model_validator(mode="after")
     def _one_of(self) -> "SteppedShakeLoading":
-        if self.amplitude is not None and self.peak_acceleration is not None or \
-                self.amplitude is None and self.peak_acceleration is None and \
-                any(s.level is None for s in self.steps):
+        common = [x for x in (self.amplitude, self.peak_acceleration) if x is not None]
+        # one common level, or none when every step gives its own
+        if len(common) > 1 or (not common and any(s.level is None for s in self.steps)):
             _one_amplitude(self.amplitude, self.peak_acceleration)
         _check_start(self.start, self.ramp_cycles, self.steps[0].cycles, "steps[0].cycles")
         return self
