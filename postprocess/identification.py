@@ -318,6 +318,10 @@ def analyze_identification_run(run_dir, plots: bool = True, write: bool = True) 
                 "mode": e["mode"],
                 "first_mode": best_mode(e)}
         head = axis["instruments"]["ds"]["first_mode"]
+        if head is None:
+            edge = rising_to_band_edge(tf["ds"]["ratio"]["f"], tf["ds"]["ratio"]["R"], band)
+            if edge:
+                out["warnings"].append(f"{sig.axis}: {edge}")
         axis["f_n_hz"] = None if head is None else head["f_n_hz"]
         axis["zeta"] = None if head is None else head["zeta"]
         axis["method"] = None if head is None else f"{head['method']} ({head['estimator']}) of ds"
@@ -333,6 +337,24 @@ def analyze_identification_run(run_dir, plots: bool = True, write: bool = True) 
             out["plots"].append("identification.png")
         write_json(run_dir / "identification.json", out, indent=1, strict=True)
     return out
+
+
+def rising_to_band_edge(f, R, band) -> str | None:
+    """A sentence when |R| is largest at an end of the band (a mode outside it: above f_hi /
+    f1 when at the top, below when at the bottom); None otherwise."""
+    f, mag = np.asarray(f, float), np.abs(np.asarray(R))
+    m = np.isfinite(mag) & (f >= band[0]) & (f <= band[1])
+    if m.sum() < 3:
+        return None
+    fm, mm = f[m], mag[m]
+    k = int(np.argmax(mm))
+    if k >= len(fm) - 2:
+        return (f"the receptance |ds / a_g| is largest at the band's top ({fm[k]:.3g} Hz): the "
+                f"first mode lies above the band; raise its top frequency")
+    if k <= 1:
+        return (f"the receptance |ds / a_g| is largest at the band's bottom ({fm[k]:.3g} Hz): "
+                f"a mode below the band; lower its bottom frequency")
+    return None
 
 
 def _mean_coherence(h1: dict, band) -> float | None:

@@ -65,6 +65,22 @@ def test_receptance_of_each_frame_is_the_same_for_one_mass():
         receptance(f, R, "velocity")
 
 
+def test_a_mode_above_the_band_is_said_not_invented():
+    """The receptance of a 5 Hz system seen through a 0.5-4 Hz band rises to the band's top:
+    no half-power points, so no mode, and the sentence says the mode lies above the band."""
+    from postprocess.identification import half_power, rising_to_band_edge
+
+    f = np.linspace(0.5, 4.0, 200)
+    w, wn = 2 * np.pi * f, 2 * np.pi * F_N
+    R = -1.0 / (wn * wn - w * w + 2j * ZETA * wn * w)
+    assert half_power(f, R) is None
+    assert "above the band" in rising_to_band_edge(f, R, (0.5, 4.0))
+    f2 = np.linspace(1.0, 10.0, 400)
+    w2 = 2 * np.pi * f2
+    R2 = -1.0 / (wn * wn - w2 * w2 + 2j * ZETA * wn * w2)
+    assert rising_to_band_edge(f2, R2, (1.0, 10.0)) is None
+
+
 # ---------------------------------------------------------------------------------------------
 # a block on a penalty joint (the DEM)
 # ---------------------------------------------------------------------------------------------
