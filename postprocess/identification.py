@@ -50,7 +50,7 @@ w^2; a: (1 - H) / w^2) and identified in two ways, the method named in the outpu
   ``FIT_HALF_WIDTHS`` half-power half-widths of the peak, each weighted by the coherence
   (H1) or by |X| (the ratio); G enters linearly and is solved for at each (f_n, zeta)
   (variable projection), f_n and zeta by scipy.optimize.least_squares from the half-power
-  values.  It uses the phase as well as the magnitude and reads between the frequency bins.
+  values, then refitted over three half-widths f_n zeta of that fit.  It uses the phase as well as the magnitude and reads between the frequency bins.
 
 The first mode is taken at the largest |R| in the excited band (the lowest mode of a
 rocking facade dominates its receptance); higher modes are not identified.
@@ -161,10 +161,22 @@ def sdof_model(f, f_n: float, zeta: float) -> np.ndarray:
 def fit_sdof(f, R, weight, start: dict) -> dict | None:
     """f_n, zeta and the complex G of R(w) = G / (w_n^2 - w^2 + 2 i zeta w_n w) by weighted
     least squares (module docstring) over the points within FIT_HALF_WIDTHS half-power
-    half-widths of ``start`` (a :func:`half_power` result); None when fewer than 4 points."""
+    half-widths of ``start`` (a :func:`half_power` result), then once more over the points
+    within FIT_HALF_WIDTHS half-widths f_n zeta of the first fit (a half-power width read off
+    one noisy peak bin can be far too narrow); None when fewer than 4 points."""
     f, R, wt = np.asarray(f, float), np.asarray(R), np.sqrt(np.asarray(weight, float))
     fn0, z0 = start["f_n_hz"], max(start["zeta"], 1e-3)
     hw = max(fn0 * z0, 0.5 * (start["f_b_hz"] - start["f_a_hz"]))
+    first = _fit_window(f, R, wt, fn0, z0, hw)
+    if first is None:
+        return None
+    again = _fit_window(f, R, wt, first["f_n_hz"], first["zeta"],
+                        first["f_n_hz"] * first["zeta"])
+    return again if again is not None else first
+
+
+def _fit_window(f, R, wt, fn0: float, z0: float, hw: float) -> dict | None:
+    """:func:`fit_sdof` over the points within FIT_HALF_WIDTHS x hw (Hz) of fn0."""
     m = (np.abs(f - fn0) <= FIT_HALF_WIDTHS * hw) & np.isfinite(R) & (wt > 0)
     if m.sum() < 4:
         return None
