@@ -14,7 +14,8 @@ laboratory's stepped tests: that is what makes the up pass and the down pass dif
 (hysteresis), which a separate run at each frequency (started from rest) does not show.
 
 Passes: a step belongs to the up pass if its frequency is above the previous step's, to the
-down pass if below (the first step takes the second's).  ``stepped.png``: the amplification of
+down pass if below, to "same" if equal (a change of level at one frequency: a kick-start, an
+amplitude continuation); the first step takes the second's.  ``stepped.png``: the amplification of
 ds (relative displacement), and of a_rel (the acceleration relative to the table) where there is
 an accelerometer, against frequency, one line per pass.
 
@@ -56,9 +57,10 @@ def step_signals(sig: ShakeSignals, t0: float, t1: float, f: float) -> ShakeSign
 
 
 def passes(frequencies) -> list[str]:
-    """"up" or "down" for each step (module docstring)."""
+    """"up", "down" or "same" for each step (module docstring)."""
     f = list(frequencies)
-    out = ["up" if k == 0 or f[k] > f[k - 1] else "down" for k in range(len(f))]
+    out = ["up" if k == 0 or f[k] > f[k - 1] else "down" if f[k] < f[k - 1] else "same"
+           for k in range(len(f))]
     if len(f) > 1:
         out[0] = out[1]
     return out
@@ -125,7 +127,7 @@ def plot_passes(path, steps: list[dict], title: str = "") -> None:
     names = [(n, get) for n, get in names if any(get(s) is not None for s in steps)]
     fig, axs = plt.subplots(1, len(names), figsize=(5.5 * len(names), 4), squeeze=False)
     for ax, (name, get) in zip(axs[0], names):
-        for direction, style in (("up", "o-"), ("down", "s--")):
+        for direction, style in (("up", "o-"), ("down", "s--"), ("same", "^:")):
             pts = [(s["frequency_hz"], get(s)) for s in steps
                    if s["pass"] == direction and get(s) is not None]
             if pts:

@@ -240,3 +240,11 @@ def test_a_stepped_run_is_reported_as_a_shake_is(tmp_path):
     cols = dict(zip(header.split(","), row.split(",")))
     assert float(cols["amplification ds (-)"]) == peak["amplification"]["ds"]
     assert float(cols["frequency (Hz)"]) == peak["frequency_hz"]
+
+
+def test_steps_at_one_frequency_are_neither_an_up_nor_a_down_pass():
+    """A kick-start or an amplitude continuation changes the level, not the frequency."""
+    from postprocess.stepped import passes
+
+    assert passes([2.8, 2.8]) == ["same", "same"]
+    assert passes([2.0, 2.8, 2.8, 2.4]) == ["up", "up", "same", "down"]
