@@ -46,7 +46,9 @@ How the table starts (``start``, issue 32 item 1; the case field ``loading.start
   |2 e' / w| <= 15 / (8 pi n_r) of A w^2).  The ramp's cycles count among ``cycles``.
 
 :class:`SteppedSineMotion` (issue 32 item 2) steps the frequency through a list on one
-specimen without stopping; its docstring says how the steps join.
+specimen without stopping; its docstring says how the steps join.  :class:`SweepMotion` (a sine
+sweep) and :class:`NoiseMotion` (band-limited white noise) drive a model's identification
+(docs/identification.md); both start and end at rest.
 
 :class:`TableMotion` is the table at rest (the base of the interface), :class:`SineMotion` the
 shake.  ``displacement``, ``velocity`` and ``acceleration`` take arrays of times;
@@ -262,9 +264,10 @@ class SteppedSineMotion(TableMotion):
     sides), and the offset left is only a shift of the table (the bodies, in the table's frame,
     feel only a); at constant amplitude the offset stays 0 and a jumps from -A w_k^2 s_k to
     -A w_k+1^2 s_k, a finite step; with levels of their own, a steps from -A_k w_k^2 s_k to
-    -A_k+1 w_k+1^2 s_k (the kick-start's drop from its level to the test level).  The last step also ends at a displacement extreme: the table
-    is then at rest (v = 0) where it is, a = 0 after (a step of a_p that the bodies feel, as
-    when a real table stops at an extreme; no drift, unlike the single sine's end).
+    -A_k+1 w_k+1^2 s_k (the kick-start's drop from its level to the test level).  The last
+    step also ends at a displacement extreme: the table is then at rest (v = 0) where it is,
+    a = 0 after (a step of a_p that the bodies feel, as when a real table stops at an extreme;
+    no drift, unlike the single sine's end).
 
     ``start`` as :class:`SineMotion`'s (module docstring), applied to the first step: ``lab``
     makes the bodies take -A_0 w_0 (:attr:`velocity_jump`), ``ramp`` raises the first step's
@@ -467,7 +470,8 @@ class SweepMotion(_GridBreakpoints, TableMotion):
     Phase phi(t) (rad) and instantaneous frequency f(t) = phi'(t) / (2 pi), 0 <= t <= T:
 
         linear:  f(t) = f0 + k t,  k = (f1 - f0) / T (Hz/s),   phi = 2 pi (f0 t + k t^2 / 2)
-        log:     f(t) = f0 r^(t/T), r = f1 / f0,                 phi = 2 pi f0 T (r^(t/T) - 1) / ln r
+        log:     f(t) = f0 r^(t/T), r = f1 / f0,
+                 phi = 2 pi f0 T (r^(t/T) - 1) / ln r
 
     (the exponential sweep: equal time per octave, T / log2(r) s each).  Displacement
 

@@ -50,7 +50,8 @@ w^2; a: (1 - H) / w^2) and identified in two ways, the method named in the outpu
   ``FIT_HALF_WIDTHS`` half-power half-widths of the peak, each weighted by the coherence
   (H1) or by |X| (the ratio); G enters linearly and is solved for at each (f_n, zeta)
   (variable projection), f_n and zeta by scipy.optimize.least_squares from the half-power
-  values, then refitted over three half-widths f_n zeta of that fit.  It uses the phase as well as the magnitude and reads between the frequency bins.
+  values, then refitted over three half-widths f_n zeta of that fit.  It uses the phase as
+  well as the magnitude and reads between the frequency bins.
 
 The first mode is taken at the largest |R| in the excited band (the lowest mode of a
 rocking facade dominates its receptance); higher modes are not identified.
