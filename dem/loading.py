@@ -21,7 +21,9 @@ every free block takes the velocity -A w d relative to the table (:meth:`Loading
 initial_relative_velocity`, applied once after settling by dem.run.table_start); ``start: ramp``
 raises the amplitude smoothly so that there is no jump (dem.table_motion).
 Stepped shake (SteppedShake): the frequency steps through a list on one specimen
-(dem.table_motion.SteppedSineMotion), base quantities along d as for the shake.
+(dem.table_motion.SteppedSineMotion), base quantities along d as for the shake.  Sine sweep
+(Sweep) and band-limited white noise (Noise): dem.table_motion.SweepMotion / NoiseMotion along
+d, started and ended at rest by tapers (no velocity jump: nothing for the blocks to take).
 A shake whose period is shorter than 20 time steps, or a record that ends before the run with
 the table still moving, is refused by dem.validate.
 """
@@ -31,8 +33,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from dem.case import (Case, NoLoading, RecordLoading, ShakeLoading, SteppedShakeLoading,
-                      TiltLoading)
+from dem.case import (Case, NoiseLoading, NoLoading, RecordLoading, ShakeLoading,
+                      SteppedShakeLoading, SweepLoading, TiltLoading)
 from dem.table_motion import SineMotion
 
 AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "-x": (-1.0, 0.0, 0.0), "-y": (0.0, -1.0, 0.0)}
@@ -205,6 +207,27 @@ class SteppedShake(Shake):
                 **self.motion.describe()}
 
 
+class Sweep(SteppedShake):
+    """A sine sweep along ``direction`` (dem.table_motion.SweepMotion x direction; a Shake for
+    the instruments and the axes, as a stepped shake)."""
+
+    kind = "sweep"
+
+    def records_table_velocity(self) -> bool:
+        return True
+
+    def describe(self):
+        return {"type": self.kind, "direction": self.direction.tolist(),
+                **self.motion.describe()}
+
+
+class Noise(Sweep):
+    """Band-limited white noise along ``direction`` (dem.table_motion.NoiseMotion x
+    direction)."""
+
+    kind = "noise"
+
+
 class Record(Loading):
     """Table acceleration from samples, linear in between and zero outside the record; the
     velocity and displacement are its exact integrals from rest (per interval of length h with
@@ -270,6 +293,10 @@ def loading_from_case(case: Case) -> Loading:
                      ld.start, ld.ramp_cycles)
     if isinstance(ld, SteppedShakeLoading):
         return SteppedShake(g0, ld.direction, ld.motion())
+    if isinstance(ld, SweepLoading):
+        return Sweep(g0, ld.direction, ld.motion())
+    if isinstance(ld, NoiseLoading):
+        return Noise(g0, ld.direction, ld.motion())
     if isinstance(ld, RecordLoading):
         return Record(g0, *ld.samples())
     if isinstance(ld, NoLoading):
@@ -312,4 +339,60 @@ def stepped_shake_plausibility(ld, table_plausibility, where) -> tuple[list[str]
         excursion = float(np.abs(motion.displacement(t)).max()) * scale
         w, _ = table_plausibility(0.0, excursion, None, "", where(("loading", field)))
         warnings += w
+    return warnings, errors
+
+
+def sampling_interval(run, scene) -> tuple[float, str]:
+    """(s, field) of the samples an identification reads: the instruments' interval where the
+    run records instruments (``run.instruments: thesis``, or ``auto`` on a box model: dem.run.
+    record.choose_instruments), else the frames' ``run.output_interval``."""
+    boxy = scene is not None and {"L1", "L2", "T1", "T2"} <= set(scene.group_names)
+    if run.instruments == "thesis" or (run.instruments == "auto" and boxy):
+        return run.instrument_interval, "instrument_interval"
+    return run.output_interval, "output_interval"
+
+
+def identification_errors(ld, dt: float, min_steps: int, run, scene, table_plausibility,
+                          where) -> tuple[list[str], list[str]]:
+    """dem check's (warnings, errors) on a sweep or a noise (dem.validate): the highest
+    frequency (f1, f_hi) must span ``min_steps`` time steps of ``dt`` (s) per period, as a
+    shake's, and lie below the Nyquist frequency 1 / (2 dt_s) of the samples the
+    identification reads (:func:`sampling_interval`); the motion is sampled for its peak
+    acceleration, velocity and excursion (``table_plausibility``, dem.validate); a run shorter
+    than the motion is warned of (the end of the sweep or noise is cut)."""
+    is_sweep = isinstance(ld, SweepLoading)
+    top, top_field = (ld.f1, "f1") if is_sweep else (ld.f_hi, "f_hi")
+    warnings, errors = [], []
+    if 1.0 / top < min_steps * dt:
+        errors.append(
+            f"{where(('loading', top_field))}: {top:g} Hz has a period of {1.0 / top:.3g} s, "
+            f"shorter than {min_steps} time steps ({min_steps} x {dt:.3g} s): the table motion "
+            f"cannot be resolved (highest frequency for this scene: "
+            f"{1.0 / (min_steps * dt):.4g} Hz)")
+    ds, ds_field = sampling_interval(run, scene)
+    nyquist = 0.5 / ds
+    if top >= nyquist:
+        errors.append(
+            f"{where(('loading', top_field))}: {top:g} Hz is at or above the Nyquist frequency "
+            f"{nyquist:.4g} Hz of the samples the identification reads (run.{ds_field} = "
+            f"{ds:g} s): lower {top_field} or sample faster")
+    if errors:
+        return warnings, errors
+    motion = ld.motion()
+    scale = float(np.linalg.norm(ld.direction))
+    t = np.linspace(0.0, motion.t_end, int(min(2e5, 64 * top * motion.t_end)) + 2)
+    a_peak = float(np.abs(motion.acceleration(t)).max()) * scale
+    stroke = float(np.abs(motion.displacement(t)).max()) * scale
+    v_peak = float(np.abs(motion.velocity(t)).max()) * scale
+    field = "peak_acceleration" if is_sweep and ld.peak_acceleration is not None else \
+        "amplitude" if is_sweep else "rms_acceleration"
+    # the speed check takes amplitude x 2 pi f: the f that gives the motion's peak velocity
+    w, e = table_plausibility(a_peak, stroke, v_peak / (2.0 * np.pi * stroke) if stroke else None,
+                              "", where(("loading", field)))
+    warnings += w
+    errors += e
+    if run.duration < motion.t_end:
+        warnings.append(
+            f"{where(('run', 'duration'))}: {run.duration:g} s is shorter than the "
+            f"{ld.type}'s {motion.t_end:.4g} s: its end is cut, the table not brought to rest")
     return warnings, errors

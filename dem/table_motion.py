@@ -46,7 +46,9 @@ How the table starts (``start``; the case field ``loading.start``):
   |2 e' / w| <= 15 / (8 pi n_r) of A w^2).  The ramp's cycles count among ``cycles``.
 
 :class:`SteppedSineMotion` steps the frequency through a list on one
-specimen without stopping; its docstring says how the steps join.
+specimen without stopping; its docstring says how the steps join.  :class:`SweepMotion` (a sine
+sweep) and :class:`NoiseMotion` (band-limited white noise) drive a model's identification
+(docs/identification.md); both start and end at rest.
 
 :class:`TableMotion` is the table at rest (the base of the interface), :class:`SineMotion` the
 shake.  ``displacement``, ``velocity`` and ``acceleration`` take arrays of times;
@@ -242,7 +244,11 @@ class SteppedSineMotion(TableMotion):
 
     ``steps``: [(f_k Hz, n_k cycles)] in the order run (rising frequencies: an up pass; falling:
     a down pass); every step has the same peak acceleration a_p (A_k = a_p / w_k^2, m) or the
-    same displacement amplitude A (A_k = A), w_k = 2 pi f_k.  Step k runs from t_k (t_0 = 0):
+    same displacement amplitude A (A_k = A), w_k = 2 pi f_k, unless ``levels`` gives step k a
+    level of its own, ("peak_acceleration", a_p,k) or ("amplitude", A_k) (None: the common
+    one): a kick-start (two cycles above a threshold, then the test level), a protocol of
+    rising intensity, a continuation in amplitude at one frequency.  Step k runs from t_k
+    (t_0 = 0):
 
         u(t) = c_k + A_k sin(w_k (t - t_k) + phi_k)                  m
         v(t) = A_k w_k cos(w_k (t - t_k) + phi_k)                    m/s
@@ -257,9 +263,11 @@ class SteppedSineMotion(TableMotion):
     continuous (0 on both sides); at constant peak acceleration a is too (-a_p s_k on both
     sides), and the offset left is only a shift of the table (the bodies, in the table's frame,
     feel only a); at constant amplitude the offset stays 0 and a jumps from -A w_k^2 s_k to
-    -A w_k+1^2 s_k, a finite step.  The last step also ends at a displacement extreme: the table
-    is then at rest (v = 0) where it is, a = 0 after (a step of a_p that the bodies feel, as
-    when a real table stops at an extreme; no drift, unlike the single sine's end).
+    -A w_k+1^2 s_k, a finite step; with levels of their own, a steps from -A_k w_k^2 s_k to
+    -A_k+1 w_k+1^2 s_k (the kick-start's drop from its level to the test level).  The last
+    step also ends at a displacement extreme: the table is then at rest (v = 0) where it is,
+    a = 0 after (a step of a_p that the bodies feel, as when a real table stops at an extreme;
+    no drift, unlike the single sine's end).
 
     ``start`` as :class:`SineMotion`'s (module docstring), applied to the first step: ``lab``
     makes the bodies take -A_0 w_0 (:attr:`velocity_jump`), ``ramp`` raises the first step's
@@ -268,20 +276,40 @@ class SteppedSineMotion(TableMotion):
 
     def __init__(self, steps, amplitude: float | None = None,
                  peak_acceleration: float | None = None, start: str = "table-frame",
-                 ramp_cycles: float | None = None):
+                 ramp_cycles: float | None = None, levels=None):
         steps = [(float(f), float(n)) for f, n in steps]
         if not steps or any(not (f > 0 and n > 0) for f, n in steps):
             raise ValueError("steps must be a non-empty list of (frequency > 0, cycles > 0)")
-        if (amplitude is None) == (peak_acceleration is None):
+        levels = [None] * len(steps) if levels is None else list(levels)
+        if len(levels) != len(steps):
+            raise ValueError(f"levels: {len(levels)} entries for {len(steps)} steps")
+        for k, lev in enumerate(levels):
+            if lev is not None and (len(lev) != 2 or lev[0] not in
+                                    ("amplitude", "peak_acceleration") or not lev[1] > 0):
+                raise ValueError(f"levels[{k}]: need (\"amplitude\" | \"peak_acceleration\", "
+                                 f"value > 0) or None, got {lev!r}")
+        if amplitude is not None and peak_acceleration is not None:
             raise ValueError("give exactly one of amplitude or peak_acceleration")
-        if not ((amplitude or peak_acceleration) > 0):
+        if amplitude is None and peak_acceleration is None and None in levels:
+            raise ValueError("give amplitude or peak_acceleration (for the steps without a "
+                             "level of their own)")
+        if not all(x is None or x > 0 for x in (amplitude, peak_acceleration)):
             raise ValueError("amplitude / peak_acceleration must be > 0")
         self.steps = steps
-        self.constant = "amplitude" if amplitude is not None else "peak_acceleration"
         self.freq = np.array([f for f, _ in steps])                       # f_k, Hz
         self.omega = 2.0 * np.pi * self.freq                              # w_k, rad/s
-        self.amp = (np.full(len(steps), float(amplitude)) if amplitude is not None
-                    else float(peak_acceleration) / self.omega**2)       # A_k, m
+        if all(lev is None for lev in levels):   # one level for every step
+            self.constant = "amplitude" if amplitude is not None else "peak_acceleration"
+            self.amp = (np.full(len(steps), float(amplitude)) if amplitude is not None
+                        else float(peak_acceleration) / self.omega**2)   # A_k, m
+        else:                                    # a level per step (kick-start, protocols)
+            self.constant = "per_step"
+            own = [lev if lev is not None else
+                   (("amplitude", amplitude) if amplitude is not None
+                    else ("peak_acceleration", peak_acceleration)) for lev in levels]
+            self.amp = np.array([float(v) if kind == "amplitude"
+                                 else float(v) / float(self.omega[k]) ** 2
+                                 for k, (kind, v) in enumerate(own)])    # A_k, m
         self.peak_acceleration = float(np.max(self.amp * self.omega**2))  # m/s2
         n = len(steps)
         self.t0 = np.zeros(n + 1)      # t_k, s (t_0 .. t_n = end)
@@ -397,3 +425,242 @@ class SteppedSineMotion(TableMotion):
         if self.start == "ramp":
             out.update({"ramp_cycles": self.first.ramp_cycles, "ramp_time_s": self.first.t_ramp})
         return out
+
+
+def _taper(t, t_in: float, t_out: float, t_end: float):
+    """Envelope E(t) = e(t / t_in) e((t_end - t) / t_out) with the ramp's quintic e
+    (:func:`_quintic`) and its first two time derivatives (E, E', E''): 0 with E' = E'' = 0 at
+    t = 0 and t = t_end, 1 in between the tapers (t_in + t_out <= t_end)."""
+    a, a_s, a_ss, _ = _quintic(np.asarray(t, dtype=float) / t_in)
+    b, b_s, b_ss, _ = _quintic((t_end - np.asarray(t, dtype=float)) / t_out)
+    a1, a2 = a_s / t_in, a_ss / t_in**2
+    b1, b2 = -b_s / t_out, b_ss / t_out**2
+    return a * b, a1 * b + a * b1, a2 * b + 2.0 * a1 * b1 + a * b2
+
+
+class _GridBreakpoints:
+    """``breakpoints`` of a motion without closed-form acceleration extrema: the local extrema
+    of a(t) on a grid of ``_grid_points`` points per shortest period (approximate, to that
+    grid; only the two-body model's event integrator asks, and it takes shakes only).  Such a
+    motion starts from rest: no velocity jump for the bodies to take."""
+
+    velocity_jump = 0.0   # m/s
+
+    def breakpoints(self, t0: float, t1: float) -> list[float]:
+        a, b = max(t0, 0.0), min(t1, self.t_end)
+        if b <= a:
+            return [self.t_end] if t0 < self.t_end < t1 else []
+        n = max(3, int(math.ceil(32 * (b - a) * self.f_max)) + 1)
+        grid = np.linspace(a, b, n)
+        d = np.diff(self.acceleration(grid))
+        out = [float(grid[i + 1]) for i in range(len(d) - 1) if d[i] * d[i + 1] < 0.0]
+        if t0 < self.t_end < t1:
+            out.append(self.t_end)
+        return [x for x in out if t0 < x < t1]
+
+    def acceleration_at(self, t: float) -> float:
+        return float(self.acceleration(np.array([float(t)]))[0])
+
+
+class SweepMotion(_GridBreakpoints, TableMotion):
+    """A sine sweep (the case's ``loading: {type: sweep}``): the frequency rises from f0 to f1
+    (Hz) over T s, linearly or logarithmically, at constant peak acceleration a_p (m/s2) or
+    constant displacement amplitude A (m), started and ended at rest by quintic tapers.
+
+    Phase phi(t) (rad) and instantaneous frequency f(t) = phi'(t) / (2 pi), 0 <= t <= T:
+
+        linear:  f(t) = f0 + k t,  k = (f1 - f0) / T (Hz/s),   phi = 2 pi (f0 t + k t^2 / 2)
+        log:     f(t) = f0 r^(t/T), r = f1 / f0,
+                 phi = 2 pi f0 T (r^(t/T) - 1) / ln r
+
+    (the exponential sweep: equal time per octave, T / log2(r) s each).  Displacement
+
+        u(t) = E(t) U(t) sin(phi(t)),   U = A  or  U = a_p / phi'(t)^2,
+
+    E(t) = e(t / T_a) e((T - t) / T_b): the ramp's quintic e(s) = 10 s^3 - 15 s^4 + 6 s^5
+    (as ``start: ramp`` of a shake) over T_a = n_t / f0 at the start and T_b = n_t / f1 at the
+    end (n_t = ``taper_cycles``).  Velocity and acceleration are the exact derivatives (g = E U):
+
+        v = g' sin(phi) + g phi' cos(phi)
+        a = (g'' - g phi'^2) sin(phi) + (2 g' phi' + g phi'') cos(phi)
+
+    so u, v, a are continuous, zero at t = 0 (the table starts from rest: no velocity jump for
+    the bodies to take, as a ramp start) and zero from T on (the table stops where it started).
+    Away from the tapers |a| peaks at a_p (or A w^2) up to the terms in g', g'', phi'', of
+    relative size ~ 2 k / (2 pi f^2) for a linear sweep (a slow sweep: k << f^2): the sweep
+    rate sets how far the peak acceleration departs from a_p.
+    """
+
+    def __init__(self, f0: float, f1: float, duration: float, law: str = "linear",
+                 amplitude: float | None = None, peak_acceleration: float | None = None,
+                 taper_cycles: float = 2.0):
+        if not (0 < f0 < f1):
+            raise ValueError(f"need 0 < f0 < f1, got f0 = {f0}, f1 = {f1}")
+        if law not in ("linear", "log"):
+            raise ValueError(f"law must be 'linear' or 'log', got {law!r}")
+        if (amplitude is None) == (peak_acceleration is None):
+            raise ValueError("give exactly one of amplitude or peak_acceleration")
+        if not ((amplitude or peak_acceleration) > 0 and duration > 0 and taper_cycles > 0):
+            raise ValueError("amplitude / peak_acceleration, duration and taper_cycles must be "
+                             "> 0")
+        self.f0, self.f1, self.law = float(f0), float(f1), law
+        self.t_end = float(duration)                                 # T, s
+        self.amplitude = None if amplitude is None else float(amplitude)
+        self.peak_acceleration = (float(peak_acceleration) if peak_acceleration is not None
+                                  else self.amplitude * (2.0 * np.pi * self.f1) ** 2)
+        self.constant = "amplitude" if amplitude is not None else "peak_acceleration"
+        self.taper_cycles = float(taper_cycles)
+        self.t_in, self.t_out = self.taper_cycles / self.f0, self.taper_cycles / self.f1
+        if self.t_in + self.t_out > self.t_end:
+            raise ValueError(f"the tapers ({self.t_in:.3g} s + {self.t_out:.3g} s: "
+                             f"taper_cycles / f0 + taper_cycles / f1) exceed the duration "
+                             f"{self.t_end:g} s")
+        self.f_max = self.f1
+        self.period = None
+
+    def frequency(self, t) -> np.ndarray:
+        """Instantaneous frequency f(t) = phi'(t) / (2 pi), Hz, t clipped to [0, T]."""
+        t = np.clip(np.asarray(t, dtype=float), 0.0, self.t_end)
+        if self.law == "linear":
+            return self.f0 + (self.f1 - self.f0) / self.t_end * t
+        return self.f0 * (self.f1 / self.f0) ** (t / self.t_end)
+
+    def phase(self, t):
+        """(phi, phi', phi'', phi''') at t in [0, T]: rad, rad/s, rad/s2, rad/s3."""
+        t = np.asarray(t, dtype=float)
+        T, f0 = self.t_end, self.f0
+        if self.law == "linear":
+            k = (self.f1 - f0) / T
+            return (2.0 * np.pi * (f0 * t + 0.5 * k * t * t), 2.0 * np.pi * (f0 + k * t),
+                    np.full_like(t, 2.0 * np.pi * k), np.zeros_like(t))
+        c = math.log(self.f1 / f0) / T
+        f = f0 * np.exp(c * t)
+        return 2.0 * np.pi * (f - f0) / c, 2.0 * np.pi * f, 2.0 * np.pi * f * c, \
+            2.0 * np.pi * f * c * c
+
+    def _derivatives(self, t):
+        """(u, v, a) at t in [0, T] (class docstring)."""
+        p, p1, p2, p3 = self.phase(t)
+        E, E1, E2 = _taper(t, self.t_in, self.t_out, self.t_end)
+        if self.constant == "amplitude":
+            U, U1, U2 = np.full_like(p1, self.amplitude), np.zeros_like(p1), np.zeros_like(p1)
+        else:
+            ap = self.peak_acceleration
+            U = ap / p1**2
+            U1 = -2.0 * ap * p2 / p1**3
+            U2 = -2.0 * ap * p3 / p1**3 + 6.0 * ap * p2**2 / p1**4
+        g, g1, g2 = E * U, E1 * U + E * U1, E2 * U + 2.0 * E1 * U1 + E * U2
+        s, c = np.sin(p), np.cos(p)
+        return (g * s, g1 * s + g * p1 * c,
+                (g2 - g * p1 * p1) * s + (2.0 * g1 * p1 + g * p2) * c)
+
+    def _eval(self, t, order: int) -> np.ndarray:
+        t = np.asarray(t, dtype=float)
+        inside = (t > 0.0) & (t < self.t_end)
+        return np.where(inside, self._derivatives(np.clip(t, 0.0, self.t_end))[order], 0.0)
+
+    def displacement(self, t) -> np.ndarray:
+        return self._eval(t, 0)
+
+    def velocity(self, t) -> np.ndarray:
+        return self._eval(t, 1)
+
+    def acceleration(self, t) -> np.ndarray:
+        return self._eval(t, 2)
+
+    def describe(self) -> dict:
+        return {"law": self.law, "f0_hz": self.f0, "f1_hz": self.f1,
+                "constant": self.constant, "amplitude_m": self.amplitude,
+                "peak_acceleration_m_s2": self.peak_acceleration,
+                "taper_cycles": self.taper_cycles, "end_time_s": self.t_end}
+
+
+#: samples per period of the noise's highest frequency on which its displacement is splined
+NOISE_SAMPLES_PER_PERIOD = 32
+
+
+class NoiseMotion(_GridBreakpoints, TableMotion):
+    """Band-limited white noise (the case's ``loading: {type: noise}``): a table acceleration of
+    RMS a_rms (m/s2) with a flat spectrum on [f_lo, f_hi] (Hz) and nothing outside, for T s,
+    drawn from ``seed``; started and ended at rest.
+
+    Synthesis (a random-phase multisine; Pintelon & Schoukens, System Identification: a
+    frequency domain approach, 2nd ed. 2012, Section 2.2): lines f_j = j / T in [f_lo, f_hi]
+    (N of them), each of the same amplitude c = a_rms sqrt(2 / N) and a phase phi_j drawn
+    uniformly in [0, 2 pi) by numpy's default_rng(seed):
+
+        a0(t) = sum_j c cos(2 pi f_j t + phi_j)         (RMS over the period T: a_rms exactly)
+        u0(t) = -sum_j c / (2 pi f_j)^2 cos(2 pi f_j t + phi_j)   (its double integral: no
+                                                         constant, no drift: bounded)
+
+    computed with an inverse real FFT on a grid of ``NOISE_SAMPLES_PER_PERIOD`` samples per
+    period of f_hi.  The table's displacement is u(t) = w(t) u0(t), w the quintic taper
+    e(t / T_w) e((T - t) / T_w) over T_w = ``taper`` s at each end (the ramp's e(s): w, w', w''
+    vanish at 0 and T), interpolated by a quintic spline (scipy make_interp_spline, k = 5)
+    whose first and second derivatives are the velocity and acceleration: u, v, a continuous,
+    zero at t = 0 and from T on (the table starts from rest and stops where it started).
+    Between the tapers a = a0 up to the spline's error (~(2 pi / 32)^4 relative at f_hi:
+    1e-3); in the tapers a = w a0 + 2 w' u0' + w'' u0, whose extra terms lie below f_lo
+    (T_w >> 1 / f_lo keeps them small).
+    """
+
+    def __init__(self, rms: float, f_lo: float, f_hi: float, duration: float, seed: int = 0,
+                 taper: float = 1.0):
+        if not (0 < f_lo < f_hi):
+            raise ValueError(f"need 0 < f_lo < f_hi, got {f_lo}, {f_hi}")
+        if not (rms > 0 and duration > 0 and taper > 0):
+            raise ValueError("rms, duration and taper must be > 0")
+        if 2.0 * taper > duration:
+            raise ValueError(f"two tapers of {taper:g} s exceed the duration {duration:g} s")
+        from scipy.interpolate import make_interp_spline
+
+        self.rms, self.f_lo, self.f_hi = float(rms), float(f_lo), float(f_hi)
+        self.t_end, self.seed, self.taper = float(duration), int(seed), float(taper)
+        T = self.t_end
+        j = np.arange(int(math.ceil(self.f_lo * T - 1e-9)), int(math.floor(self.f_hi * T + 1e-9))
+                      + 1)
+        if len(j) == 0 or j[0] < 1:
+            raise ValueError(f"no frequency line j / T in [{f_lo:g}, {f_hi:g}] Hz for "
+                             f"T = {T:g} s")
+        self.lines_hz = j / T
+        self.phases = np.random.default_rng(self.seed).uniform(0.0, 2.0 * np.pi, len(j))
+        self.line_amplitude = self.rms * math.sqrt(2.0 / len(j))        # c, m/s2
+        n = int(2 ** math.ceil(math.log2(NOISE_SAMPLES_PER_PERIOD * self.f_hi * T)))
+        spec = np.zeros(n // 2 + 1, dtype=complex)
+        w = 2.0 * np.pi * self.lines_hz
+        spec[j] = -self.line_amplitude / w**2 * np.exp(1j * self.phases) * (n / 2.0)
+        t = np.arange(n + 1) * (T / n)
+        u0 = np.fft.irfft(spec, n)
+        u0 = np.append(u0, u0[0])
+        env = _taper(t, self.taper, self.taper, T)[0]
+        self._u = make_interp_spline(t, env * u0, k=5)
+        self._v = self._u.derivative(1)
+        self._a = self._u.derivative(2)
+        self.f_max = self.f_hi
+        self.period = None
+        self.peak_acceleration = float(np.abs(self._a(t)).max())
+
+    def untapered_acceleration(self, t) -> np.ndarray:
+        """a0(t), m/s2: the multisine itself, summed line by line (a check of the synthesis)."""
+        t = np.asarray(t, dtype=float)
+        w = 2.0 * np.pi * self.lines_hz
+        return self.line_amplitude * np.cos(np.multiply.outer(t, w) + self.phases).sum(axis=-1)
+
+    def _eval(self, spline, t) -> np.ndarray:
+        t = np.asarray(t, dtype=float)
+        inside = (t > 0.0) & (t < self.t_end)
+        return np.where(inside, spline(np.clip(t, 0.0, self.t_end)), 0.0)
+
+    def displacement(self, t) -> np.ndarray:
+        return self._eval(self._u, t)
+
+    def velocity(self, t) -> np.ndarray:
+        return self._eval(self._v, t)
+
+    def acceleration(self, t) -> np.ndarray:
+        return self._eval(self._a, t)
+
+    def describe(self) -> dict:
+        return {"rms_acceleration_m_s2": self.rms, "f_lo_hz": self.f_lo, "f_hi_hz": self.f_hi,
+                "seed": self.seed, "taper_s": self.taper, "lines": int(len(self.lines_hz)),
+                "peak_acceleration_m_s2": self.peak_acceleration, "end_time_s": self.t_end}

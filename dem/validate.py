@@ -56,7 +56,8 @@ from pathlib import Path
 
 import numpy as np
 
-from dem.case import Case, RecordLoading, ShakeLoading, SteppedShakeLoading
+from dem.case import (Case, NoiseLoading, RecordLoading, ShakeLoading, SteppedShakeLoading,
+                      SweepLoading)
 from dem.environment import max_blocks_default
 
 # --- plausibility: warn loudly on the implausible, refuse the impossible ----------------------
@@ -717,6 +718,13 @@ def check_case(case: Case, source: str | Path | None = None,
 
         out.errors += stepped_shake_errors(ld, dt, MIN_STEPS_PER_PERIOD, where)
         w, e = stepped_shake_plausibility(ld, table_plausibility, where)
+        out.warnings += w
+        out.errors += e
+    elif isinstance(ld, (SweepLoading, NoiseLoading)):   # dem.loading.identification_errors
+        from dem.loading import identification_errors
+
+        w, e = identification_errors(ld, dt, MIN_STEPS_PER_PERIOD, case.run, scene,
+                                     table_plausibility, where)
         out.warnings += w
         out.errors += e
     elif isinstance(ld, RecordLoading):

@@ -241,11 +241,16 @@ def _side_walls(facade: str) -> tuple:
 def excitation_timing(ld) -> dict:
     """{"f": Hz, "t_end": s} of a shake loading: its frequency and the end of its cycles; for a
     stepped shake the first step's frequency and the end of the last step (the
-    per-step analysis, postprocess.stepped, cuts the record into steps with their own)."""
-    from dem.case import SteppedShakeLoading
+    per-step analysis, postprocess.stepped, cuts the record into steps with their own); for a
+    sweep or a noise the band's lowest frequency and the motion's end."""
+    from dem.case import NoiseLoading, SteppedShakeLoading, SweepLoading
 
     if isinstance(ld, SteppedShakeLoading):
         return {"f": ld.steps[0].frequency, "t_end": ld.motion().t_end}
+    if isinstance(ld, SweepLoading):   # the lowest frequency (postprocess.identification)
+        return {"f": ld.f0, "t_end": ld.sweep_duration}
+    if isinstance(ld, NoiseLoading):
+        return {"f": ld.f_lo, "t_end": ld.duration}
     return {"f": ld.frequency, "t_end": ld.cycles / ld.frequency}
 
 

@@ -14,9 +14,14 @@ laboratory's stepped tests: that is what makes the up pass and the down pass dif
 (hysteresis), which a separate run at each frequency (started from rest) does not show.
 
 Passes: a step belongs to the up pass if its frequency is above the previous step's, to the
-down pass if below (the first step takes the second's).  ``stepped.png``: the amplification of
+down pass if below, to "same" if equal (a change of level at one frequency: a kick-start, an
+amplitude continuation); the first step takes the second's.  ``stepped.png``: the amplification of
 ds (relative displacement), and of a_rel (the acceleration relative to the table) where there is
 an accelerometer, against frequency, one line per pass.
+
+A step whose steady window holds fewer than postprocess.shake.MIN_STEADY_CYCLES cycles gets
+the short-window warning a shake gets (``warnings``); ``peak`` is the step of the largest ds
+amplification (what ``dem summary`` shows).
 
 Writes ``stepped.json`` (and ``stepped.png``) into the run directory.  Units SI, lags in s and
 degrees.
@@ -32,7 +37,7 @@ import numpy as np
 
 from dem.output.atomic import savefig, write_json
 from dem.output.plotting import agg_pyplot
-from postprocess.shake import analyze_signals, relative_to_table
+from postprocess.shake import analyze_signals, relative_to_table, short_window_warning
 from postprocess.shake_signals import (ShakeAnalysisError, ShakeSignals, load_run,
                                        read_signals)
 
@@ -52,9 +57,10 @@ def step_signals(sig: ShakeSignals, t0: float, t1: float, f: float) -> ShakeSign
 
 
 def passes(frequencies) -> list[str]:
-    """"up" or "down" for each step (module docstring)."""
+    """"up", "down" or "same" for each step (module docstring)."""
     f = list(frequencies)
-    out = ["up" if k == 0 or f[k] > f[k - 1] else "down" for k in range(len(f))]
+    out = ["up" if k == 0 or f[k] > f[k - 1] else "down" if f[k] < f[k - 1] else "same"
+           for k in range(len(f))]
     if len(f) > 1:
         out[0] = out[1]
     return out
@@ -91,6 +97,9 @@ def analyze_steps(sig: ShakeSignals, steps: list[dict], scene=None, frames=None)
             entry["error"] = res["error"]
         if t1 > t_rec + half:   # analysed on the part the run reached
             entry["record_ends_s"] = t_rec
+        short = short_window_warning(sk, win)   # as a shake's (postprocess.shake)
+        if short:
+            entry["warning"] = f"step {st['frequency_hz']:g} Hz at {t0:.3g} s: {short}"
         rel = relative_to_table(sk, win)
         if rel is not None:
             entry["relative_to_table"] = {"amplification": rel["amplification"],
@@ -118,7 +127,7 @@ def plot_passes(path, steps: list[dict], title: str = "") -> None:
     names = [(n, get) for n, get in names if any(get(s) is not None for s in steps)]
     fig, axs = plt.subplots(1, len(names), figsize=(5.5 * len(names), 4), squeeze=False)
     for ax, (name, get) in zip(axs[0], names):
-        for direction, style in (("up", "o-"), ("down", "s--")):
+        for direction, style in (("up", "o-"), ("down", "s--"), ("same", "^:")):
             pts = [(s["frequency_hz"], get(s)) for s in steps
                    if s["pass"] == direction and get(s) is not None]
             if pts:
@@ -153,18 +162,33 @@ def analyze_stepped_run(run_dir, plots: bool = True, write: bool = True) -> dict
     status = json.loads(summary_path.read_text()).get("status") if summary_path.is_file() \
         else None
     out = {"kind": "stepped_shake", "case": case.name, "run_status": status,
-           "excitation": motion.describe(), "axes": {}, "plots": []}
+           "excitation": motion.describe(), "axes": {}, "plots": [], "warnings": []}
     for sig in sigs:
         out["axes"][sig.axis] = {"steps": analyze_steps(sig, steps, scene, frames)}
+        out["warnings"] += [s["warning"] for s in out["axes"][sig.axis]["steps"]
+                            if "warning" in s]
     primary = sigs[0].axis
     out["primary_axis"] = primary
     out["steps"] = out["axes"][primary]["steps"]
+    out["peak"] = peak_step(out["steps"])
     if write:
         if plots:
             plot_passes(run_dir / "stepped.png", out["steps"], f"{case.name}: {primary}")
             out["plots"].append("stepped.png")
         write_json(run_dir / "stepped.json", out, indent=1, strict=True)
     return out
+
+
+def peak_step(steps: list[dict]) -> dict | None:
+    """The step of the largest ds amplification (its frequency, pass and amplification), the
+    stepped run's headline as a sweep's peak is (``dem summary``); None when no step has one."""
+    best = None
+    for s in steps:
+        a = s["amplification"].get("ds")
+        if a is not None and np.isfinite(a) and (best is None or a > best["amplification_ds"]):
+            best = {"frequency_hz": s["frequency_hz"], "pass": s["pass"],
+                    "amplification_ds": float(a)}
+    return best
 
 
 def steps_line(res: dict) -> str:

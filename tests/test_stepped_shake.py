@@ -12,6 +12,8 @@ accelerometer's two differences: 2 (w dt)^2 / 6 = 3e-3, the same in both records
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
@@ -205,3 +207,44 @@ def test_a_run_stopped_in_a_step_gives_the_steps_it_reached(tmp_path, into_secon
         # analysed (two cycles: too short for a steady window, said as for any short step)
         assert "not_analysed" not in second and second["record_ends_s"] < second["t_end_s"]
         assert second["amplification"].get("ds", 0.0) < 1e-3 or "error" in second
+
+
+def test_a_stepped_run_is_reported_as_a_shake_is(tmp_path):
+    """dem run's result line says the displacement is relative to the table (the blocks'
+    positions are in the table's frame), dem post warns of a step whose steady window holds
+    fewer than 3 cycles (as it warns of a shake's: 3 cycles a step leave 2 after the first is
+    dropped), and dem summary shows the largest step amplification and its frequency."""
+    import yaml
+    from typer.testing import CliRunner
+
+    from dem.cli import app
+
+    case = _case({"type": "stepped_shake", "peak_acceleration": A_P,
+                  "steps": [{"frequency": f, "cycles": n} for f, n in STEPS]}, 2.7)
+    path = tmp_path / "stepped.yaml"
+    path.write_text(yaml.safe_dump(case.model_dump(mode="json")))
+    run_dir = tmp_path / "run"
+    r = CliRunner().invoke(app, ["run", str(path), "--out", str(run_dir)])
+    assert r.exit_code == 0, r.output
+    assert "relative to the table" in r.output.strip().splitlines()[-1], r.output
+    r = CliRunner().invoke(app, ["post", str(run_dir)])
+    assert r.exit_code == 0, r.output
+    warned = [ln for ln in r.output.splitlines() if ln.startswith("warning:")
+              and "steady window holds only 2 cycle(s)" in ln]
+    assert [("2 Hz" in w, "3 Hz" in w) for w in warned] == [(True, False), (False, True)], \
+        r.output
+    res = json.loads((run_dir / "stepped.json").read_text())
+    peak = max(res["steps"], key=lambda s: s["amplification"]["ds"])
+    r = CliRunner().invoke(app, ["summary", "--format", "csv", str(run_dir)])
+    header, row = r.output.strip().splitlines()[-2:]
+    cols = dict(zip(header.split(","), row.split(",")))
+    assert float(cols["amplification ds (-)"]) == peak["amplification"]["ds"]
+    assert float(cols["frequency (Hz)"]) == peak["frequency_hz"]
+
+
+def test_steps_at_one_frequency_are_neither_an_up_nor_a_down_pass():
+    """A kick-start or an amplitude continuation changes the level, not the frequency."""
+    from postprocess.stepped import passes
+
+    assert passes([2.8, 2.8]) == ["same", "same"]
+    assert passes([2.0, 2.8, 2.8, 2.4]) == ["up", "up", "same", "down"]

@@ -17,21 +17,21 @@ The minimal schema of DESIGN.md is accepted exactly as written there::
 Loading functions (gravity and base acceleration versus time) live in :mod:`dem.loading`.
 
 The schema lives in one module per section: ``scene`` (blocks, builder entries), ``material``,
-``loadings`` (tilt, shake, record, none), ``settings`` (run, solver) and ``document`` (the whole
+``loadings`` (tilt, shake, stepped shake, sweep, noise, record, none), ``settings`` (run, solver) and ``document`` (the whole
 ``Case``, loading a file with errors that name the field); this package exports them all.
 """
 
 from dem.case.document import (Case, CaseError, case_json_schema, format_validation_error,
                                load_case, parse_case)
 from dem.case.imperfections import Imperfections
-from dem.case.loadings import (CollapseSpec, FrequencyStep, Loading, NoLoading, QuasiStaticSpec,
-                               RecordLoading, ShakeLoading, SteppedShakeLoading, TiltLoading,
-                               check_record_time, read_record_csv)
+from dem.case.loadings import (CollapseSpec, FrequencyStep, Loading, NoiseLoading, NoLoading,
+                               QuasiStaticSpec, RecordLoading, ShakeLoading, SteppedShakeLoading,
+                               SweepLoading, TiltLoading, check_record_time, read_record_csv)
 from dem.case.material import MAX_FRICTION, Material
 from dem.case.scene import BlockSpec, SceneSpec
 from dem.case.settings import RunSpec, SolverSpec
 
 __all__ = ["BlockSpec", "Case", "CaseError", "CollapseSpec", "Imperfections", "Loading", "MAX_FRICTION",
-           "Material", "NoLoading", "QuasiStaticSpec", "RecordLoading", "RunSpec", "SceneSpec",
-           "ShakeLoading", "SolverSpec", "SteppedShakeLoading", "TiltLoading", "FrequencyStep", "case_json_schema", "check_record_time",
+           "Material", "NoiseLoading", "NoLoading", "QuasiStaticSpec", "RecordLoading", "RunSpec", "SceneSpec",
+           "ShakeLoading", "SolverSpec", "SteppedShakeLoading", "SweepLoading", "TiltLoading", "FrequencyStep", "case_json_schema", "check_record_time",
            "format_validation_error", "load_case", "parse_case", "read_record_csv"]

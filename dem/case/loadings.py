@@ -1,5 +1,5 @@
-"""``loading:`` of a case file: tilt (constant rate or quasi-static), shake, stepped shake, record,
-none.
+"""``loading:`` of a case file: tilt (constant rate or quasi-static), shake, stepped shake, sine
+sweep, band-limited noise, record, none.
 
 The loads against time they give are dem.loading's.
 """
@@ -179,6 +179,14 @@ def _shake_direction(v):
     return v
 
 
+def _horizontal_direction(v):
+    """A sweep's or a noise's direction: a finite non-zero horizontal vector."""
+    _shake_direction(v)
+    if abs(v[2]) > 1e-12:
+        raise ValueError(f"direction must be horizontal (z = 0), got {v}")
+    return v
+
+
 def _one_amplitude(amplitude, peak_acceleration) -> None:
     """Exactly one of a displacement amplitude (m) and a peak acceleration (m/s2)."""
     if (amplitude is None) == (peak_acceleration is None):
@@ -235,11 +243,44 @@ class ShakeLoading(StrictModel):
 
 
 class FrequencyStep(StrictModel):
-    """One step of a stepped shake: a frequency and its cycles."""
+    """One step of a stepped shake: a frequency, its cycles and, optionally, a level of its own
+    (a kick-start, a protocol of rising intensity, a continuation in amplitude)."""
 
     frequency: float = Field(gt=0.0, description="Hz")
     cycles: float = Field(gt=0.0, description="cycles at this frequency (run on to the next "
                           "displacement extreme: at most half a period more)")
+    amplitude: float | None = Field(default=None, gt=0.0,
+                                    description="displacement amplitude of this step, m "
+                                    "(default: the loading's level)")
+    peak_acceleration: float | None = Field(default=None, gt=0.0,
+                                            description="peak acceleration of this step, m/s2 "
+                                            "(default: the loading's level)")
+
+    @model_validator(mode="after")
+    def _one_level(self) -> "FrequencyStep":
+        if self.amplitude is not None and self.peak_acceleration is not None:
+            raise ValueError("give at most one of amplitude (m) or peak_acceleration (m/s2) "
+                             "for a step")
+        return self
+
+    @model_serializer(mode="wrap")
+    def _omit_unset_level(self, handler):
+        """A step without a level of its own is written as before steps could have one."""
+        data = handler(self)
+        if isinstance(data, dict):
+            for key in ("amplitude", "peak_acceleration"):
+                if data.get(key) is None:
+                    data.pop(key, None)
+        return data
+
+    @property
+    def level(self) -> tuple[str, float] | None:
+        """("amplitude", m) or ("peak_acceleration", m/s2) of this step, None: the loading's."""
+        if self.amplitude is not None:
+            return ("amplitude", self.amplitude)
+        if self.peak_acceleration is not None:
+            return ("peak_acceleration", self.peak_acceleration)
+        return None
 
 
 class SteppedShakeLoading(StrictModel):
@@ -248,7 +289,11 @@ class SteppedShakeLoading(StrictModel):
 
     The steps run in the order given: rising frequencies are an up pass, falling a down pass
     (give both in one list for an up-and-down run).  Every step has the same
-    ``peak_acceleration`` (m/s2; amplitude a_p / (2 pi f)^2) or the same ``amplitude`` (m).
+    ``peak_acceleration`` (m/s2; amplitude a_p / (2 pi f)^2) or the same ``amplitude`` (m),
+    unless it gives a level of its own (``steps[k].peak_acceleration`` or ``.amplitude``): a
+    kick-start (two cycles above the rocking threshold, then the test level), a protocol of
+    rising intensity, a continuation in amplitude at one frequency; the loading's level may
+    then be left out if every step has its own.
     Each step runs its cycles, then on to the next displacement extreme (table velocity zero),
     where the next step starts from that extreme: the velocity is continuous, and at constant
     peak acceleration the acceleration too (the displacement keeps an offset, a shift of the
@@ -274,7 +319,10 @@ class SteppedShakeLoading(StrictModel):
 
     @model_validator(mode="after")
     def _one_of(self) -> "SteppedShakeLoading":
-        _one_amplitude(self.amplitude, self.peak_acceleration)
+        common = [x for x in (self.amplitude, self.peak_acceleration) if x is not None]
+        # one common level, or none when every step gives its own
+        if len(common) > 1 or (not common and any(s.level is None for s in self.steps)):
+            _one_amplitude(self.amplitude, self.peak_acceleration)
         _check_start(self.start, self.ramp_cycles, self.steps[0].cycles, "steps[0].cycles")
         return self
 
@@ -287,12 +335,129 @@ class SteppedShakeLoading(StrictModel):
         displacement amplitude times ``scale``."""
         from dem.table_motion import SteppedSineMotion
 
+        levels = [s.level for s in self.steps]
         return SteppedSineMotion(
             [(s.frequency, s.cycles) for s in self.steps],
             amplitude=None if self.amplitude is None else self.amplitude * scale,
             peak_acceleration=None if self.peak_acceleration is None
             else self.peak_acceleration * scale,
-            start=self.start, ramp_cycles=self.ramp_cycles)
+            start=self.start, ramp_cycles=self.ramp_cycles,
+            levels=None if all(lv is None for lv in levels) else
+            [None if lv is None else (lv[0], lv[1] * scale) for lv in levels])
+
+
+class SweepLoading(StrictModel):
+    """A sine sweep of the table along ``direction`` (a model's frequency response, as a
+    shaking-table laboratory measures it between tests): the frequency rises from ``f0`` to
+    ``f1`` (Hz), linearly (``law: linear``, Hz/s) or logarithmically (``law: log``, equal time
+    per octave), over ``duration`` s or at ``rate`` (linear: Hz/s; log: octaves per minute),
+    at constant ``peak_acceleration`` (m/s2) or constant ``amplitude`` (m).  The table starts
+    and ends at rest: the amplitude rises over the first ``taper_cycles`` cycles and falls over
+    the last (quintic, as a shake's ``start: ramp``).  The motion and its equations:
+    dem.table_motion.SweepMotion; docs/identification.md.  ``direction`` as for a shake (used
+    as given; horizontal).
+    """
+
+    type: Literal["sweep"]
+    direction: Vec3 = Field(description="displacement direction, multiplied by the amplitude")
+    f0: float = Field(gt=0.0, description="start frequency, Hz")
+    f1: float = Field(gt=0.0, description="end frequency, Hz (> f0)")
+    law: Literal["linear", "log"] = Field(default="linear",
+                                          description="linear (Hz/s) or log (octaves/min)")
+    duration: float | None = Field(default=None, gt=0.0, description="s (or give rate)")
+    rate: float | None = Field(default=None, gt=0.0,
+                               description="linear: Hz/s; log: octaves per minute (or give "
+                               "duration)")
+    amplitude: float | None = Field(default=None, gt=0.0, description="displacement amplitude, m")
+    peak_acceleration: float | None = Field(default=None, gt=0.0, description="m/s2")
+    taper_cycles: float = Field(default=2.0, gt=0.0,
+                                description="cycles (at f0 at the start, at f1 at the end) "
+                                "over which the amplitude rises from and falls to rest")
+
+    @field_validator("direction")
+    @classmethod
+    def _nonzero(cls, v):
+        return _horizontal_direction(v)
+
+    @model_validator(mode="after")
+    def _consistent(self) -> "SweepLoading":
+        if not self.f1 > self.f0:
+            raise ValueError(f"f1: {self.f1:g} Hz must be above f0 = {self.f0:g} Hz (a sweep "
+                             f"rises from f0 to f1)")
+        _one_amplitude(self.amplitude, self.peak_acceleration)
+        if (self.duration is None) == (self.rate is None):
+            raise ValueError("duration / rate: give exactly one of duration (s) or rate "
+                             "(linear: Hz/s; log: octaves per minute)")
+        tapers = self.taper_cycles / self.f0 + self.taper_cycles / self.f1
+        if not self.sweep_duration > tapers:
+            raise ValueError(f"duration: the sweep lasts {self.sweep_duration:.3g} s, not more "
+                             f"than its tapers (taper_cycles / f0 + taper_cycles / f1 = "
+                             f"{tapers:.3g} s)")
+        return self
+
+    @property
+    def sweep_duration(self) -> float:
+        """T, s: ``duration``, or (f1 - f0) / rate (linear), log2(f1 / f0) / rate min (log)."""
+        if self.duration is not None:
+            return self.duration
+        if self.law == "linear":
+            return (self.f1 - self.f0) / self.rate
+        return 60.0 * math.log2(self.f1 / self.f0) / self.rate
+
+    def motion(self):
+        """dem.table_motion.SweepMotion along the direction."""
+        from dem.table_motion import SweepMotion
+
+        return SweepMotion(self.f0, self.f1, self.sweep_duration, self.law, self.amplitude,
+                           self.peak_acceleration, self.taper_cycles)
+
+
+class NoiseLoading(StrictModel):
+    """Band-limited white noise of the table along ``direction``: a table acceleration of RMS
+    ``rms_acceleration`` (m/s2, along the unit direction times |direction|) with a flat
+    spectrum on [``f_lo``, ``f_hi``] (Hz), for ``duration`` s, drawn from ``seed`` (the same
+    seed, the same motion); started and ended at rest by quintic tapers of ``taper`` s.  The
+    synthesis (a random-phase multisine, its displacement bounded): dem.table_motion.NoiseMotion;
+    docs/identification.md.  Keep the level low enough to stay below uplift when the model's
+    own frequency response is wanted.
+    """
+
+    type: Literal["noise"]
+    direction: Vec3 = Field(description="direction, multiplied by the acceleration")
+    rms_acceleration: float = Field(gt=0.0, description="RMS table acceleration, m/s2")
+    f_lo: float = Field(gt=0.0, description="lowest frequency of the band, Hz")
+    f_hi: float = Field(gt=0.0, description="highest frequency of the band, Hz (> f_lo)")
+    duration: float = Field(gt=0.0, description="s")
+    seed: int = Field(default=0, ge=0, description="random seed of the phases")
+    taper: float = Field(default=1.0, gt=0.0,
+                         description="s over which the motion rises from and falls to rest, at "
+                         "each end (several periods of f_lo keep the taper's own low-frequency "
+                         "content small)")
+
+    @field_validator("direction")
+    @classmethod
+    def _nonzero(cls, v):
+        return _horizontal_direction(v)
+
+    @model_validator(mode="after")
+    def _consistent(self) -> "NoiseLoading":
+        if not self.f_hi > self.f_lo:
+            raise ValueError(f"f_hi: {self.f_hi:g} Hz must be above f_lo = {self.f_lo:g} Hz")
+        if not self.duration > 2.0 * self.taper:
+            raise ValueError(f"duration: {self.duration:g} s must exceed the two tapers "
+                             f"(2 x taper = {2.0 * self.taper:g} s)")
+        if self.f_lo * self.duration < 1.0:
+            raise ValueError(f"f_lo: {self.f_lo:g} Hz is below 1 / duration = "
+                             f"{1.0 / self.duration:.3g} Hz, the frequency resolution of "
+                             f"{self.duration:g} s of noise")
+        return self
+
+    def motion(self):
+        """dem.table_motion.NoiseMotion (along the direction)."""
+        from dem.table_motion import NoiseMotion
+
+        return NoiseMotion(self.rms_acceleration, self.f_lo, self.f_hi, self.duration,
+                           self.seed, self.taper)
 
 
 class RecordLoading(StrictModel):
@@ -418,6 +583,6 @@ class NoLoading(StrictModel):
     type: Literal["none"]
 
 
-Loading = Annotated[Union[TiltLoading, ShakeLoading, SteppedShakeLoading, RecordLoading,
-                          NoLoading],
+Loading = Annotated[Union[TiltLoading, ShakeLoading, SteppedShakeLoading, SweepLoading,
+                          NoiseLoading, RecordLoading, NoLoading],
                     Field(discriminator="type")]

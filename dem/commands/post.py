@@ -1,7 +1,8 @@
 """``dem post DIR``: (re)build the analysis of what DIR holds (:func:`directory_kind`):
 
 * a run (``case.json``): a shake run through postprocess.shake, a tilt run through
-  postprocess.tilt;
+  postprocess.tilt, a stepped shake through postprocess.stepped, a sweep or a noise through
+  postprocess.identification (identification.json, identification.png);
 * a sweep (``sweep.json``, or point directories of a shake case): every point re-analysed,
   postprocess.sweep re-aggregates;
 * an ensemble (``ensemble.json`` of ``dem ensemble``): every realisation's results re-read (a
@@ -185,10 +186,20 @@ def post_run(path: Path) -> int:
                 f"{mech.get('mechanism') or mech.get('kind')}"
                 + (f", {n_col} blocks collapsed" if n_col is not None else ""))
         say(f"{plot_lean(path, col)}: lean against the table angle")
-    elif case.loading.type == "stepped_shake":   # per step: postprocess.stepped
+    elif case.loading.type == "stepped_shake":   # postprocess.stepped
         from postprocess.stepped import analyze_stepped_run, steps_line
 
-        say(f"{path}/stepped.json: {steps_line(analyze_stepped_run(path))}")
+        res = analyze_stepped_run(path)
+        say(f"{path}/stepped.json: {steps_line(res)}")
+        for w in res.get("warnings") or []:
+            say(f"warning: {w}")
+    elif case.loading.type in ("sweep", "noise"):   # postprocess.identification
+        from postprocess.identification import analyze_identification_run, identification_line
+
+        res = analyze_identification_run(path)
+        say(f"{path}/identification.json: {identification_line(res)}")
+        for w in res.get("warnings") or []:
+            say(f"warning: {w}")
     else:
         say(f"{path}: loading '{case.loading.type}': no analysis defined")
     return ExitCode.OK

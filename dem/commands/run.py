@@ -51,10 +51,12 @@ def result_line(summary: dict, arrays: dict | None = None) -> str:
         pos = np.asarray(arrays["pos"])
         disp = float(np.linalg.norm(pos - pos[0], axis=2).max()) if pos.size else 0.0
         ld = summary.get("loading") or {}
-        if kind in ("shake", "record"):
+        if kind in ("shake", "record", "stepped_shake", "sweep", "noise"):
             parts.append(f"peak table acceleration {ld.get('peak_acceleration_m_s2', 0.0):.3g} "
                          f"m/s2, largest block displacement relative to the table "
-                         f"{disp * 1e3:.3g} mm (amplification: dem post)")
+                         f"{disp * 1e3:.3g} mm ("
+                         + ("f_n, zeta" if kind in ("sweep", "noise") else "amplification")
+                         + ": dem post)")
         else:
             parts.append(f"largest block displacement {disp * 1e3:.3g} mm")
     parts.append(f"t = {summary.get('sim_time', 0.0):.4g} s")

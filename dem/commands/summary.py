@@ -17,11 +17,17 @@ lambda (-)         a tilt: summary.json ``collapse.load_factor`` (tan of the col
                    the 10 % and 90 % quantiles)
 angle (deg)        the table angle of that lambda (an ensemble: the median)
 amplification (-)  a shake run: analysis.json ``amplification.ds`` (``dem post`` writes it);
-                   a sweep: the peak ds amplification of the curve (sweep.json aggregate); a
-                   shaking ensemble: the median of ``amplification_ds``
-frequency (Hz)     a shake run: the table's frequency (summary.json loading)
+                   a stepped shake run: the largest ds amplification of its steps
+                   (stepped.json ``peak``); a sweep: the peak ds amplification of the curve
+                   (sweep.json aggregate); a shaking ensemble: the median of
+                   ``amplification_ds``
+frequency (Hz)     a shake run: the table's frequency (summary.json loading); a stepped shake:
+                   the frequency of its peak step
 f_c (Hz)           a sweep: the characteristic frequency (peak of ds; empty when the curve has
                    no clear peak); a sweep ensemble: its median over the realisations
+f_n (Hz), zeta (-) a sweep or noise run (loading ``sweep`` / ``noise``): the first mode's
+                   frequency and damping ratio (identification.json, ``dem post`` writes it;
+                   postprocess.identification)
 mechanism          a tilt: summary.json ``mechanism.mechanism``; a shake run: analysis.json
                    ``mechanism.response``; an ensemble: the counts of each mechanism
 wall (s)           summary.json ``wall_seconds`` (compile included); a sweep or an ensemble:
@@ -56,6 +62,8 @@ COLUMNS: tuple[tuple[str, str, str], ...] = (
     ("amplification", "amplification ds", "-"),
     ("frequency_hz", "frequency", "Hz"),
     ("f_c_hz", "f_c", "Hz"),
+    ("f_n_hz", "f_n", "Hz"),
+    ("zeta", "zeta", "-"),
     ("mechanism", "mechanism", ""),
     ("wall_s", "wall", "s"),
     ("cpu_s", "cpu", "s"),
@@ -124,6 +132,20 @@ def run_row(path: Path) -> dict:
         # a collapse whose onset the detector could not place (dem.collapse): say so, an empty
         # lambda cell alone reads as "no result"
         row["mechanism"] = f"{row.get('mechanism') or 'collapse'} (onset not resolved: no lambda)"
+    if kind == "stepped_shake":
+        ana = _json(path / "stepped.json")
+        if ana is None:
+            row["mechanism"] = "(no stepped.json: dem post)"
+        else:
+            peak = ana.get("peak") or {}
+            row["amplification"] = _num(peak.get("amplification_ds"))
+            row["frequency_hz"] = _num(peak.get("frequency_hz"))
+    if kind in ("sweep", "noise"):
+        ana = _json(path / "identification.json")
+        if ana is None:
+            row["mechanism"] = "(no identification.json: dem post)"
+        else:
+            row["f_n_hz"], row["zeta"] = _num(ana.get("f_n_hz")), _num(ana.get("zeta"))
     if kind in ("shake", "record"):
         row["frequency_hz"] = _num(loading.get("frequency_hz"))
         ana = _json(path / "analysis.json")
@@ -247,6 +269,8 @@ def _text(key: str, v) -> str:
             return f"{v:.1f}"
         if key == "angle_deg":
             return f"{v:.2f}"
+        if key == "zeta":
+            return f"{v:.3f}"
         return f"{v:.4g}"
     return str(v)
 
