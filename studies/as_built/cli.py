@@ -40,6 +40,23 @@ def grid(keys: list[str] = typer.Argument(..., help="experiments to run together
         exp.report(g)
 
 
+@app.command()
+def identification(model: list[str] = typer.Option(None, help="only these models (repeatable; "
+                                                   "default all four, Model II y first)"),
+                   stop_at: str = typer.Option(None, help="UTC HH:MM after which no new run "
+                                               "starts")) -> None:
+    """Each model's own frequency response: band-limited noise at two levels below uplift, three
+    joints (frozen, E1's softest, unbonded corners), f_n and zeta identified (resumable: a
+    recorded point never runs again; touch runs/as-built/identification/DRAIN to end softly).
+    studies/as_built/identification.py."""
+    from studies.as_built import identification as exp
+
+    bad = [m for m in model or () if m not in exp.MODELS]
+    if bad:
+        raise typer.BadParameter(f"unknown model(s) {bad}; choose from {list(exp.MODELS)}")
+    exp.run(only=tuple(model or ()), stop_at=stop_at)
+
+
 def main(argv=None) -> int:
     app(args=argv, prog_name="python -m studies as-built", standalone_mode=True)
     return 0
