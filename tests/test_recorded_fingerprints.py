@@ -120,3 +120,30 @@ def test_every_diagnosis_record_keeps_its_fingerprint(frozen_parameters):
         checked[key] = len(recs)
     assert {"e2", "e4"} <= set(checked) and len(checked) == len(_diagnosis_records())
     assert all(checked.values()), checked
+
+
+def test_every_as_built_record_keeps_its_fingerprint(frozen_parameters):
+    """Each results/as-built/<key>/points.json belongs to a grid or the identification runs of
+    the as-built study, and each point recorded in it has today's fingerprint."""
+    from studies.as_built import identification as ident
+    from studies.as_built.grids import GRIDS
+    from studies.diagnosis import grid as G
+    from studies.prediction.plan import load_frozen
+    from studies.prediction.protocol import DEFAULT_FROZEN
+
+    paths = sorted((RESULTS / "as-built").glob("*/points.json"))
+    for path in paths:
+        key, data = path.parent.name, json.loads(path.read_text())
+        if key == ident.KEY:
+            now = {p.name: p.fingerprint for p in ident.points(load_frozen(DEFAULT_FROZEN))}
+            recs = data["points"]
+        else:
+            assert key in GRIDS, f"{path.relative_to(ROOT)}: no grid of the study writes it"
+            grid = GRIDS[key]
+            variants = {v.name: v for v in grid.variants}
+            recs = data["variants"]
+            now = {n: G.fingerprint(grid, G.variant_case(grid, variants[n], frozen_parameters))
+                   for n in recs}
+        assert recs, key
+        for name, rec in recs.items():
+            assert rec["fingerprint"] == now[name], f"{key}/{name} would run again"
