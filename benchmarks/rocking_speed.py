@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dem.commands.rocking import run_rocking_case_file
+from dem_cli.commands.rocking import run_rocking_case_file
 from dem.rocking.integrate import Settings, integrate_rocking
 from dem.rocking.params import RockingParams
 from dem.rocking.sweep import sweep

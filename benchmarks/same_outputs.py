@@ -28,7 +28,7 @@ import numpy as np
 import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
-DEM = [sys.executable, "-m", "dem.cli"]
+DEM = [sys.executable, "-m", "dem_cli"]
 TIMING_KEYS = {"wall_seconds", "compile_seconds", "brick_steps_per_second", "cpu_seconds",
                "wall_s", "elapsed_s", "started", "finished", "host", "seconds", "run_seconds",
                "date", "created", "python", "version", "integration_seconds"}

@@ -4,7 +4,8 @@ Layers (each imports only those below it; docs/architecture.md):
     dem.scene (Scene arrays) <- dem.builders (walls, facades, box models) <- dem.case (schema)
     <- dem.engine (Model / State / Contacts, kernels; its own JointLaw / StepOptions)
     <- dem.run (the run loop: build, load, record, stop, write) -> dem.output (files)
-    <- postprocess/ (analysis of the outputs) <- dem.commands + dem.cli (the commands)
+Above it, and never imported by it: postprocess/ (analysis of the outputs), then dem_cli/ (the
+``dem`` command line, which joins the two).
 """
 
 import os as _os

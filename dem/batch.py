@@ -174,7 +174,7 @@ def run_batch(cases: list[tuple[str, Case]], out_root: str | Path, scheduler: st
     arch: "cpu" or "cuda" (Taichi's arch of every task).
 
     analyses: handed to dem.run.run_case (functions merged into each run's summary.json, e.g.
-    dem.commands.run.RUN_ANALYSES; module-level functions, so that they pickle to the workers).
+    dem_cli.commands.run.RUN_ANALYSES; module-level functions, so that they pickle to the workers).
 
     post(case, RunResult, out_dir) -> dict runs on the worker after a successful run (keep its
     result small: it travels back to the client).  on_done(record) is called on the client as

@@ -1,4 +1,4 @@
-"""The environment variables dem reads, each checked when a command starts (dem.cli), so that a
+"""The environment variables dem reads, each checked when a command starts (dem_cli.app), so that a
 bad value is one line naming it (exit 2) instead of a C++ abort after Taichi's start-up
 (``DEM_THREADS=0``), an internal message, or a value silently ignored.
 

@@ -1,5 +1,5 @@
 """The numbers that decide a tilt's result, in words, for the result line of ``dem run``
-(dem.commands.run.result_line) and lean.png (postprocess.tilt.plot_lean): the closed form of
+(dem_cli.commands.run.result_line) and lean.png (postprocess.tilt.plot_lean): the closed form of
 lone rigid blocks beside the run's lambda, with the error (summary.json ``reference``,
 postprocess/lone_block.py), and the joint's elastic offset of tipping (summary.json
 ``joints.elastic_offset``, dem/compliance.py) with the way to remove it and what that costs.

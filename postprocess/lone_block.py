@@ -82,7 +82,7 @@ def lone_block_limits(case, scene, load_dir, kn: float | None = None,
 
 
 def reference_limit(case, scene, frames: dict, summary: dict) -> dict:
-    """A run analysis (dem.commands.run.RUN_ANALYSES): summary.json ``reference``, the closed
+    """A run analysis (dem_cli.commands.run.RUN_ANALYSES): summary.json ``reference``, the closed
     form of a tilt of lone blocks (:func:`lone_block_limits`) at the run's kn; {} otherwise."""
     if case.loading.type != "tilt":
         return {}

@@ -1,7 +1,7 @@
 """Analysis of a frequency sweep: per-point records, the aggregate (amplification curves,
 characteristic frequency, effective range, lag times: thesis Section 4.3, Figs 4.19, 4.30 - 4.33,
 4.43, Tables 4.2, 4.3), sweep.json and sweep.png.  The runs themselves: dem.run.sweep and the
-``dem sweep`` command (dem.commands.sweep).
+``dem sweep`` command (dem_cli.commands.sweep).
 
 Aggregation (:func:`aggregate`):
   amplification curve per quantity (ds, dsr, da, dar, a, ar, vs, vsr, va, var ...);

@@ -1,7 +1,7 @@
 """Results of a tilting-table run: mechanism and limit analysis next to the simulated lambda,
 and the lean of the wall against the table angle.
 
-``tilt_mechanism`` is handed to the run loop by ``dem run`` (dem.commands.run) and reads the
+``tilt_mechanism`` is handed to the run loop by ``dem run`` (dem_cli.commands.run) and reads the
 finished run; ``tilt_results`` does the same from a run directory's frames for ``dem post``
 (the collapse replayed with the run loop's detector, dem.collapse.replay; a quasi-static tilt's
 collapse is the run's own).  ``classify`` works for any scene: a builder's wall or facade, or

@@ -220,7 +220,7 @@ def test_bad_as_built_input_names_the_field(imp, field, tmp_path):
     import yaml
     from typer.testing import CliRunner
 
-    from dem.cli import app
+    from dem_cli.app import app
 
     f = tmp_path / "c.yaml"
     f.write_text(yaml.safe_dump({"name": "c", "scene": {"box_model": {"model": "II"}},
@@ -278,7 +278,7 @@ def test_a_column_built_out_of_plumb_tips_at_its_leaning_centre_of_mass(tmp_path
     of half bricks) leaning out of plane by delta = 2 mm per course towards the load (lean
     atan(delta / h)), tilted about x: it tips as one at tan = (t/2 - 1.5 delta) / (2 h) =
     0.314 where the plumb column tips at (t/2) / (2 h) = 0.357 (module docstring)."""
-    from dem.commands.run import RUN_ANALYSES
+    from dem_cli.commands.run import RUN_ANALYSES
     from dem.run import run_case
     from postprocess.limit_analysis import elastic_tipping_factor
 
@@ -317,7 +317,7 @@ FEATURES = {"head_gap": {"head_gap": HEAD_GAP}, "plumb": {"plumb": PLUMB},
 
 
 def _tilt(name, length, courses, imp, start, tmp_path):
-    from dem.commands.run import RUN_ANALYSES
+    from dem_cli.commands.run import RUN_ANALYSES
     from dem.run import run_case
 
     case = parse_case({

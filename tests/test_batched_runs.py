@@ -27,8 +27,8 @@ from typer.testing import CliRunner
 import dem.batch
 import dem.run.write
 from dem.case import Case
-from dem.cli import app
-from dem.commands.exit_codes import ExitCode
+from dem_cli.app import app
+from dem_cli.commands.exit_codes import ExitCode
 from dem.run.batched import BatchInputError, cuda_present, run_cases_in_one_engine
 from dem.run.resume import RESTART_FILE
 from dem.run.sweep import realisation_cases

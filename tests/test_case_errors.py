@@ -7,7 +7,7 @@ import textwrap
 import pytest
 from typer.testing import CliRunner
 
-from dem.cli import app
+from dem_cli.app import app
 
 GOOD = """\
 name: ok

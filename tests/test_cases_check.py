@@ -12,7 +12,7 @@ import pytest
 from typer.testing import CliRunner
 
 from dem.case import case_json_schema
-from dem.cli import app
+from dem_cli.app import app
 
 CASES = Path(__file__).resolve().parents[1] / "cases"
 FILES = sorted(p for p in CASES.rglob("*.yaml") if "rocking" not in p.relative_to(CASES).parts)

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from dem.case import parse_case
-from dem.commands.run import result_line
+from dem_cli.commands.run import result_line
 from dem.run.build import scene_from_case
 from postprocess.limit_analysis import elastic_tipping_factor
 from postprocess.decisive import decisive_numbers

@@ -8,9 +8,9 @@ What is checked, in README.md and docs/*.md:
 * every path under one of the repository's top folders (``dem/``, ``postprocess/``, ``tests/``,
   ``cases/`` ...), in text, code or a link, and every relative link target: it exists (a
   ``path: name`` or ``path::test`` reference also names something in that file);
-* every backticked dotted name under ``dem.``, ``postprocess.``, ``studies.``: a module, or a
-  name defined in one (the module is found as a file; nothing is imported);
-* every ``dem COMMAND`` and ``python -m studies STUDY``: a command of dem/cli.py, a study of
+* every backticked dotted name under ``dem.``, ``dem_cli.``, ``postprocess.``, ``studies.``: a
+  module, or a name defined in one (the module is found as a file; nothing is imported);
+* every ``dem COMMAND`` and ``python -m studies STUDY``: a command of dem_cli/app.py, a study of
   studies/__main__.py.
 
 Files a run writes (``summary.json``, ``runs/...``) are not in the repository; the few paths of
@@ -30,8 +30,8 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 PAGES = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
-TOP = ("dem", "postprocess", "studies", "tests", "docs", "cases", "results", "benchmarks",
-       "tools", ".ci")
+TOP = ("dem", "dem_cli", "postprocess", "studies", "tests", "docs", "cases", "results",
+       "benchmarks", "tools", ".ci")
 
 # paths under a repository folder that name what a run or a study writes, not a committed file
 RUN_OUTPUTS = {
@@ -41,7 +41,7 @@ RUN_OUTPUTS = {
 
 PATH_RE = re.compile(r"(?<![\w./-])((?:%s)/[\w./<>*{},+-]*)" % "|".join(re.escape(t) for t in TOP))
 LINK_RE = re.compile(r"\]\(([^)#\s]+)(?:#[^)]*)?\)")
-MODULE_RE = re.compile(r"`((?:dem|postprocess|studies)(?:\.[A-Za-z_]\w*)+)")
+MODULE_RE = re.compile(r"`((?:dem|dem_cli|postprocess|studies)(?:\.[A-Za-z_]\w*)+)")
 REF_RE = re.compile(r"`((?:%s)/[\w./-]+\.py)(?::\s*|::)([A-Za-z_][\w.]*)" %
                     "|".join(re.escape(t) for t in TOP))
 DEM_RE = re.compile(r"`(?:[\w./]*/)?dem ([a-z][\w-]*)")
@@ -123,7 +123,7 @@ def test_every_named_module_and_name_exists(page):
 
 
 def _dem_commands() -> set[str]:
-    source = (ROOT / "dem" / "cli.py").read_text()
+    source = (ROOT / "dem_cli" / "app.py").read_text()
     return set(re.findall(r"@app\.command\(\)\s*\ndef (\w+)\(", source))
 
 

@@ -13,8 +13,8 @@ from typer.testing import CliRunner
 
 from dem.batch import Drained, run_batch
 from dem.case import load_case
-from dem.cli import app
-from dem.commands.exit_codes import ExitCode
+from dem_cli.app import app
+from dem_cli.commands.exit_codes import ExitCode
 from dem.run.sweep import realisation_cases
 from tests.test_ensemble import shaken_stack_case, stack_case
 from tests.test_shake_analysis import BLOCK, case_file, sequential_batch
@@ -67,7 +67,7 @@ def test_dem_sweep_drained_keeps_the_finished_point_exits_1_and_a_rerun_resumes(
 
 
 def test_a_drain_ends_the_loop_over_realisations(tmp_path, monkeypatch):
-    from dem.commands import sweep as cmd
+    from dem_cli.commands import sweep as cmd
 
     calls = []
 

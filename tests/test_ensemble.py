@@ -12,7 +12,7 @@ import pytest
 import yaml
 from typer.testing import CliRunner
 
-from dem.cli import app
+from dem_cli.app import app
 from postprocess.ensemble import aggregate, realisation_scalars, statistics
 
 
@@ -134,8 +134,8 @@ def test_a_smoke_run_capped_by_max_steps_is_never_taken_for_a_finished_one(tmp_p
     capped smoke run left in the output directory is rerun by the full study.  A run directory
     from before the field existed (no step_limit) counts as uncapped."""
     from dem.case import load_case
-    from dem.commands.ensemble import finished_realisation
-    from dem.commands.sweep import finished_point
+    from dem_cli.commands.ensemble import finished_realisation
+    from dem_cli.commands.sweep import finished_point
     from dem.engine import RESULTS_REVISION
 
     case = load_case(stack_case(tmp_path))
@@ -159,8 +159,8 @@ def test_a_run_of_an_engine_whose_results_moved_is_not_resumed(tmp_path):
     """summary.json records dem.engine.RESULTS_REVISION; a realisation or a point finished by an
     engine of another revision (or before the field existed) is run again, not mixed in."""
     from dem.case import load_case
-    from dem.commands.ensemble import finished_realisation
-    from dem.commands.sweep import finished_point
+    from dem_cli.commands.ensemble import finished_realisation
+    from dem_cli.commands.sweep import finished_point
     from dem.engine import RESULTS_REVISION
 
     case = load_case(stack_case(tmp_path))
@@ -182,8 +182,8 @@ def test_a_signal_stops_dem_sweep_realisations_instead_of_starting_the_next(tmp_
     """A SIGTERM that stops one realisation's sweep must not let ``dem sweep --realisations``
     go on to the next (a study's stop would not stop it): the interrupt ends the loop, exit 1,
     and no ensemble statistics are written from a partial set."""
-    from dem.commands import sweep as cmd
-    from dem.commands.exit_codes import ExitCode
+    from dem_cli.commands import sweep as cmd
+    from dem_cli.commands.exit_codes import ExitCode
     from dem.signals import Interrupted
 
     calls = []

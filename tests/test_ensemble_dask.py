@@ -20,7 +20,7 @@ import pytest
 from tests.test_ensemble import stack_case
 
 DASK = Path(sys.executable).with_name("dask")
-DEM = [sys.executable, "-m", "dem.cli"]
+DEM = [sys.executable, "-m", "dem_cli"]
 
 
 def _free_port() -> int:

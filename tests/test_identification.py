@@ -151,7 +151,7 @@ def test_a_block_on_a_penalty_joint_rocks_at_its_closed_form_frequency(tmp_path,
     7.63 Hz, measured +0.06 % (the sweep to 16 Hz)."""
     from typer.testing import CliRunner
 
-    from dem.cli import app
+    from dem_cli.app import app
     from dem.run import run_case
 
     material, sweep, f_closed = {}, dict(SWEEP), rocking_sliding_frequency()

@@ -201,7 +201,7 @@ def test_dem_check_names_a_bad_identification_field(tmp_path, loading, change, m
     import yaml
     from typer.testing import CliRunner
 
-    from dem.cli import app
+    from dem_cli.app import app
 
     case = {**BLOCK, "loading": {**loading, **change}}
     case["loading"] = {k: v for k, v in case["loading"].items() if v is not None}

@@ -251,7 +251,7 @@ def test_bad_imperfections_exit_2_naming_the_field(tmp_path, field, value, messa
     import yaml
     from typer.testing import CliRunner
 
-    from dem.cli import app
+    from dem_cli.app import app
 
     path = tmp_path / "case.yaml"
     path.write_text(yaml.safe_dump({

@@ -1,4 +1,5 @@
-"""The package's layers point one way (docs/architecture.md): every module
+"""The packages' layers point one way (docs/architecture.md): dem_cli (the command line) ->
+postprocess (the analysis) -> dem (the simulator), with the studies above all; every module
 imports only modules of its own layer or of layers below it, no two modules import each other,
 and no module reaches for another module's private name.  Read from the source (ast), so a lazy
 import inside a function counts as much as one at the top.
@@ -15,11 +16,12 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-PACKAGES = ("dem", "postprocess", "studies")
+#: the packages, lowest first: each imports only itself and those before it
+PACKAGES = ("dem", "postprocess", "dem_cli", "studies")
 
 #: the layers, lowest first
 LAYERS = ("base", "scene", "builders", "case schema", "loads, instruments, outputs", "engine",
-          "run loop", "analysis", "commands and studies")
+          "run loop", "analysis", "commands", "studies")
 
 #: folder -> layer; a module takes the layer of the deepest folder that holds it
 FOLDERS = {
@@ -31,8 +33,9 @@ FOLDERS = {
     "dem/rocking": "run loop",
     "postprocess": "analysis",
     # the one place that joins dem and postprocess: the `dem` command line and its bodies
-    "dem/commands": "commands and studies",
-    "studies": "commands and studies",
+    "dem_cli": "commands",
+    # a study drives many runs through the commands' bodies (dem_cli.commands.sweep.run_sweep)
+    "studies": "studies",
 }
 
 #: the modules directly in dem/ (no folder of their own), by name
@@ -47,7 +50,6 @@ LOOSE = {
     "dem.loading": "loads, instruments, outputs",
     "dem.instruments": "loads, instruments, outputs", "dem.compliance": "loads, instruments, outputs",
     "dem.batch": "run loop", "dem.validate": "run loop",
-    "dem.cli": "commands and studies",
 }
 #: dem/output/atomic.py is below its folder: everything writes files atomically
 EXCEPTIONS = {"dem.output.atomic": "base"}
@@ -149,9 +151,10 @@ def test_layers_come_from_folders_not_from_a_list_of_studies():
     this file's tables."""
     studies = [m for m in MODULES if m.startswith("studies.")]
     assert studies, "no studies/ package"
-    top = LAYERS.index("commands and studies")
+    top = LAYERS.index("studies")
     assert all(layer_of(m, MODULES[m]) == top for m in studies)
-    assert not [m for m in (*LOOSE, *EXCEPTIONS) if m.startswith(("studies", "postprocess"))]
+    assert not [m for m in (*LOOSE, *EXCEPTIONS)
+                if m.startswith(("studies", "postprocess", "dem_cli"))]
     assert all(layer_of(m, p) == LAYERS.index("analysis") for m, p in MODULES.items()
                if m.startswith("postprocess."))
 
@@ -167,6 +170,37 @@ def test_imports_point_down(name):
         if theirs is not None and theirs > mine:
             up.append(f"{target} ({LAYERS[theirs]})")
     assert not up, f"{name} ({LAYERS[mine]}) imports a layer above it: {up}"
+
+
+def upward_package_imports(name: str, path: Path) -> list[str]:
+    """The imports of module ``name`` at ``path`` that reach a package after its own in
+    :data:`PACKAGES` (dem importing postprocess or dem_cli, postprocess importing dem_cli ...)."""
+    mine = PACKAGES.index(name.split(".")[0])
+    return sorted(t for t in _imports(name, path) if PACKAGES.index(t.split(".")[0]) > mine)
+
+
+@pytest.mark.parametrize("name", sorted(MODULES))
+def test_packages_point_down(name):
+    """dem imports neither postprocess nor dem_cli, and postprocess does not import dem_cli:
+    checked by package, so the package roots (dem/__init__.py) and an import of a whole package
+    (``import postprocess``), which have no layer of their own, count too."""
+    up = upward_package_imports(name, MODULES[name])
+    assert not up, f"{name} imports a package above its own: {up}"
+
+
+def test_the_package_rule_catches_dem_importing_postprocess(tmp_path):
+    """The rule itself, on a hand-made module of dem: a lazy import of postprocess inside a
+    function, a whole-package import and an import of the command line are each caught; imports
+    of dem itself and of libraries outside the project are not."""
+    src = ("import numpy as np\n"
+           "from dem.run import run_case\n"
+           "import postprocess\n"
+           "def f():\n    from postprocess.tilt import tilt_mechanism\n"
+           "    from dem_cli.commands.exit_codes import ExitCode\n")
+    path = tmp_path / "m.py"
+    path.write_text(src)
+    assert upward_package_imports("dem.fake", path) == [
+        "dem_cli.commands.exit_codes", "postprocess", "postprocess.tilt"]
 
 
 def test_no_two_modules_import_each_other():

@@ -22,7 +22,7 @@ import pytest
 from typer.testing import CliRunner
 
 from dem.case import parse_case
-from dem.cli import app
+from dem_cli.app import app
 from dem.engine.containers import Model
 from dem.engine.pair import PAIR_FIELDS, PairMaterial
 from dem.run.build import joint_law, scene_from_case

@@ -1,6 +1,6 @@
 """studies.prediction.pool (`python -m studies point-pool`): prediction points run in a process pool (no dask) land in the
 directories dem sweep uses, with the case dem sweep would build, so the study takes them as
-finished (dem.commands.sweep.finished_point) and merges them into points.json without a rerun."""
+finished (dem_cli.commands.sweep.finished_point) and merges them into points.json without a rerun."""
 
 from __future__ import annotations
 

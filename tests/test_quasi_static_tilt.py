@@ -135,8 +135,8 @@ def test_dem_post_of_a_quasi_static_run_keeps_its_collapse(tmp_path):
 
     from typer.testing import CliRunner
 
-    from dem.cli import app
-    from dem.commands.run import RUN_ANALYSES
+    from dem_cli.app import app
+    from dem_cli.commands.run import RUN_ANALYSES
 
     run_case(_block_case([0.2, 0.2, 0.1], 0.5, 25.0), tmp_path, analyses=RUN_ANALYSES)
     ran = json.loads((tmp_path / "summary.json").read_text())

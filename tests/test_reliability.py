@@ -24,10 +24,10 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from dem.cli import app
+from dem_cli.app import app
 
 ROOT = Path(__file__).resolve().parents[1]
-DEM = [sys.executable, "-m", "dem.cli"]
+DEM = [sys.executable, "-m", "dem_cli"]
 
 BLOCK = """\
 name: {name}

@@ -14,7 +14,7 @@ from typer.testing import CliRunner
 
 import dem.run.write
 from dem.case import Case, load_case
-from dem.cli import app
+from dem_cli.app import app
 from dem.run import run_case
 from dem.run.resume import RESTART_FILE
 from dem.run.write import RunWriter

@@ -11,8 +11,8 @@ import pytest
 import yaml
 from typer.testing import CliRunner
 
-from dem.cli import app
-from dem.commands.rocking import run_rocking_case_file
+from dem_cli.app import app
+from dem_cli.commands.rocking import run_rocking_case_file
 from dem.rocking.analysis import uplift_threshold
 from dem.rocking.schema import (
     RockingCaseError,

@@ -198,7 +198,7 @@ def test_comoving_housner_impacts_only_dissipate():
 def test_summary_reports_the_thresholds_of_the_chosen_top_contact(tmp_path):
     import yaml
 
-    from dem.commands.rocking import run_rocking_case_file
+    from dem_cli.commands.rocking import run_rocking_case_file
 
     case = {"name": "co-moving", "rocking": {
         "thickness": 0.05, "lower": {"height": 0.175, "mass": 6.72},

@@ -20,7 +20,7 @@ from typer.testing import CliRunner
 from dem import quaternion
 from dem.builders import build_box_model
 from dem.case import parse_case
-from dem.cli import app
+from dem_cli.app import app
 from postprocess import excited as ex
 from postprocess import shake as sh
 from postprocess import signal_analysis as sa
@@ -456,7 +456,7 @@ def test_dem_post_recomputes_a_tilt_run_from_its_frames(tmp_path):
     """A squat block (mu = 0.5) on a table tilting from 25 deg at 2 deg/s slides at
     atan(0.5) = 26.57 deg; dem post replays the collapse detection over frames.npz and must find
     what the run loop found."""
-    from dem.commands.run import RUN_ANALYSES
+    from dem_cli.commands.run import RUN_ANALYSES
     from dem.run import run_case
 
     case = parse_case({

@@ -93,7 +93,7 @@ def test_a_block_that_does_not_move_gives_each_step_the_analysis_of_a_separate_r
     assert [s["pass"] for s in res["steps"]] == ["up", "up"]
     from typer.testing import CliRunner
 
-    from dem.cli import app
+    from dem_cli.app import app
 
     r = CliRunner().invoke(app, ["post", str(tmp_path / "stepped")])
     assert r.exit_code == 0 and "stepped.json: 2 steps: 2 Hz up" in r.output, r.output
@@ -131,7 +131,7 @@ def test_dem_check_names_a_bad_stepped_field(tmp_path, change, message):
     import yaml
     from typer.testing import CliRunner
 
-    from dem.cli import app
+    from dem_cli.app import app
 
     case = _case({"type": "stepped_shake", "peak_acceleration": A_P,
                   "steps": [{"frequency": f, "cycles": n} for f, n in STEPS]}, 2.7).model_dump()
@@ -170,7 +170,7 @@ def test_dem_check_warns_of_an_implausible_stepped_table(tmp_path):
     import yaml
     from typer.testing import CliRunner
 
-    from dem.cli import app
+    from dem_cli.app import app
 
     case = _case({"type": "stepped_shake", "peak_acceleration": 500.0,
                   "steps": [{"frequency": f, "cycles": n} for f, n in STEPS]}, 2.7).model_dump()
@@ -217,7 +217,7 @@ def test_a_stepped_run_is_reported_as_a_shake_is(tmp_path):
     import yaml
     from typer.testing import CliRunner
 
-    from dem.cli import app
+    from dem_cli.app import app
 
     case = _case({"type": "stepped_shake", "peak_acceleration": A_P,
                   "steps": [{"frequency": f, "cycles": n} for f, n in STEPS]}, 2.7)

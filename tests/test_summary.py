@@ -1,7 +1,7 @@
 """``dem summary DIR...`` (a table across runs) on a tilt, a shake, a sweep and an
 ensemble directory (tests/view_runs.py): every number of a row is read back from the files the
-commands wrote (computed here independently of dem/commands/summary.py), the tilt's lambda is the
-sliding closed form, and the CSV carries units in its header."""
+commands wrote (computed here independently of dem_cli/commands/summary.py), the tilt's lambda is
+the sliding closed form, and the CSV carries units in its header."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from dem.cli import app
+from dem_cli.app import app
 
 
 def _json(path):

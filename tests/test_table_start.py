@@ -143,7 +143,7 @@ def test_dem_check_names_a_bad_start_field(tmp_path, loading, message):
     import yaml
     from typer.testing import CliRunner
 
-    from dem.cli import app
+    from dem_cli.app import app
 
     case = _case({"amplitude": A}, 0.1, 0.01).model_dump()
     case["loading"] = {"type": "shake", "direction": [1, 0, 0], "frequency": F, **loading}

@@ -20,7 +20,7 @@ from scipy.spatial.transform import Rotation
 from dem import quaternion
 from dem.builders import Wing, build_facade, build_wall
 from dem.case import BlockSpec, TiltLoading, parse_case
-from dem.commands.run import RUN_ANALYSES, result_line
+from dem_cli.commands.run import RUN_ANALYSES, result_line
 from dem.loading import Tilt
 from dem.output.snapshot import table_to_lab
 from dem.run import run_case

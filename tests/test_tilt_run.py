@@ -6,7 +6,7 @@ import json
 import numpy as np
 
 from dem.case import parse_case
-from dem.commands.run import RUN_ANALYSES
+from dem_cli.commands.run import RUN_ANALYSES
 from dem.run import run_case
 
 

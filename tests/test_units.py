@@ -99,7 +99,7 @@ def test_check_show_defaults_prints_the_case_as_it_runs_with_units(rel):
     from typer.testing import CliRunner
 
     from dem.case import load_case, parse_case
-    from dem.cli import app
+    from dem_cli.app import app
 
     path = Path(__file__).resolve().parents[1] / "cases" / rel
     res = CliRunner().invoke(app, ["check", str(path), "--show-defaults"])

@@ -12,7 +12,7 @@ import pytest
 import yaml
 from typer.testing import CliRunner
 
-from dem.cli import app
+from dem_cli.app import app
 from dem.output.plotting import agg_pyplot
 
 CASES = __import__("pathlib").Path(__file__).resolve().parent.parent / "cases"
@@ -378,7 +378,7 @@ def test_dem_run_does_not_import_what_a_run_does_not_need():
     import subprocess
     import sys
 
-    code = ("import sys, dem.commands.run, dem.validate, dem.run.build; "
+    code = ("import sys, dem_cli.commands.run, dem.validate, dem.run.build; "
             "print(sorted(m for m in ('scipy.stats', 'matplotlib.pyplot', 'dask') "
             "if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
@@ -460,7 +460,7 @@ def test_an_imperfection_error_names_its_own_line_and_an_empty_file_says_empty(t
 
 
 def test_ensemble_progress_lines_are_text_not_dict_reprs():
-    from dem.commands.ensemble import scalar_text
+    from dem_cli.commands.ensemble import scalar_text
 
     text = scalar_text({"status": "ok", "lambda": 0.45123456789012345, "angle_deg": 24.28123,
                         "mechanism": "overturning", "survived": False})
@@ -480,12 +480,12 @@ def test_taichi_start_banner_is_not_printed():
 
 def test_an_unforeseen_exception_ends_in_one_line_and_the_mapped_exit_code():
     """What no command turned into a message still ends without a traceback (exit 1 for a
-    failure, 2 for a ValueError, dem.commands.exit_codes)."""
+    failure, 2 for a ValueError, dem_cli.commands.exit_codes)."""
     import subprocess
     import sys
 
     for exc, code in (("ZeroDivisionError('boom')", 1), ("ValueError('bad')", 2)):
-        src = ("import dem.cli as c, dem.commands.post as p\n"
+        src = ("import dem_cli.app as c, dem_cli.commands.post as p\n"
                f"def fail(d):\n    raise {exc}\n"
                "p.post_command = fail\nc.app(['post', '.'])\n")
         r = subprocess.run([sys.executable, "-c", src], capture_output=True, text=True)
@@ -530,7 +530,7 @@ def test_a_quasi_static_tilts_progress_follows_its_table_angle(tmp_path, monkeyp
 def test_post_of_a_sweep_ensemble_reaggregates_it(tmp_path, monkeypatch):
     """`dem sweep --realisations` directory: each realisation's sweep re-analysed (planted
     here: post_sweep returns the sweep.json as it is), ensemble.json rebuilt from them."""
-    import dem.commands.post as post
+    import dem_cli.commands.post as post
 
     root = tmp_path / "sw"
     root.mkdir()

@@ -12,7 +12,7 @@ import pytest
 import yaml
 from typer.testing import CliRunner
 
-from dem.cli import app
+from dem_cli.app import app
 
 CASES = __import__("pathlib").Path(__file__).resolve().parent.parent / "cases"
 
@@ -453,7 +453,7 @@ def test_post_and_summary_of_a_run_in_progress_say_running_with_pid_and_time(tmp
 def test_runs_of_a_stopped_batch_are_marked_stopped_and_their_locks_released(tmp_path):
     """What the workers of a local cluster leave when the client is stopped: summary.json
     'running' (the last checkpoint) and a run.lock nobody holds."""
-    from dem.commands.sweep import mark_stopped_runs, resume_notes
+    from dem_cli.commands.sweep import mark_stopped_runs, resume_notes
 
     out = tmp_path / "ens"
     out.mkdir()
@@ -516,7 +516,7 @@ def test_a_column_overturning_whole_is_labelled_as_a_column():
 
 
 def test_ensemble_mechanism_counts_are_text():
-    from dem.commands.ensemble import counts_text
+    from dem_cli.commands.ensemble import counts_text
 
     assert counts_text({"B2": 1, "D": 7}) == "7 x D, 1 x B2"
     assert "{" not in counts_text({"overturning of the whole column at its base": 8})
@@ -533,7 +533,7 @@ def test_arch_cuda_without_a_driver_is_one_clean_line():
 
     if cuda_present():
         pytest.skip("a CUDA driver is present here")
-    r = subprocess.run([sys.executable, "-c", "from dem.commands.sweep import batching; "
+    r = subprocess.run([sys.executable, "-c", "from dem_cli.commands.sweep import batching; "
                         "batching(None, 'cuda')"], capture_output=True, text=True)
     assert "libcuda" not in r.stderr and "[W " not in r.stderr, r.stderr
 

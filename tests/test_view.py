@@ -15,7 +15,7 @@ from scipy.spatial.transform import Rotation
 from typer.testing import CliRunner
 
 from dem import quaternion
-from dem.cli import app
+from dem_cli.app import app
 from dem.output import animation
 from dem.output.vtk import block_corners, rotation_angle_deg
 
@@ -132,7 +132,7 @@ def test_magnified_motion_is_the_motion_times_the_factor():
 def test_frame_indices_and_auto_magnification():
     assert animation.frame_indices(100, 5).tolist() == [0, 25, 50, 74, 99]
     assert animation.frame_indices(3, 10).tolist() == [0, 1, 2]
-    from dem.commands.view import auto_magnify
+    from dem_cli.commands.view import auto_magnify
 
     size = np.array([[0.2, 0.2, 0.1]])
     pos = np.zeros((3, 1, 3))

@@ -17,7 +17,7 @@ import pytest
 import yaml
 from typer.testing import CliRunner
 
-from dem.cli import app
+from dem_cli.app import app
 
 TILT = {
     "name": "block-sliding",

@@ -1,5 +1,5 @@
 """What makes two cases the same case, for the records that outlive a code change: a study's
-resume fingerprint, a sweep point's reuse (dem.commands.sweep.finished_run), a restart point
+resume fingerprint, a sweep point's reuse (dem_cli.commands.sweep.finished_run), a restart point
 (dem.run.resume).
 
 A case field added to the schema after runs were recorded, left at the value that reproduces

@@ -31,7 +31,7 @@ import numpy as np
 
 class OutputError(OSError):
     """An output file could not be written (disk full, I/O error, read-only file system): exit
-    code 1 for every command (dem.commands.exit_codes); ``dem.run.OutputError`` is this class.
+    code 1 for every command (dem_cli.commands.exit_codes); ``dem.run.OutputError`` is this class.
     Made as OutputError(errno or None, message); its text is the message, with the errno in
     words after it where there is one (never OSError's "[Errno None] ...")."""
 

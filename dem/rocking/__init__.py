@@ -16,7 +16,7 @@ beams, under a horizontal base acceleration.  Modules:
 * :mod:`dem.table_motion`      the table motion (shared with the DEM: dem.loading.Shake)
 * :mod:`dem.rocking.analysis`   closed forms (Housner limits, thresholds), amplitudes, statistics
 * :mod:`dem.rocking.schema`     the case format; :mod:`dem.rocking.runner` run a case, write its
-  outputs (the ``dem rocking`` command: dem.commands.rocking)
+  outputs (the ``dem rocking`` command: dem_cli.commands.rocking)
 
 Derivation and choices: docs/rocking_model.md; results against the thesis: results/two-body/README.md.
 """

@@ -1,5 +1,5 @@
 """Run a two-body case and write its outputs: the model-level half of ``dem rocking`` (the
-command itself, with its exit codes, is dem.commands.rocking).
+command itself, with its exit codes, is dem_cli.commands.rocking).
 
 Outputs (contract of ../shared/DESIGN.md, extended):
 

@@ -8,7 +8,7 @@
     write   (write.py)    summary.json, frames.npz, instruments.npz, vtk/, final.png, atomically
 
 ``run_case`` (loop.py) strings them together; analyses that read the finished run (the mechanism
-of a tilt) are handed in by the caller (dem.commands), so the loop never imports the analysis.
+of a tilt) are handed in by the caller (dem_cli.commands), so the loop never imports the analysis.
 """
 
 from dem.run.build import scene_from_case

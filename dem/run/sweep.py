@@ -7,7 +7,7 @@
   as in the case files: free motion after the shaking);
 * each point runs into DIR/f<frequency>Hz/ (``point_name``).
 
-The command (dem.commands.sweep) runs them through dem.batch; the analysis of each point and the
+The command (dem_cli.commands.sweep) runs them through dem.batch; the analysis of each point and the
 aggregate are postprocess.sweep's.
 """
 

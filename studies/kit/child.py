@@ -52,8 +52,8 @@ def run_dem(args: list[str], log) -> tuple[int, float, float]:
     """Run ``dem ARGS`` in a child process with DEM_THREADS=1 and this checkout first on the
     path, passing each output line to ``log``.  Returns (exit code, CPU s of the child's process
     tree, wall-clock s)."""
-    cmd = [sys.executable, "-c", "import sys; sys.argv[0] = 'dem'; from dem.cli import app; app()",
-           *args]
+    cmd = [sys.executable, "-c",
+           "import sys; sys.argv[0] = 'dem'; from dem_cli.app import app; app()", *args]
     env = {**os.environ, "DEM_THREADS": "1",
            "PYTHONPATH": os.pathsep.join([str(ROOT), *filter(None, [os.environ.get(
                "PYTHONPATH")])])}

@@ -9,7 +9,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
 #: the folders whose uncommitted changes make a result one that no commit reproduces
-SOURCE_FOLDERS = ("dem", "postprocess", "studies", "cases")
+SOURCE_FOLDERS = ("dem", "dem_cli", "postprocess", "studies", "cases")
 
 
 class NotInGit(ValueError):

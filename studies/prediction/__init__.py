@@ -38,7 +38,7 @@ first, at least 10 realisations per frequency; (4) judge the prediction by the s
   seeds, sweeps, frequencies, cycles) is written before the first run; a later call with
   another frozen commit, parameter set, seeds or cycles refuses (exit 2) rather than mixing.
 * One sweep = one ``dem sweep CASE --realisations 1 --seed S --frequencies F`` per seed S
-  (dem.commands.sweep) in a child process with DEM_THREADS=1, F the frequencies of S that the
+  (dem_cli.commands.sweep) in a child process with DEM_THREADS=1, F the frequencies of S that the
   committed ``<out>/<sweep>/points.json`` does not already hold finished for the same
   fingerprint (case, seeds, frequencies, cycles, step cap, engine results revision); its raw
   runs under ``--runs`` (default ``<out>/runs/``, git-ignored by ``results/*/runs/``).

@@ -12,7 +12,7 @@ Taichi thread, the point's analysis, postprocess.sweep.analyze_point) into the d
 uses, ``<runs>/<sweep>/seed-<S>/f<F>Hz/``.  So a finished point's directory, or just its
 ``summary.json``, ``case.json``, ``analysis.json`` and ``truncated-rows.json`` copied back to the
 study's runs directory, is taken by the next ``python -m studies prediction`` call as finished
-(dem.commands.sweep.finished_point: same case.json, status ok, same results revision) and
+(dem_cli.commands.sweep.finished_point: same case.json, status ok, same results revision) and
 merged into points.json; nothing of points.json is written here.  A point already finished in
 its directory is skipped.
 
@@ -200,7 +200,7 @@ def main(argv=None) -> int:
 
 
 def _pool(args) -> int:
-    from dem.commands.sweep import finished_run
+    from dem_cli.commands.sweep import finished_run
 
     runs = args.runs or Path(args.out) / "runs"
     try:

@@ -5,7 +5,7 @@ groups of Appendix I, compared with the thesis (../shared/REFERENCE.md).
     python -m studies shake --out results/shake --report   # report from sweep.json files
     python -m studies shake --out results/shake --only model-ii-y
 
-Every sweep is ``dem sweep`` (dem.commands.sweep.run_sweep: dask local cluster, one single-threaded
+Every sweep is ``dem sweep`` (dem_cli.commands.sweep.run_sweep: dask local cluster, one single-threaded
 worker per core) on a case of cases/shake/, at the frequencies of its Appendix I group, with
 ``CYCLES`` cycles per point instead of the thesis' 50 (the steady state is reached within a few
 cycles for these responses; 50-cycle runs of Model II are timed separately, benchmarks/RESULTS.md).
@@ -74,7 +74,7 @@ def _case_file(name: str, out: Path) -> Path:
 
 
 def run(out: Path, only: str | None, workers: int | None) -> None:
-    from dem.commands.sweep import run_sweep
+    from dem_cli.commands.sweep import run_sweep
 
     for name, (_, freqs, _) in SWEEPS.items():
         if only and only not in name:

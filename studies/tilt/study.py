@@ -126,7 +126,7 @@ def _record(rec: dict) -> dict:
 def run_all(out: Path, only: str | None, workers: int | None, force: bool = False
             ) -> list[dict]:
     from dem.batch import run_batch
-    from dem.commands.run import RUN_ANALYSES
+    from dem_cli.commands.run import RUN_ANALYSES
     from dem.output.atomic import write_json
 
     runs = build_runs()

@@ -22,7 +22,7 @@ Taichi capped at one thread per worker, or an existing cluster with ``--schedule
   the workers); ``--arch cuda`` runs the engines on a CUDA GPU (an error, before anything runs,
   where Taichi finds none).
 
-The exit code: dem.commands.exit_codes.
+The exit code: dem_cli.commands.exit_codes.
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ import os
 import sys
 from pathlib import Path
 
-from dem.commands.exit_codes import ExitCode, exit_code_for
+from dem_cli.commands.exit_codes import ExitCode, exit_code_for
 from dem.engine import RESULTS_REVISION
 from dem.run.sweep import DEFAULT_MARGIN, SweepInputError, parse_frequencies, sweep_cases
 from postprocess.sweep import (MAIN_QUANTITY, analyze_point, characteristic_text, compact,

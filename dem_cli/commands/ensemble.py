@@ -4,7 +4,7 @@ runs N realisations of a case with imperfections (docs/imperfections.md), seeds 
 (dem.batch: a local dask cluster, or an existing one with ``--scheduler``).
 
 * each realisation runs into DIR/seed-<seed>/ (the case with that seed, named
-  <case>-seed<seed>); a tilt run gets its mechanism (dem.commands.run.RUN_ANALYSES), a shaking
+  <case>-seed<seed>); a tilt run gets its mechanism (dem_cli.commands.run.RUN_ANALYSES), a shaking
   run the sweep's analysis (analysis.json);
 * DIR/ensemble.json holds every realisation's scalar results (lambda, mechanism,
   amplifications, lags, excited bricks, survived) and their statistics (median, 10 % and 90 %
@@ -19,7 +19,7 @@ runs N realisations of a case with imperfections (docs/imperfections.md), seeds 
 * ``--batch K``: the realisations run K to an engine (dem.run.batched, as ``dem sweep
   --batch``), ``--arch cuda`` on a CUDA GPU.
 
-Exit code: 0 all realisations ok, 1 one failed, 2 bad input (dem.commands.exit_codes).
+Exit code: 0 all realisations ok, 1 one failed, 2 bad input (dem_cli.commands.exit_codes).
 """
 
 from __future__ import annotations
@@ -27,8 +27,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from dem.commands.exit_codes import ExitCode, exit_code_for
-from dem.commands.sweep import (batching, finished_run, mark_stopped_runs, points_ok,
+from dem_cli.commands.exit_codes import ExitCode, exit_code_for
+from dem_cli.commands.sweep import (batching, finished_run, mark_stopped_runs, points_ok,
                                 resume_notes, say, workers_text)
 from dem.run.sweep import EnsembleInputError, realisation_cases
 from postprocess.ensemble import aggregate, plot_lambda, realisation_scalars
@@ -37,7 +37,7 @@ from postprocess.ensemble import aggregate, plot_lambda, realisation_scalars
 def finished_realisation(case, out_dir: Path, shake: bool,
                          max_steps: int | None = None) -> dict | None:
     """The record of a realisation whose directory holds a finished run of ``case``
-    (dem.commands.sweep.finished_run), else None."""
+    (dem_cli.commands.sweep.finished_run), else None."""
     summ = finished_run(case, out_dir, max_steps)
     if summ is None:
         return None
@@ -109,7 +109,7 @@ def run_ensemble(case_path, out, realisations: int, seed: int | None = None,
     ``batch``: the realisations K to an engine; ``arch``: "cpu" or "cuda" (dem.batch)."""
     from dem.batch import Drained, drain_file_check, run_batch
     from dem.case import CaseError, ShakeLoading, load_case
-    from dem.commands.run import RUN_ANALYSES
+    from dem_cli.commands.run import RUN_ANALYSES
     from postprocess.sweep import analyze_point
 
     out = Path(out)

@@ -1,5 +1,5 @@
 """Command line: ``dem run | check | sweep | rocking | post``: parses the options and calls the
-command bodies in dem.commands.
+command bodies in dem_cli.commands.
 
 Exit codes (a contract, see ../shared/DESIGN.md): 0 ok, 1 the run failed (or was stopped by
 a signal, or its output could not be written), 2 bad input (case file, options, --out); what
@@ -15,7 +15,7 @@ import typer
 
 class _DemApp(typer.Typer):
     """The ``dem`` program: an exception no command turned into a message (a bug, or a failure
-    nobody foresaw) ends in one line and the exit code of dem.commands.exit_codes.exit_code_for,
+    nobody foresaw) ends in one line and the exit code of dem_cli.commands.exit_codes.exit_code_for,
     not a traceback (a user cannot act on a 34-line traceback); ``DEM_TRACEBACK=1`` shows the traceback."""
 
     def __call__(self, *args, **kwargs):
@@ -27,7 +27,7 @@ class _DemApp(typer.Typer):
         except Exception as err:  # noqa: BLE001 - the one place that maps what was missed
             if os.environ.get("DEM_TRACEBACK"):
                 raise
-            from dem.commands.exit_codes import exit_code_for
+            from dem_cli.commands.exit_codes import exit_code_for
 
             print(f"error: {type(err).__name__}: {err} (unexpected: please report it; "
                   f"DEM_TRACEBACK=1 shows where)", file=sys.stderr)
@@ -40,7 +40,7 @@ app = _DemApp(
     help="Rigid-block DEM of dry masonry on a tilting or shaking table.",
 )
 
-from dem.commands.exit_codes import ExitCode
+from dem_cli.commands.exit_codes import ExitCode
 
 MAX_BLOCKS_HELP = "refuse scenes above this many blocks (default 20000, or DEM_MAX_BLOCKS)"
 BATCH_HELP = ("run the runs K to an engine: K scenes side by side in one process and one kernel "
@@ -107,7 +107,7 @@ def check(
     print block count, mass, bounding box, time step and size.  A two-body case (``rocking:``)
     is checked against the two-body schema.  Exit 0 ok, 2 bad input."""
     if _is_rocking_file(case):
-        from dem.commands.rocking import load_checked
+        from dem_cli.commands.rocking import load_checked
 
         rc = load_checked(case, _err)
         if rc is None:
@@ -126,7 +126,7 @@ def check(
     typer.echo(f"{case}: ok: '{c.name}', loading {c.loading.type}\n{checked.report.format()}\n"
                f"{checked.size_line()}", err=show_defaults)
     if show_defaults:
-        from dem.commands.defaults import resolved_case_yaml
+        from dem_cli.commands.defaults import resolved_case_yaml
 
         typer.echo(resolved_case_yaml(c), nl=False)
 
@@ -142,7 +142,7 @@ def schema(
 ) -> None:
     """Export the JSON schema of case files (for editor completion and validation).
     Exit 0 ok, 2 --out cannot be written."""
-    from dem.commands.exit_codes import write_output_file
+    from dem_cli.commands.exit_codes import write_output_file
 
     if rocking:
         from dem.rocking.schema import rocking_case_json_schema as make
@@ -177,14 +177,14 @@ def run(
     if _is_rocking_file(case):
         _err(f"{case}: a two-body rocking case: running the two-body model (dem rocking)")
         raise typer.Exit(_rocking(case, out, True, force))
-    from dem.commands.run import run_case_file
+    from dem_cli.commands.run import run_case_file
 
     raise typer.Exit(run_case_file(case, out, progress=progress, force=force,
                                    max_blocks=max_blocks, resume=resume))
 
 
 def _rocking(case: Path, out: Path, plots: bool, force: bool) -> int:
-    from dem.commands.rocking import rocking_command
+    from dem_cli.commands.rocking import rocking_command
 
     return rocking_command(case, out, plots=plots, force=force, echo=typer.echo, err=_err)
 
@@ -232,7 +232,7 @@ def sweep(
     SIGTERM stop at once and lose them; a rerun resumes either way).
     Exit 0 all points ok, 1 a point failed or the sweep was stopped or drained, 2 bad input."""
     from dem.batch import DRAIN_FILE, clear_drain_file
-    from dem.commands.sweep import run_sweep, say
+    from dem_cli.commands.sweep import run_sweep, say
 
     drain_file = drain_file if drain_file is not None else out / DRAIN_FILE
     clear_drain_file(drain_file, say)
@@ -261,7 +261,7 @@ def ensemble(
     mechanism counts).  A rerun skips finished realisations.  Exit 0 all ok, 1 one failed,
     2 bad input.  ``touch OUT/DRAIN`` ends it without losing the realisations in flight."""
     from dem.batch import DRAIN_FILE, clear_drain_file
-    from dem.commands.ensemble import run_ensemble, say
+    from dem_cli.commands.ensemble import run_ensemble, say
 
     drain_file = drain_file if drain_file is not None else out / DRAIN_FILE
     clear_drain_file(drain_file, say)
@@ -279,7 +279,7 @@ def post(
     sweep.json and sweep.png re-aggregated) or of an ensemble directory (every realisation
     re-read, ensemble.json and lambda.png re-aggregated).  Anything else is named in one line.
     Exit 0 ok, 1 a point or realisation failed, 2 bad input."""
-    from dem.commands.post import post_command
+    from dem_cli.commands.post import post_command
 
     raise typer.Exit(post_command(directory))
 
@@ -296,7 +296,7 @@ def summary(
     mechanism, wall and CPU seconds (a sweep's or an ensemble's: the sums over its runs); read
     from the files the runs wrote.  Exit 0, or 2 when a directory is none of those (1 when
     --csv cannot be written for a fault of the disk)."""
-    from dem.commands.summary import summary_command
+    from dem_cli.commands.summary import summary_command
 
     raise typer.Exit(summary_command(directories, csv_file, fmt, echo=typer.echo, err=_err))
 
@@ -323,7 +323,7 @@ def view(
     from frames.npz (blocks coloured by their displacement; a tilt drawn on its turning table, a
     shake on its moving table).  Given a sweep or an ensemble, draws one of its runs and says
     which (--point for another).  Exit 0 written, 1 a drawing failed, 2 bad input."""
-    from dem.commands.view import view_command
+    from dem_cli.commands.view import view_command
 
     raise typer.Exit(view_command(directory, out, point, frames, fps, panels, fmt, magnify,
                                   echo=typer.echo, err=_err))

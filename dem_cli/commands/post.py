@@ -10,11 +10,11 @@
   ensemble.json / lambda.png rewritten;
 * an ensemble of sweeps (``dem sweep --realisations``): every realisation's sweep re-analysed,
   ensemble.json and amplification_band.png re-aggregated
-  (dem.commands.sweep.aggregate_sweep_realisations);
+  (dem_cli.commands.sweep.aggregate_sweep_realisations);
 * a two-body rocking run: nothing to do (``dem rocking`` writes its analysis);
 * anything else: one line saying what DIR is, exit 2.
 
-The exit code: dem.commands.exit_codes.
+The exit code: dem_cli.commands.exit_codes.
 """
 
 from __future__ import annotations
@@ -22,8 +22,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from dem.commands.exit_codes import ExitCode, exit_code_for
-from dem.commands.sweep import say
+from dem_cli.commands.exit_codes import ExitCode, exit_code_for
+from dem_cli.commands.sweep import say
 from dem.run.sweep import SweepInputError
 from postprocess.sweep import characteristic_text, finite, is_sweep_dir, post_sweep
 
@@ -231,8 +231,8 @@ def realisation_record(run_dir: Path, shake: bool) -> dict:
 
 def post_ensemble(path: Path) -> int:
     """Re-read every realisation of a ``dem ensemble`` directory, re-aggregate ensemble.json
-    (postprocess.ensemble through dem.commands.ensemble.write_ensemble) and lambda.png."""
-    from dem.commands.ensemble import write_ensemble
+    (postprocess.ensemble through dem_cli.commands.ensemble.write_ensemble) and lambda.png."""
+    from dem_cli.commands.ensemble import write_ensemble
 
     old = _read_json(path / "ensemble.json") or {}
     rows = old.get("realisations") or []
@@ -270,7 +270,7 @@ def post_sweep_ensemble(path: Path) -> int:
         n_failed += failed
         say(f"{d}/sweep.json: {len(data['points'])} points, {failed} failed; "
             f"{characteristic_text(data['aggregate'])}")
-    from dem.commands.sweep import aggregate_sweep_realisations
+    from dem_cli.commands.sweep import aggregate_sweep_realisations
 
     seeds = [r.get("seed") for r in old.get("realisations") or [] if isinstance(r, dict)
              and "name" in r]

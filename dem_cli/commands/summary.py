@@ -1,7 +1,7 @@
 """``dem summary DIR...``: one row per run, sweep or ensemble directory, read from the files the
 commands wrote (nothing is recomputed), as a table on screen or as CSV (``--csv FILE``).
 
-What a row holds, by what the directory is (dem.commands.post.directory_kind):
+What a row holds, by what the directory is (dem_cli.commands.post.directory_kind):
 
 =================  ==========================================================================
 column (unit)      where it comes from
@@ -47,7 +47,7 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from dem.commands.exit_codes import ExitCode
+from dem_cli.commands.exit_codes import ExitCode
 
 # (key, header, unit) of the columns, in order; the unit goes into the CSV header
 COLUMNS: tuple[tuple[str, str, str], ...] = (
@@ -104,7 +104,7 @@ def _sum(values) -> float | None:
 def run_row(path: Path) -> dict:
     """The row of one run directory (summary.json, and analysis.json of a shake run)."""
     s = _json(path / "summary.json")
-    from dem.commands.post import run_state
+    from dem_cli.commands.post import run_state
 
     state = run_state(path)
     if s is None:
@@ -242,7 +242,7 @@ def rocking_row(path: Path) -> dict:
 def directory_row(path) -> dict:
     """The row of one directory (a run, a sweep, an ensemble, a sweep ensemble, a two-body
     run); raises SummaryError for anything else."""
-    from dem.commands.post import directory_kind
+    from dem_cli.commands.post import directory_kind
 
     path = Path(path)
     if not path.is_dir():
@@ -340,7 +340,7 @@ def summary_command(paths: list[Path], csv_path: Path | None = None,
         else:
             print_table(rows)
         if csv_path is not None:
-            from dem.commands.exit_codes import write_output_file
+            from dem_cli.commands.exit_codes import write_output_file
 
             code = write_output_file(Path(csv_path), to_csv(rows), err, err, option="--csv")
             if code != ExitCode.OK:

@@ -2,7 +2,7 @@
 of a tilt run (lean.png, postprocess.tilt.plot_lean, as ``dem post`` does), print the result
 line.  The analyses a run gets in its summary.json (the mechanism of a tilt) are chosen
 here (``RUN_ANALYSES``), so the run loop never imports the analysis.  Exit codes:
-dem.commands.exit_codes; what each failure prints and keeps: docs/failures.md.
+dem_cli.commands.exit_codes; what each failure prints and keeps: docs/failures.md.
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dem.commands.exit_codes import ExitCode, exit_code_for
+from dem_cli.commands.exit_codes import ExitCode, exit_code_for
 from dem.run import OutputError, run_case
 from postprocess.decisive import decisive_numbers
 from postprocess.lone_block import reference_limit

@@ -1,6 +1,6 @@
 """``dem rocking CASE.yaml --out DIR``: load a two-body case, run the model, write its outputs,
 print the result line.  The model-level run and writers are dem.rocking.runner; the outputs are
-listed there.  Exit codes (dem.commands.exit_codes): 0 ok (also when the wall collapses: that is
+listed there.  Exit codes (dem_cli.commands.exit_codes): 0 ok (also when the wall collapses: that is
 a result), 1 the integration failed (what was computed is written, the message says where and
 why), 2 bad input.
 """
@@ -10,7 +10,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from dem.commands.exit_codes import ExitCode, exit_code_for
+from dem_cli.commands.exit_codes import ExitCode, exit_code_for
 from dem.rocking.runner import run_rocking_case, write_outputs
 from dem.rocking.schema import RockingCaseError, load_rocking_case, rocking_plausibility
 

@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dem.commands.exit_codes import ExitCode
+from dem_cli.commands.exit_codes import ExitCode
 
 FORMATS = ("gif", "mp4")
 
@@ -107,7 +107,7 @@ def pick_realisation(path: Path, point: str | None) -> tuple[Path, str]:
 def pick_run(path: Path, point: str | None) -> tuple[Path, str | None]:
     """The run directory to draw from DIR (a run, a sweep, an ensemble, a sweep ensemble) and
     why that one (None: DIR is a run)."""
-    from dem.commands.post import directory_kind
+    from dem_cli.commands.post import directory_kind
 
     if not path.is_dir():
         raise ViewError(f"{path}: not a directory")
@@ -180,7 +180,7 @@ def view_command(path, out=None, point: str | None = None, frames: int = 40, fps
     if why is not None:
         echo(f"{path}: drawing {run_dir.name}: {why}")
     out = Path(out) if out is not None else run_dir
-    from dem.commands.exit_codes import os_error_code, os_error_text, writable_directory
+    from dem_cli.commands.exit_codes import os_error_code, os_error_text, writable_directory
 
     why_not = writable_directory(out, "--out" if out != run_dir else "the run directory")
     if why_not is not None:  # before anything is drawn: one line, nothing half-written
