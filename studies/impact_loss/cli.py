@@ -124,7 +124,8 @@ def run(out: Path = typer.Option(Path("results/impact-loss")),
 
 def main(argv: list[str] | None = None) -> int:
     try:
-        app(args=list(sys.argv[1:] if argv is None else argv), standalone_mode=False)
+        app(args=list(sys.argv[1:] if argv is None else argv), prog_name="python -m studies impact-loss",
+            standalone_mode=False)
     except typer.Exit as e:
         return e.exit_code
     return 0
