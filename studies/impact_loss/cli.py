@@ -9,12 +9,12 @@ existing summary.json).
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 
 import typer
 
 from studies.impact_loss.runs import LAWS, material, rocking_block
+from studies.kit import cli
 
 SLENDERNESS = (2.0, 3.0, 4.0, 5.0, 6.0, 8.0)   # h/b
 WIDTHS = (0.05, 0.2)   # m: the size check at h/b = 4 (the sweep's blocks are 0.1 m wide)
@@ -26,7 +26,7 @@ LABELS = {"critical": "critical: 0.5 of critical, released per point (today's de
           "pair": "pair: 0.75 of critical, the pair's no-tension rule",
           "stiffness": "stiffness: beta = 0.75 ms, the pair's rule"}
 
-app = typer.Typer(add_completion=False)
+app = cli.study_app()
 
 
 def _line(r: dict) -> str:
@@ -106,9 +106,11 @@ def plot(summary: dict, path: Path) -> None:
     fig.savefig(path, dpi=120)
 
 
-@app.command()
-def run(out: Path = typer.Option(Path("results/impact-loss")),
-        table_only: bool = typer.Option(False, "--table")) -> None:
+@app.command(help=cli.text(__doc__))
+def run(out: Path = typer.Option(Path("results/impact-loss"), help="folder of summary.json, "
+                                 "impact-loss.png"),
+        table_only: bool = typer.Option(False, "--table", help="only the table and the plot, "
+                                        "from an existing summary.json")) -> None:
     out.mkdir(parents=True, exist_ok=True)
     path = out / "summary.json"
     if table_only:  # the table, and the plot redrawn, from the summary
@@ -123,9 +125,5 @@ def run(out: Path = typer.Option(Path("results/impact-loss")),
 
 
 def main(argv: list[str] | None = None) -> int:
-    try:
-        app(args=list(sys.argv[1:] if argv is None else argv), prog_name="python -m studies impact-loss",
-            standalone_mode=False)
-    except typer.Exit as e:
-        return e.exit_code
-    return 0
+    """``python -m studies impact-loss ARGV``; returns the exit code."""
+    return cli.run(app, argv, "impact-loss")
