@@ -54,7 +54,6 @@ VARIANTS = (  # the longest to compile first (run_parts starts them in this orde
     dict(mode="serial", device=True),
     dict(mode="parallel"),
     dict(mode="parallel", scenes=2),
-    dict(mode="parallel", imperfect=True),
     dict(mode="parallel", scenes=2, device=True),
 )
 
