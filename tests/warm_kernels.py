@@ -10,7 +10,7 @@ share of :data:`VARIANTS` and exits, which writes the cache); the workers then l
 from the cache (LLVM's code generation of the cached IR, ~1.4 CPU-s a kernel per process,
 benchmarks/RESULTS.md "Start-up of a short run").
 
-Each variant is the smallest scene that reaches it (two or four small bricks), built as the run
+Each variant is the smallest scene that reaches it (a one-brick wall of two courses), built as the run
 builds a case (dem.run.build) and stepped once: the build compiles the stepping kernel (its
 recording launch), probe_contacts and elastic_energy; the step compiles the overlap-reuse
 variant (switched on after the build).  A stamp file in Taichi's cache directory records the
@@ -37,7 +37,10 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 
-# the variants the default tests reach: (name, case overrides, engine options).  Fields:
+# the variants the default tests reach (checked by comparing the kernel files of a default run
+# on an empty private cache, TI_OFFLINE_CACHE_FILE_PATH, with those of this warm-up: a variant
+# here that no test reaches costs a compile for nothing; one missing is compiled by the worker
+# that needs it, as before).  Fields:
 # mode "serial" | "parallel" (solver.mode), imperfect (warped faces: bed unevenness),
 # overlap (solver.overlap_reuse > 0, warped only), law "linear" | "hyperbolic",
 # damping "critical" | "pair" (the pair-damped normal law), scenes (> 1: the batched kernel),
