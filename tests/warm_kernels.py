@@ -25,12 +25,14 @@ from __future__ import annotations
 
 import argparse
 import hashlib
+import importlib.metadata
 import json
 import os
 import subprocess
 import sys
 import tempfile
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -120,7 +122,10 @@ def cache_dir() -> Path | None:
     path = os.environ.get("TI_OFFLINE_CACHE_FILE_PATH")
     if not path:
         import dem  # noqa: F401 - first: it turns Taichi's import banner off
-        from taichi.lang import impl
+
+        with warnings.catch_warnings():  # Taichi's import warns (locale) outside pytest's capture
+            warnings.simplefilter("ignore")
+            from taichi.lang import impl
 
         path = impl.default_cfg().offline_cache_file_path
     return Path(path)
@@ -129,9 +134,6 @@ def cache_dir() -> Path | None:
 def fingerprint() -> str:
     """A hash of the kernels' sources, the variants, Taichi's version and the Taichi
     settings read from the environment."""
-    import dem  # noqa: F401 - first: it turns Taichi's import banner off
-    import taichi
-
     h = hashlib.sha256()
     for entry in SOURCES:
         p = ROOT / entry
@@ -139,7 +141,7 @@ def fingerprint() -> str:
             h.update(f.relative_to(ROOT).as_posix().encode())
             h.update(f.read_bytes())
     h.update(repr(VARIANTS).encode())
-    h.update(repr(getattr(taichi, "__version__", None)).encode())
+    h.update(importlib.metadata.version("taichi").encode())
     env = sorted((k, v) for k, v in os.environ.items()
                  if k.startswith(("TI_", "DEM_ARCH", "DEM_TI_")))
     h.update(repr(env).encode())
