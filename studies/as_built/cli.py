@@ -16,7 +16,9 @@ def as_built() -> None:
 
 @app.command()
 def grid(keys: list[str] = typer.Argument(..., help="experiments to run together, seed by seed: "
-                                          "corner-bound-model-ii-y, corner-bound-model-iii-y"),
+                                          "corner-bound-model-ii-y, corner-bound-model-iii-y, "
+                                          "loose-corners-model-ii-y, loose-corners-model-i-y, "
+                                          "loose-corners-model-i-y-12mm"),
          workers: int = typer.Option(1, help="dem sweep workers (one single-threaded run each)"),
          stop_at: str = typer.Option(None, help="UTC HH:MM after which no new sweep starts"),
          report: bool = typer.Option(False, "--report", help="only rebuild the reports (the rows "
