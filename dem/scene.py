@@ -87,6 +87,16 @@ class Scene:
         if bad.size:
             raise ValueError(f"block {bad[0]}: mass must be > 0, got {self.mass[bad[0]]}")
 
+    def copy(self) -> "Scene":
+        """A deep copy: every array and list copied, nothing shared with this scene."""
+        return Scene(size=self.size.copy(), position=self.position.copy(), quat=self.quat.copy(),
+                     mass=self.mass.copy(), fixed=self.fixed.copy(),
+                     velocity=self.velocity.copy(), angular_velocity=self.angular_velocity.copy(),
+                     group=self.group.copy(), course=self.course.copy(),
+                     group_names=list(self.group_names), layout=dict(self.layout),
+                     face_offset=self.face_offset.copy(), arris=self.arris.copy(),
+                     material=self.material.copy(), material_names=list(self.material_names))
+
     @property
     def n_blocks(self) -> int:
         return len(self.size)

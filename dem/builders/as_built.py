@@ -36,16 +36,6 @@ from dem.scene import Scene
 EPS = 1e-9  # m: faces closer than this touch
 
 
-def _copy(scene: Scene) -> Scene:
-    return Scene(size=scene.size.copy(), position=scene.position.copy(), quat=scene.quat.copy(),
-                 mass=scene.mass.copy(), fixed=scene.fixed.copy(),
-                 velocity=scene.velocity.copy(), angular_velocity=scene.angular_velocity.copy(),
-                 group=scene.group.copy(), course=scene.course.copy(),
-                 group_names=list(scene.group_names), layout=dict(scene.layout),
-                 face_offset=scene.face_offset.copy(), arris=scene.arris.copy(),
-                 material=scene.material.copy(), material_names=list(scene.material_names))
-
-
 def wall_axes(scene: Scene) -> dict[int, int]:
     """{group index: axis along the wall (0 = x, 1 = y)} of the groups with bricks in courses."""
     lo = scene.position - 0.5 * scene.size
@@ -109,7 +99,7 @@ def corner_ends(scene: Scene, reach: float) -> list[tuple[int, int, int]]:
 def cut_ends(scene: Scene, cuts: list[tuple[int, int, int, float]]) -> Scene:
     """A new scene with block b shortened by ``g`` (m) at its end ``side`` (+1: the +axis end)
     along ``axis``, for each (b, axis, side, g); mass follows the volume."""
-    out = _copy(scene)
+    out = scene.copy()
     lo = out.position - 0.5 * out.size
     hi = out.position + 0.5 * out.size
     for b, ax, side, g in cuts:
@@ -150,7 +140,7 @@ def shift_courses(scene: Scene, offsets: np.ndarray, yaw: int = 0) -> Scene:
     course's offset."""
     c, s = round(math.cos(math.radians(yaw)), 12), round(math.sin(math.radians(yaw)), 12)
     table = offsets @ np.array([[c, s], [-s, c]])  # rows: (c x - s y, s x + c y)
-    out = _copy(scene)
+    out = scene.copy()
     k = np.where(scene.course >= 0, scene.course, len(offsets) - 1)
     out.position[:, :2] += np.where(scene.fixed[:, None], 0.0, table[k])
     return out

@@ -44,13 +44,7 @@ def scatter_sizes(scene: Scene, sigma, rng: np.random.Generator) -> Scene:
     from dem.imperfections import truncated_normal
 
     sigma = np.asarray(sigma, dtype=np.float64)
-    out = Scene(size=scene.size.copy(), position=scene.position.copy(), quat=scene.quat.copy(),
-                mass=scene.mass.copy(), fixed=scene.fixed.copy(),
-                velocity=scene.velocity.copy(), angular_velocity=scene.angular_velocity.copy(),
-                group=scene.group.copy(), course=scene.course.copy(),
-                group_names=list(scene.group_names), layout=dict(scene.layout),
-                face_offset=scene.face_offset.copy(), arris=scene.arris.copy(),
-                material=scene.material.copy(), material_names=list(scene.material_names))
+    out = scene.copy()
     if not (sigma > 0).any():
         return out
     n = scene.n_blocks
