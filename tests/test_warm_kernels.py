@@ -1,0 +1,35 @@
+"""The kernels' warm-up (tests/warm_kernels.py, run by tests/conftest.py before the workers):
+each variant's case asks for what the variant names, and the stamp makes it a no-op only while
+it matches the current kernels' sources and settings."""
+
+import json
+
+import pytest
+
+from tests import warm_kernels as wk
+
+
+@pytest.mark.parametrize("v", wk.VARIANTS, ids=wk.describe)
+def test_each_variant_case_asks_for_what_the_variant_names(v):
+    case = wk.case_of(v)
+    assert case.solver.mode == v["mode"]
+    assert case.material.normal_law == v.get("law", "linear")
+    assert case.material.normal_damping == v.get("damping", "critical")
+    assert (case.solver.overlap_reuse > 0) == bool(v.get("overlap"))
+    assert (case.imperfections.bed_unevenness > 0) == bool(v.get("imperfect"))
+
+
+def test_the_stamp_skips_the_warm_up_only_for_the_current_kernels(tmp_path, monkeypatch):
+    monkeypatch.setenv("TI_OFFLINE_CACHE_FILE_PATH", str(tmp_path))
+    monkeypatch.delenv("TI_OFFLINE_CACHE", raising=False)
+    assert wk.needed()                                   # an empty cache
+    stamp = tmp_path / wk.STAMP
+    stamp.write_text(json.dumps({"fingerprint": wk.fingerprint()}))
+    assert not wk.needed()                               # the current kernels
+    monkeypatch.setenv("TI_DEBUG", "1")                  # a Taichi setting changes the kernels
+    assert wk.needed()
+    monkeypatch.delenv("TI_DEBUG")
+    stamp.write_text("not json")
+    assert wk.needed()
+    monkeypatch.setenv("TI_OFFLINE_CACHE", "0")          # no cache: nothing to warm
+    assert not wk.needed()
