@@ -19,7 +19,9 @@ The velocity jump to A w at t = 0 is not applied as an impulse: the blocks, in t
 feel only -m a(t) (``start: table-frame``, the default).  ``start: lab`` applies it: at t = 0
 every free block takes the velocity -A w d relative to the table (:meth:`Loading.
 initial_relative_velocity`, applied once after settling by dem.run.table_start); ``start: ramp``
-raises the amplitude smoothly so that there is no jump (dem.table_motion).
+raises the amplitude smoothly so that there is no jump (dem.table_motion).  ``distortion`` adds
+the table's own third harmonic and reversal spikes to the sine
+(dem.table_motion.DistortedSineMotion).
 Stepped shake (SteppedShake): the frequency steps through a list on one specimen
 (dem.table_motion.SteppedSineMotion), base quantities along d as for the shake.  Sine sweep
 (Sweep) and band-limited white noise (Noise): dem.table_motion.SweepMotion / NoiseMotion along
@@ -35,7 +37,7 @@ from scipy.spatial.transform import Rotation
 
 from dem.case import (Case, NoiseLoading, NoLoading, RecordLoading, ShakeLoading,
                       SteppedShakeLoading, SweepLoading, TiltLoading)
-from dem.table_motion import SineMotion
+from dem.table_motion import DistortedSineMotion, SineMotion
 
 AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "-x": (-1.0, 0.0, 0.0), "-y": (0.0, -1.0, 0.0)}
 
@@ -158,17 +160,23 @@ class Shake(Loading):
     kind = "shake"
 
     def __init__(self, g0, direction, frequency: float, amplitude: float, cycles: float,
-                 start: str = "table-frame", ramp_cycles: float | None = None):
+                 start: str = "table-frame", ramp_cycles: float | None = None,
+                 distortion: dict | None = None):
         super().__init__(g0)
         self.direction = np.asarray(direction, dtype=float)
-        self.motion = SineMotion(amplitude, frequency, cycles, start, ramp_cycles)
+        if distortion:   # the table's waveform (keyword arguments of DistortedSineMotion)
+            self.motion = DistortedSineMotion(amplitude, frequency, cycles, start, ramp_cycles,
+                                              **distortion)
+        else:
+            self.motion = SineMotion(amplitude, frequency, cycles, start, ramp_cycles)
 
     def initial_relative_velocity(self) -> np.ndarray:
         """-v_jump d, m/s: v_jump = A w for a ``lab`` start (dem.table_motion), else 0."""
         return -self.motion.velocity_jump * self.direction
 
     def records_table_velocity(self) -> bool:
-        return self.motion.start != "table-frame" or isinstance(self, SteppedShake)
+        return self.motion.start != "table-frame" or isinstance(self, SteppedShake) or \
+            isinstance(self.motion, DistortedSineMotion)
 
     @property
     def t_end(self) -> float:
@@ -290,7 +298,7 @@ def loading_from_case(case: Case) -> Loading:
                     ld.start_time)
     if isinstance(ld, ShakeLoading):
         return Shake(g0, ld.direction, ld.frequency, ld.displacement_amplitude, ld.cycles,
-                     ld.start, ld.ramp_cycles)
+                     ld.start, ld.ramp_cycles, ld.distortion_arguments())
     if isinstance(ld, SteppedShakeLoading):
         return SteppedShake(g0, ld.direction, ld.motion())
     if isinstance(ld, SweepLoading):

@@ -45,10 +45,12 @@ How the table starts (``start``; the case field ``loading.start``):
   acceleration during the ramp may exceed A w^2 by a little (the 2 w e' cos term:
   |2 e' / w| <= 15 / (8 pi n_r) of A w^2).  The ramp's cycles count among ``cycles``.
 
-:class:`SteppedSineMotion` steps the frequency through a list on one
-specimen without stopping; its docstring says how the steps join.  :class:`SweepMotion` (a sine
-sweep) and :class:`NoiseMotion` (band-limited white noise) drive a model's identification
-(docs/identification.md); both start and end at rest.
+:class:`DistortedSineMotion` plays the sine as a servo-hydraulic table might, with a third
+harmonic and a spike at every velocity reversal (``loading.distortion``); its docstring
+derives the displacement and velocity.  :class:`SteppedSineMotion` steps the frequency through
+a list on one specimen without stopping; its docstring says how the steps join.
+:class:`SweepMotion` (a sine sweep) and :class:`NoiseMotion` (band-limited white noise) drive
+a model's identification (docs/identification.md); both start and end at rest.
 
 :class:`TableMotion` is the table at rest (the base of the interface), :class:`SineMotion` the
 shake.  ``displacement``, ``velocity`` and ``acceleration`` take arrays of times;
@@ -460,6 +462,190 @@ class _GridBreakpoints:
 
     def acceleration_at(self, t: float) -> float:
         return float(self.acceleration(np.array([float(t)]))[0])
+
+
+class DistortedSineMotion(SineMotion):
+    """A sine shake as a servo-hydraulic table plays it: the commanded sine plus a third
+    harmonic and a spike at every velocity reversal (the case's ``loading.distortion``).
+
+    A table driven by a displacement command adds harmonics of its own (the servo valve's and
+    the oil column's nonlinearity) and a short acceleration spike where the velocity reverses
+    (the valve's spool crossing its lap, the friction of the actuator's seals changing sign);
+    their size is rarely reported with a test.  This motion bounds what such a distortion can do
+    to a rigid-block response; its sizes are inputs, not measurements.
+
+    Nominal motion (:class:`SineMotion`, w = 2 pi f, a_p = A w^2): u0 = A sin(w t),
+    a0 = -a_p sin(w t).  Added to it, for 0 <= t < T (T = cycles / f):
+
+    * the third harmonic of relative size h (-), in the phase that sharpens the peaks:
+
+          a_h = +h a_p sin(3 w t)         so  a0 + a_h = -a_p [sin(w t) - h sin(3 w t)],
+          v_h = -(h A w / 3) cos(3 w t),   u_h = -(h A / 9) sin(3 w t)
+
+      (the integrals without constants: periodic, zero mean, u_h(0) = 0, as the fundamental's
+      A sin(w t) is).  With x = sin(w t), sin(w t) - h sin(3 w t) = (1 - 3 h) x + 4 h x^3, which
+      rises monotonically over x in [-1, 1] for h >= 0: the peak acceleration is a_p (1 + h),
+      at the fundamental's own peaks (w t = pi/2 + k pi, where sin(3 w t) = -sin(w t));
+
+    * a reversal spike of relative peak s (-) and duration tau (s): at every velocity reversal
+      of the nominal motion, t_k = (pi/2 + k pi) / w (k = 0, 1, ...; the displacement extremes),
+      a half-sine pulse of the acceleration starting at t_k, in the direction of the nominal
+      acceleration there (sigma_k = -sin(w t_k) = -(-1)^k), so that it adds to the peak:
+
+          a_s(t) = sigma_k s a_p sin(pi (t - t_k) / tau)    for t_k <= t < t_k + tau, else 0.
+
+      Each pulse changes the velocity by sigma_k delta, delta = 2 s a_p tau / pi; the pulses
+      alternate in sign, so the velocity is a square wave of +-delta / 2 with half-cosine edges.
+      With P(r) = s a_p (tau / pi) (1 - cos(pi r / tau)) (r <= tau; delta beyond) and
+      Q(r) = s a_p (tau / pi) (r - (tau / pi) sin(pi r / tau)) (r <= tau;
+      delta tau / 2 + delta (r - tau) beyond) its integrals from the pulse's start, and
+      r = t - t_k for the last reversal t_k <= t:
+
+          v_s(t) = delta / 2                               for t < t_0 = T_1 / 4,
+          v_s(t) = sigma_k (P(r) - delta / 2)              after t_k,
+          u_s(t) = delta t / 2                             for t < t_0,
+          u_s(t) = u_s(t_k) + sigma_k (Q(r) - delta r / 2) after t_k,
+          u_s(t_k) = delta T_1 / 8 (k even),  -delta T_1 / 8 + delta tau / 2 (k odd)
+
+      (T_1 = 1 / f).  The constants are those that keep the table where a sine keeps it: the
+      velocity of zero mean over every period (a bounded displacement, as the fundamental's
+      start at velocity A w gives: dem.table_motion's module docstring) and u_s(0) = 0 (the
+      displacement starts at 0, so a ``lab`` start has no displacement jump); u_s is then
+      periodic with period T_1.  The pulses must not overlap: tau <= T_1 / 2.
+
+    ``start`` applies to the whole distorted motion as to the sine: ``table-frame`` starts
+    with the velocity v(0) = A w (1 - h / 3) + delta / 2 without telling the bodies; ``lab``
+    makes them take minus that (:attr:`velocity_jump`); ``ramp`` multiplies the distortion's
+    displacement d = u_h + u_s by the ramp's envelope e(t) as it does the sine's, so its
+    velocity and acceleration are e' d + e d' and e'' d + 2 e' d' + e d'' (nothing jumps).
+    After T, a = 0 and the table keeps its final velocity, as the sine's.  Everything else
+    (``peak_acceleration`` = a_p, the nominal level; ``frequency``, ``period``, ``t_end``) is
+    the nominal sine's; :attr:`distorted_peak_acceleration` is the distorted motion's.
+    """
+
+    def __init__(self, amplitude: float, frequency: float, cycles: float,
+                 start: str = "table-frame", ramp_cycles: float | None = None,
+                 third_harmonic: float = 0.0, spike_peak: float = 0.0,
+                 spike_duration: float | None = None):
+        super().__init__(amplitude, frequency, cycles, start, ramp_cycles)
+        if not (math.isfinite(third_harmonic) and third_harmonic >= 0.0):
+            raise ValueError(f"third_harmonic must be >= 0, got {third_harmonic}")
+        if not (math.isfinite(spike_peak) and spike_peak >= 0.0):
+            raise ValueError(f"spike_peak must be >= 0, got {spike_peak}")
+        if spike_peak > 0.0 and spike_duration is None:
+            raise ValueError("a reversal spike needs its duration (spike_duration, s)")
+        if spike_duration is not None and not (0.0 < spike_duration <= 0.5 * self.period):
+            raise ValueError(f"spike_duration must lie in (0, half a period = "
+                             f"{0.5 * self.period:.4g} s], got {spike_duration}")
+        self.third_harmonic = float(third_harmonic)                       # h, -
+        self.spike_peak = float(spike_peak)                               # s, -
+        self.spike_duration = None if spike_duration is None else float(spike_duration)  # tau
+        tau = self.spike_duration or 0.0
+        self.spike_dv = 2.0 * self.spike_peak * self.peak_acceleration * tau / np.pi  # delta
+        # the grid breakpoints' finest feature: the harmonic's period or the spike's length
+        self.f_max = max(3.0 * self.frequency, 0.5 / tau if tau > 0.0 else 0.0)
+
+    # -- the distortion d(t) = u_h + u_s of the periodic motion (t >= 0), and its derivatives
+    def _spike(self, t, order: int) -> np.ndarray:
+        """d^order u_s / dt^order (order 0 - 2) at times t >= 0 (class docstring)."""
+        t = np.asarray(t, dtype=float)
+        if self.spike_peak == 0.0:
+            return np.zeros_like(t)
+        tau, delta, T1 = self.spike_duration, self.spike_dv, self.period
+        c = self.spike_peak * self.peak_acceleration            # s a_p, m/s2
+        k = np.floor((t - 0.25 * T1) / (0.5 * T1))             # last reversal (-1: none yet)
+        before = k < 0
+        k = np.maximum(k, 0.0)
+        sigma = np.where(k % 2 == 0, -1.0, 1.0)
+        r = t - (0.25 * T1 + 0.5 * T1 * k)
+        inside = r < tau
+        x = np.pi * np.minimum(r, tau) / tau
+        if order == 2:
+            return np.where(before | ~inside, 0.0, sigma * c * np.sin(x))
+        if order == 1:
+            P = np.where(inside, c * tau / np.pi * (1.0 - np.cos(x)), delta)
+            return np.where(before, 0.5 * delta, sigma * (P - 0.5 * delta))
+        Q = np.where(inside, c * tau / np.pi * (r - tau / np.pi * np.sin(x)),
+                     0.5 * delta * tau + delta * (r - tau))
+        u_k = np.where(sigma < 0.0, delta * T1 / 8.0, -delta * T1 / 8.0 + 0.5 * delta * tau)
+        return np.where(before, 0.5 * delta * t, u_k + sigma * (Q - 0.5 * delta * r))
+
+    def _harmonic(self, t, order: int) -> np.ndarray:
+        """d^order u_h / dt^order (order 0 - 2) at times t (class docstring)."""
+        h, A, w = self.third_harmonic, self.amplitude, self.omega
+        x = 3.0 * w * np.asarray(t, dtype=float)
+        return (-(h * A / 9.0) * np.sin(x), -(h * A * w / 3.0) * np.cos(x),
+                h * A * w * w * np.sin(x))[order]
+
+    def distortion(self, t, order: int) -> np.ndarray:
+        """d^order/dt^order of what the distortion adds to the sine's displacement, at times t
+        in [0, T]: d = u_h + u_s, times the ramp's envelope for a ``ramp`` start."""
+        t = np.asarray(t, dtype=float)
+        d = [self._harmonic(t, n) + self._spike(t, n) for n in range(order + 1)]
+        if self.start != "ramp":
+            return d[order]
+        e, e_s, e_ss, _ = _quintic(t / self.t_ramp)
+        e1, e2 = e_s / self.t_ramp, e_ss / self.t_ramp**2
+        if order == 0:
+            return e * d[0]
+        if order == 1:
+            return e1 * d[0] + e * d[1]
+        return e2 * d[0] + 2.0 * e1 * d[1] + e * d[2]
+
+    @property
+    def velocity_jump(self) -> float:
+        """m/s: for a ``lab`` start the distorted table's velocity at t = 0+,
+        A w (1 - h / 3) + delta / 2 (the bodies take minus this), else 0."""
+        if self.start != "lab":
+            return 0.0
+        return float(self.amplitude * self.omega + self.distortion(0.0, 1))
+
+    def displacement(self, t) -> np.ndarray:
+        t = np.asarray(t, dtype=float)
+        v_end = float(self.distortion(self.t_end, 1))
+        return super().displacement(t) + self.distortion(np.clip(t, 0.0, self.t_end), 0) + \
+            np.where(t > self.t_end, v_end * (t - self.t_end), 0.0)
+
+    def velocity(self, t) -> np.ndarray:
+        t = np.asarray(t, dtype=float)
+        extra = self.distortion(np.clip(t, 0.0, self.t_end), 1)
+        return super().velocity(t) + np.where(t >= 0.0, extra, 0.0)
+
+    def acceleration(self, t) -> np.ndarray:
+        t = np.asarray(t, dtype=float)
+        moving = (t >= 0.0) & (t < self.t_end)
+        extra = self.distortion(np.clip(t, 0.0, self.t_end), 2)
+        return super().acceleration(t) + np.where(moving, extra, 0.0)
+
+    def acceleration_at(self, t: float) -> float:
+        return float(self.acceleration(np.array([float(t)]))[0])
+
+    def breakpoints(self, t0: float, t1: float) -> list[float]:
+        """The local extrema of a(t) on a grid (:class:`_GridBreakpoints`), approximate."""
+        return _GridBreakpoints.breakpoints(self, t0, t1)
+
+    @property
+    def distorted_peak_acceleration(self) -> float:
+        """max |a| (m/s2) over one period of the held motion, sampled: 4000 points a period and
+        400 across each of its two pulses (the harmonic's peak, a_p (1 + h), is on the grid; a
+        spike's crest lies within 1 / 800 of the pulse of a sample)."""
+        t0 = self.t_ramp + 0.25 * self.period          # a reversal of the held motion
+        t = t0 + np.linspace(0.0, self.period, 4001)
+        if self.spike_duration is not None:
+            pulse = np.linspace(0.0, self.spike_duration, 401)
+            t = np.concatenate([t, t0 + pulse, t0 + 0.5 * self.period + pulse])
+        moving = t < self.t_end
+        return float(np.abs(self.acceleration(t[moving])).max()) if moving.any() else 0.0
+
+    def describe(self) -> dict:
+        out = super().describe()
+        out["distortion"] = {"third_harmonic": self.third_harmonic,
+                             "spike_peak": self.spike_peak,
+                             "spike_duration_s": self.spike_duration,
+                             "peak_acceleration_m_s2": self.distorted_peak_acceleration}
+        if self.start == "lab":
+            out["velocity_jump_m_s"] = self.velocity_jump
+        return out
 
 
 class SweepMotion(_GridBreakpoints, TableMotion):

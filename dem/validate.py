@@ -689,6 +689,16 @@ def check_case(case: Case, source: str | Path | None = None,
     if isinstance(ld, ShakeLoading):
         stroke = ld.axis_amplitude
         a_peak = stroke * (2.0 * math.pi * ld.frequency) ** 2
+        if ld.distortion is not None:   # the distorted table's own peak (dem.table_motion)
+            motion = ld.motion()
+            a_peak *= motion.distorted_peak_acceleration / motion.peak_acceleration
+            spike = ld.distortion.reversal_spike
+            if spike is not None and 2.0 * spike.duration < MIN_STEPS_PER_PERIOD * dt:
+                out.errors.append(
+                    f"{where(('loading', 'distortion', 'reversal_spike', 'duration'))}: a "
+                    f"pulse of {spike.duration:.3g} s spans fewer than "
+                    f"{MIN_STEPS_PER_PERIOD // 2} time steps ({dt:.3g} s): the table motion "
+                    f"cannot be resolved")
         w, e = table_plausibility(a_peak, stroke, ld.frequency, "",
                                   where(("loading", "amplitude" if ld.amplitude is not None
                                          else "peak_acceleration")))

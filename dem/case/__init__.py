@@ -24,14 +24,15 @@ The schema lives in one module per section: ``scene`` (blocks, builder entries),
 from dem.case.document import (Case, CaseError, case_json_schema, format_validation_error,
                                load_case, parse_case)
 from dem.case.imperfections import Imperfections
-from dem.case.loadings import (CollapseSpec, FrequencyStep, Loading, NoiseLoading, NoLoading,
-                               QuasiStaticSpec, RecordLoading, ShakeLoading, SteppedShakeLoading,
+from dem.case.loadings import (CollapseSpec, Distortion, FrequencyStep, Loading, NoiseLoading,
+                               NoLoading, QuasiStaticSpec, RecordLoading, ReversalSpike,
+                               ShakeLoading, SteppedShakeLoading,
                                SweepLoading, TiltLoading, check_record_time, read_record_csv)
 from dem.case.material import MAX_FRICTION, Material
 from dem.case.scene import BlockSpec, SceneSpec
 from dem.case.settings import RunSpec, SolverSpec
 
-__all__ = ["BlockSpec", "Case", "CaseError", "CollapseSpec", "Imperfections", "Loading", "MAX_FRICTION",
-           "Material", "NoiseLoading", "NoLoading", "QuasiStaticSpec", "RecordLoading", "RunSpec", "SceneSpec",
+__all__ = ["BlockSpec", "Case", "CaseError", "CollapseSpec", "Distortion", "Imperfections", "Loading", "MAX_FRICTION",
+           "Material", "NoiseLoading", "NoLoading", "QuasiStaticSpec", "RecordLoading", "ReversalSpike", "RunSpec", "SceneSpec",
            "ShakeLoading", "SolverSpec", "SteppedShakeLoading", "SweepLoading", "TiltLoading", "FrequencyStep", "case_json_schema", "check_record_time",
            "format_validation_error", "load_case", "parse_case", "read_record_csv"]

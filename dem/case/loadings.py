@@ -193,6 +193,44 @@ def _one_amplitude(amplitude, peak_acceleration) -> None:
         raise ValueError("give exactly one of amplitude (m) or peak_acceleration (m/s2)")
 
 
+class ReversalSpike(StrictModel):
+    """A half-sine pulse of the table's acceleration at every velocity reversal of the sine
+    (dem.table_motion.DistortedSineMotion)."""
+
+    peak: float = Field(gt=0.0, le=10.0,
+                        description="peak of each pulse over the nominal peak acceleration "
+                        "a_p, -")
+    duration: float = Field(gt=0.0, description="duration of each pulse, s (at most half a "
+                            "period of the shake)")
+
+
+class Distortion(StrictModel):
+    """What a servo-hydraulic table adds to a commanded sine (derived, with the displacement
+    and velocity, in dem.table_motion.DistortedSineMotion): a third harmonic in the phase that
+    sharpens the peaks, a = -a_p [sin(w t) - h sin(3 w t)] (peak a_p (1 + h)), and a half-sine
+    acceleration pulse of peak s a_p and duration tau starting at every velocity reversal
+    (displacement extreme) in the direction of the acceleration there."""
+
+    third_harmonic: float = Field(default=0.0, ge=0.0, le=1.0,
+                                  description="h: the third harmonic's acceleration over the "
+                                  "fundamental's, in the phase that sharpens the peaks, -")
+    reversal_spike: ReversalSpike | None = Field(
+        default=None, description="the pulse at every velocity reversal (none by default)")
+
+    @model_validator(mode="after")
+    def _something(self) -> "Distortion":
+        if self.third_harmonic == 0.0 and self.reversal_spike is None:
+            raise ValueError("third_harmonic / reversal_spike: a distortion needs a third "
+                             "harmonic > 0 or a reversal spike (leave distortion out for the "
+                             "plain sine)")
+        return self
+
+
+DISTORTION_DESCRIPTION = (
+    "the table's waveform distortion (dem.table_motion.DistortedSineMotion): a third harmonic "
+    "and reversal spikes added to the sine; absent (the default): the plain sine")
+
+
 class ShakeLoading(StrictModel):
     """Sinusoidal table displacement u(t) = A * direction * sin(2 pi f t) for ``cycles`` cycles.
 
@@ -211,6 +249,7 @@ class ShakeLoading(StrictModel):
     cycles: float = Field(default=50.0, gt=0.0, description="number of cycles")
     start: StartMode = Field(default="table-frame", description=START_DESCRIPTION)
     ramp_cycles: float | None = Field(default=None, gt=0.0, description=RAMP_DESCRIPTION)
+    distortion: Distortion | None = Field(default=None, description=DISTORTION_DESCRIPTION)
 
     @field_validator("direction")
     @classmethod
@@ -221,13 +260,41 @@ class ShakeLoading(StrictModel):
     def _one_of(self) -> "ShakeLoading":
         _one_amplitude(self.amplitude, self.peak_acceleration)
         _check_start(self.start, self.ramp_cycles, self.cycles, "cycles")
+        spike = self.distortion.reversal_spike if self.distortion is not None else None
+        if spike is not None and spike.duration > 0.5 / self.frequency:
+            raise ValueError(f"distortion.reversal_spike.duration: {spike.duration:g} s is more "
+                             f"than half a period at {self.frequency:g} Hz "
+                             f"({0.5 / self.frequency:.4g} s): the pulses would overlap")
         return self
 
     @model_serializer(mode="wrap")
     def _omit_default_start(self, handler):
-        """A shake with the default start is written as before the start existed (case.json
-        of every shipped run stays the same, byte for byte)."""
-        return _omit_start_defaults(self, handler(self))
+        """A shake with the default start and no distortion is written as before either
+        existed (case.json of every shipped run stays the same, byte for byte)."""
+        data = _omit_start_defaults(self, handler(self))
+        if isinstance(data, dict) and self.distortion is None:
+            data.pop("distortion", None)
+        return data
+
+    def motion(self, scale: float = 1.0):
+        """The table motion along the direction (dem.table_motion: SineMotion, or
+        DistortedSineMotion with a distortion), the displacement amplitude times ``scale``."""
+        from dem.table_motion import DistortedSineMotion, SineMotion
+
+        A = self.displacement_amplitude * scale
+        if self.distortion is None:
+            return SineMotion(A, self.frequency, self.cycles, self.start, self.ramp_cycles)
+        return DistortedSineMotion(A, self.frequency, self.cycles, self.start, self.ramp_cycles,
+                                   **self.distortion_arguments())
+
+    def distortion_arguments(self) -> dict:
+        """The distortion as DistortedSineMotion's keyword arguments ({} without one)."""
+        if self.distortion is None:
+            return {}
+        spike = self.distortion.reversal_spike
+        return {"third_harmonic": self.distortion.third_harmonic,
+                "spike_peak": 0.0 if spike is None else spike.peak,
+                "spike_duration": None if spike is None else spike.duration}
 
     @property
     def displacement_amplitude(self) -> float:
@@ -316,6 +383,16 @@ class SteppedShakeLoading(StrictModel):
     @classmethod
     def _nonzero(cls, v):
         return _shake_direction(v)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _no_distortion(cls, data):
+        """The waveform distortion is a shake's (dem.table_motion.DistortedSineMotion); a
+        stepped shake refuses it by name rather than as an unknown field."""
+        if isinstance(data, dict) and "distortion" in data:
+            raise ValueError("distortion: the table's waveform distortion is implemented for "
+                             "type: shake only, not for a stepped shake")
+        return data
 
     @model_validator(mode="after")
     def _one_of(self) -> "SteppedShakeLoading":

@@ -40,7 +40,9 @@ from pathlib import Path
 from typing import Annotated, Literal, Union
 
 from pydantic import Field, ValidationError, field_validator, model_validator
+from pydantic.json_schema import SkipJsonSchema
 
+from dem.case import Distortion
 from dem.case import ShakeLoading as DemShakeLoading
 from dem.case.base import StrictModel
 
@@ -148,6 +150,9 @@ class ShakeLoading(DemShakeLoading):
     """The DEM's shake (dem.case.ShakeLoading: the same fields, defaults and checks), with a
     horizontal direction: the rocking plane contains it."""
 
+    # refused by _sine_only, and so left out of the two-body schema
+    distortion: SkipJsonSchema[Distortion | None] = None
+
     @field_validator("direction")
     @classmethod
     def _horizontal(cls, v):
@@ -168,6 +173,9 @@ class ShakeLoading(DemShakeLoading):
                              f"the default {default!r})")
         if getattr(self, "ramp_cycles", None) is not None:
             raise ValueError("ramp_cycles: not implemented in the two-body model")
+        if getattr(self, "distortion", None) is not None:
+            raise ValueError("distortion: the table's waveform distortion is not implemented in "
+                             "the two-body model (only the plain sine)")
         return self
 
     @model_validator(mode="after")

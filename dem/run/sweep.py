@@ -83,7 +83,7 @@ def sweep_cases(case, frequencies, cycles: float | None = None, margin: float = 
     """(name, Case) per frequency (module docstring); raises SweepInputError naming the field."""
     from pydantic import ValidationError
 
-    from dem.case import Case, ShakeLoading
+    from dem.case import Case, ShakeLoading, format_validation_error
 
     if not isinstance(case.loading, ShakeLoading):
         raise SweepInputError(f"loading.type: a sweep needs a 'shake' loading, got "
@@ -104,7 +104,8 @@ def sweep_cases(case, frequencies, cycles: float | None = None, margin: float = 
         try:
             out.append((point_name(f), Case.model_validate(data)))
         except ValidationError as err:
-            raise SweepInputError(f"{point_name(f)}: {err}") from None
+            raise SweepInputError(f"{point_name(f)}: "
+                                  f"{format_validation_error(err, data=data)}") from None
     return out
 
 
