@@ -116,6 +116,58 @@ def analyze_steps(sig: ShakeSignals, steps: list[dict], scene=None, frames=None)
     return out
 
 
+def step_windows(sig: ShakeSignals, step: dict, width: int) -> list[dict]:
+    """Does the branch hold through a long step?  The response of one step (``step``: an entry
+    of SteppedSineMotion.steps_run()) window by window: consecutive windows of ``width`` whole
+    cycles from the step's start (cycles 1 - width, width + 1 - 2 width, ...; the last window
+    is the step's last ``width`` whole cycles, overlapping the one before when the count is not
+    a multiple), each judged as a run of its own: the ds amplification (peak-to-peak over the
+    table's, postprocess.signal_analysis.amplification, over the window's cycles), the lag of
+    ds behind the table (phase_lag: fitted phase at f, s) and its branch
+    (postprocess.verdicts.response_branch: rocking, quasi-static or between).  The windows are
+    fixed, not the steady window a shake's analysis looks for: what is asked is how the
+    response evolves, transients included.  [] when the record holds fewer than ``width``
+    whole cycles of the step."""
+    from postprocess.signal_analysis import (SteadyWindow, amplification, n_complete_cycles,
+                                             phase_lag)
+    from postprocess.verdicts import response_branch
+
+    if width < 1:
+        raise ValueError(f"width must be >= 1 cycle, got {width}")
+    t0, t1, f = step["t_start_s"], step["t_end_s"], step["frequency_hz"]
+    if len(sig.t) < 2 or float(sig.t[-1]) - t0 < width / f:
+        return []
+    sk = step_signals(sig, t0, t1, f)
+    n = n_complete_cycles(sk.t, f, sk.t_end)
+    starts = list(range(0, n - width + 1, width))
+    if starts and starts[-1] + width < n:
+        starts.append(n - width)
+    exc = sk.excitation["displacement"]
+    out = []
+    for k0 in starts:
+        win = SteadyWindow(k0, k0 + width, f, f"fixed window of {width} cycles", "ds")
+        amp = amplification(sk.t, sk.ds_centre, exc, win)["amplification"]
+        lag = phase_lag(sk.t, sk.ds_centre, exc, f, win)["lag_s"]
+        row = {"frequency_hz": f, "amplification": {"ds": amp}, "lag_s": {"ds": lag}}
+        out.append({"first_cycle": k0 + 1, "last_cycle": k0 + width,
+                    "t0_s": t0 + win.t0, "t1_s": t0 + win.t1, "lag_s": lag,
+                    **response_branch(row)})
+    return out
+
+
+def step_and_cycle(steps: list[dict], t: float | None) -> dict | None:
+    """Which step (0-based index) and which cycle of it (1 for the first) time ``t`` (s) falls
+    in, for a stepped shake's ``steps`` (SteppedSineMotion.steps_run()); None for None or a
+    time outside the steps."""
+    if t is None:
+        return None
+    for k, st in enumerate(steps):
+        if st["t_start_s"] <= t < st["t_end_s"] or (k == len(steps) - 1 and t == st["t_end_s"]):
+            return {"step": k, "cycle": int(np.floor((t - st["t_start_s"])
+                                                     * st["frequency_hz"])) + 1}
+    return None
+
+
 def plot_passes(path, steps: list[dict], title: str = "") -> None:
     """stepped.png: amplification of ds and a_rel (where present) against frequency, the up
     pass and the down pass as separate lines (the hysteresis of the stepped test)."""

@@ -174,6 +174,22 @@ def survival(scene, t, pos, quat, loading=None) -> dict:
                          "corner_gap_m": CORNER_GAP}}
 
 
+#: the box model's roof (dem.builders.box_model: its beams, end masses and corner masses)
+ROOF_GROUPS = ("roof-beam", "roof-mass", "corner-mass")
+
+
+def fallen_parts(result: dict) -> str:
+    """What fell, in three words for a box model (``result``: :func:`survival`'s or
+    :func:`compact`'s): "standing" (nothing fell), "roof only" (every fallen block is part of
+    the roof, ROOF_GROUPS: masses slid off their beams, the masonry standing) or "bricks
+    fallen" (a brick of a wall fell).  The laboratory's box models held the rocking branch
+    "with at most the roof masses moving"."""
+    walls = set(result.get("by_wall") or {})
+    if not result.get("n_fallen"):
+        return "standing"
+    return "roof only" if walls and walls <= set(ROOF_GROUPS) else "bricks fallen"
+
+
 def compact(result: dict) -> dict:
     """The survival record kept per sweep point or realisation: everything but the fallen list
     beyond its first ``MAX_LISTED`` bricks (``n_fallen`` counts them all)."""
