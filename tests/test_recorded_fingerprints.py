@@ -123,9 +123,11 @@ def test_every_diagnosis_record_keeps_its_fingerprint(frozen_parameters):
 
 
 def test_every_as_built_record_keeps_its_fingerprint(frozen_parameters):
-    """Each results/as-built/<key>/points.json belongs to a grid or the identification runs of
-    the as-built study, and each point recorded in it has today's fingerprint."""
+    """Each results/as-built/<key>/points.json belongs to a grid, the identification runs or
+    the kick-start of the as-built study, and each point recorded in it has today's
+    fingerprint."""
     from studies.as_built import identification as ident
+    from studies.as_built import kick_start as kick
     from studies.as_built.grids import GRIDS
     from studies.diagnosis import grid as G
     from studies.prediction.plan import load_frozen
@@ -136,6 +138,9 @@ def test_every_as_built_record_keeps_its_fingerprint(frozen_parameters):
         key, data = path.parent.name, json.loads(path.read_text())
         if key == ident.KEY:
             now = {p.name: p.fingerprint for p in ident.points(load_frozen(DEFAULT_FROZEN))}
+            recs = data["points"]
+        elif key == kick.KEY:
+            now = {p.name: p.fingerprint for p in kick.points(load_frozen(DEFAULT_FROZEN))}
             recs = data["points"]
         else:
             assert key in GRIDS, f"{path.relative_to(ROOT)}: no grid of the study writes it"

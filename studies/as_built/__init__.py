@@ -14,6 +14,13 @@ walls.  This study bounds and then tries the as-built features of dem/builders/a
   unbonded), and 3.6 Hz separates "loose throughout" from "loose only at small amplitude"; if
   II y still needs more than 1.9 m/s2, the corners cannot close the gap.
 
+* the two bounds on the input: a kick-start (:mod:`studies.as_built.kick_start`: Model II y at
+  2.8 Hz, 2 cycles at 2.3 m/s2 then 50 at 1.53 m/s2, 3 seeds: does the rocking branch hold 50
+  cycles with at most the roof masses moving?) and the table's waveform (the grid
+  ``waveform-model-ii-y``: a third harmonic of 20 / 10 % and a reversal spike on Model II y at
+  1.53 m/s2 nominal, 2.0 / 2.8 / 3.6 Hz from rest, 3 seeds; if 20 % moves 2.8 Hz onto the branch
+  and not 2.0 Hz, the gap lies inside the input's uncertainty).
+
 Every verdict is reported under two scoring rules, "any of 3 seeds" and "majority" (the
 laboratory kept the most stable of three builds, thesis line 722).  Records: results/as-built/
 <key>/points.json (resumable, one row per run), cpu.json, summary.json, branches.png; raw runs

@@ -6,7 +6,7 @@ import typer
 
 app = typer.Typer(add_completion=False, no_args_is_help=True,
                   help="Masonry as built by hand: the corner bound, loose corners, the input's "
-                       "bounds.  results/as-built/.")
+                       "bounds (a kick-start, the table's waveform).  results/as-built/.")
 
 
 @app.callback()
@@ -18,7 +18,7 @@ def as_built() -> None:
 def grid(keys: list[str] = typer.Argument(..., help="experiments to run together, seed by seed: "
                                           "corner-bound-model-ii-y, corner-bound-model-iii-y, "
                                           "loose-corners-model-ii-y, loose-corners-model-i-y, "
-                                          "loose-corners-model-i-y-12mm"),
+                                          "loose-corners-model-i-y-12mm, waveform-model-ii-y"),
          workers: int = typer.Option(1, help="dem sweep workers (one single-threaded run each)"),
          stop_at: str = typer.Option(None, help="UTC HH:MM after which no new sweep starts"),
          report: bool = typer.Option(False, "--report", help="only rebuild the reports (the rows "
@@ -57,6 +57,29 @@ def identification(model: list[str] = typer.Option(None, help="only these models
     if bad:
         raise typer.BadParameter(f"unknown model(s) {bad}; choose from {list(exp.MODELS)}")
     exp.run(only=tuple(model or ()), stop_at=stop_at)
+
+
+@app.command("kick-start")
+def kick_start(stop_at: str = typer.Option(None, help="UTC HH:MM after which no new run starts"),
+               seed: list[int] = typer.Option(None, help="only these seeds (repeatable; "
+                                              "default 0, 1, 2)"),
+               report: bool = typer.Option(False, "--report",
+                                           help="only rebuild summary.json from points.json")
+               ) -> None:
+    """Model II y at 2.8 Hz kick-started (2 cycles at 2.3 m/s2, then 50 at 1.53 m/s2), seeds
+    0-2: does the rocking branch hold 50 cycles with at most the roof masses moving?
+    (resumable: a recorded seed never runs again; touch runs/as-built/kick-start-model-ii-y/
+    DRAIN to end softly after the run in flight).  studies/as_built/kick_start.py."""
+    from studies.as_built import kick_start as exp
+
+    bad = [s for s in seed or () if s not in exp.SEEDS]
+    if bad:
+        raise typer.BadParameter(f"seed(s) {bad} are not in the plan {list(exp.SEEDS)}",
+                                 param_hint="--seed")
+    if report:
+        exp.report()
+        return
+    exp.run(stop_at=stop_at, seeds=tuple(seed or exp.SEEDS))
 
 
 def main(argv=None) -> int:
