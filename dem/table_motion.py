@@ -643,9 +643,7 @@ class DistortedSineMotion(SineMotion):
                              "spike_peak": self.spike_peak,
                              "spike_duration_s": self.spike_duration,
                              "peak_acceleration_m_s2": self.distorted_peak_acceleration}
-        if self.start == "lab":
-            out["velocity_jump_m_s"] = self.velocity_jump
-        return out
+        return out   # (a lab start's velocity_jump_m_s is the distorted table's already)
 
 
 class SweepMotion(_GridBreakpoints, TableMotion):
