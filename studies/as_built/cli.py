@@ -64,7 +64,9 @@ def kick_start(stop_at: str = typer.Option(None, help="UTC HH:MM after which no 
                seed: list[int] = typer.Option(None, help="only these seeds (repeatable; "
                                               "default 0, 1, 2)"),
                report: bool = typer.Option(False, "--report",
-                                           help="only rebuild summary.json from points.json")
+                                           help="only rebuild the records: analyse again the "
+                                           "finished runs whose directories are here, then "
+                                           "summary.json")
                ) -> None:
     """Model II y at 2.8 Hz kick-started (2 cycles at 2.3 m/s2, then 50 at 1.53 m/s2), seeds
     0-2: does the rocking branch hold 50 cycles with at most the roof masses moving?
@@ -77,6 +79,10 @@ def kick_start(stop_at: str = typer.Option(None, help="UTC HH:MM after which no 
         raise typer.BadParameter(f"seed(s) {bad} are not in the plan {list(exp.SEEDS)}",
                                  param_hint="--seed")
     if report:
+        from studies.prediction.plan import load_frozen
+        from studies.prediction.protocol import DEFAULT_FROZEN
+
+        exp.refresh(load_frozen(DEFAULT_FROZEN))
         exp.report()
         return
     exp.run(stop_at=stop_at, seeds=tuple(seed or exp.SEEDS))

@@ -185,18 +185,35 @@ class KickStart(kit.Study):
         entry = {"seed": p.seed, "run_case": rel(p.case_file), "fingerprint": p.fingerprint,
                  "run_status": status, "cpu_seconds": result[1] if result else None}
         if status == "ok":
-            entry.update(analyse(p.run_dir))
-            last = entry["last_window"] or {}
-            log(f"    last {WINDOW} cycles: {last.get('branch')} (ds {last.get('ds')}); "
-                f"{entry['survival']['parts']}; holds the branch: {entry['holds']}")
+            try:
+                entry.update(analyse(p.run_dir))
+            except Exception as err:  # noqa: BLE001 - the run is done; its analysis can rerun
+                entry["analysis_error"] = f"{type(err).__name__}: {err}"[:300]
+                log(f"    analysis failed: {entry['analysis_error']}")
+            else:
+                last = entry["last_window"] or {}
+                log(f"    last {WINDOW} cycles: {last.get('branch')} (ds {last.get('ds')}); "
+                    f"{entry['survival']['parts']}; holds the branch: {entry['holds']}")
 
         def change(data):
+            old = (data.get("points") or {}).get(p.name) or {}
+            if result is None and old.get("fingerprint") == p.fingerprint:
+                entry["cpu_seconds"] = old.get("cpu_seconds")   # re-analysed, not re-run
             data.setdefault("points", {})[p.name] = entry
             data.update({"kind": "as-built-kick-start", "sweep": SWEEP,
                          "frequency_hz": FREQUENCY, "kick": list(KICK), "test": list(TEST),
                          "window_cycles": WINDOW, "source": source_state()})
         merge_json(p.records, change)
         return None if status == "ok" else "failed"
+
+
+def refresh(frozen: dict, log=print) -> None:
+    """Analyse again every point whose finished run directory is on this machine (the analysis
+    changed, or failed): its record rewritten, its CPU seconds kept."""
+    study = KickStart(frozen)
+    for p in study.points():
+        if (p.run_dir / "summary.json").is_file():
+            study.record(p, None, log)
 
 
 def verdict(values: list) -> dict:
