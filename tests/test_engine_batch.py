@@ -112,7 +112,7 @@ def test_imperfect_realisations_equal_separate_runs():
     opts = options(dt=2e-5)
     loads = [shake(3.0, 2.5), shake(3.0, 2.5)]
     engine = Engine([realisation(1), realisation(2)], JOINTS, opts)
-    assert engine._warped and engine.batched
+    assert engine.variants.warped and engine.variants.batched
     engine.advance(2000, loads)
     for seed, sim, ld in zip((1, 2), engine.simulations, loads):
         assert_same(sim, run_alone(realisation(seed), ld, 2000, opts))

@@ -11,7 +11,9 @@ import numpy as np
 import pytest
 
 from dem.engine.containers import State
-from dem.engine.simulation import DEVICE_CHUNK, Engine
+from dem.engine.launcher import DEVICE_CHUNK
+from dem.engine.residency import DeviceResidency
+from dem.engine.simulation import Engine
 from tests.engine_helpers import ROUND_OFF_POS_M, ROUND_OFF_QUAT
 from tests.test_engine_batch import JOINTS, assert_same, options, shake, wall
 
@@ -67,7 +69,7 @@ def test_read_only_accessors_copy_only_the_stale_fields_asked_for_and_nothing_ba
     e.advance(300, loads)
     n_state = len(State.field_names())
     # the control goes to the device every chunk, but for what only the kernels write
-    control_pushes = len(e._dev["control"].dev) - len(Engine.CONTROL_KERNEL_ONLY)
+    control_pushes = len(e.residency.dev["control"].dev) - len(DeviceResidency.CONTROL_KERNEL_ONLY)
     assert control_pushes > 0
 
     p0, pb0, q0, qb0 = _copies(e)
@@ -87,7 +89,7 @@ def test_read_only_accessors_copy_only_the_stale_fields_asked_for_and_nothing_ba
     a.kinetic_energy()
     a.unbalanced_force_ratio((0.0, 0.0, -9.81))
     assert _copies(e)[0] - p2 == 2  # omega, angmom (vel and wrench are current)
-    assert not e._dirty["state"] and not e._dirty["contacts"]
+    assert not e.residency.dirty["state"] and not e.residency.dirty["contacts"]
 
     _, _, q3, qb3 = _copies(e)
     e.advance(DEVICE_CHUNK, loads)  # one chunk (a rebuild would push nothing either)
@@ -121,7 +123,7 @@ def test_a_field_read_then_written_whole_goes_to_the_device():
 
 
 def test_the_device_counts_the_patches_over_their_caps_as_the_host_would():
-    """Engine._check_caps copies every patch area to the host only where the device counts a
+    """StepSize.check_caps copies every patch area to the host only where the device counts a
     patch over (or within CAP_CHECK_MARGIN of) its bodies' smaller area cap
     (dem.engine.device.patches_over_caps): the count must be the host's own count from the
     copied areas, for caps that no patch reaches and for caps that some exceed."""
