@@ -16,7 +16,7 @@ The runs (through the command line, as a user runs them; ~4 min on the 2-core VM
   * sweep  ``dem sweep`` of the shaken block at two frequencies, two cycles each, one worker:
            point by point, and with ``--batch 2`` (both points as scenes of one engine).
 Every file is compared: JSON after dropping the keys that hold timings or machine facts
-(``TIMING_KEYS``), ``.npz`` array by array (exactly), every other file byte for byte.
+(``TIMING_KEYS``) or the path of the checkout (``PATH_KEYS``), ``.npz`` array by array (exactly), every other file byte for byte.
 Exit status 0 when everything matches, 1 otherwise (the differences are printed).
 """
 
@@ -34,7 +34,10 @@ ROOT = Path(__file__).resolve().parents[1]
 DEM = [sys.executable, "-m", "dem_cli"]
 TIMING_KEYS = {"wall_seconds", "compile_seconds", "brick_steps_per_second", "cpu_seconds",
                "wall_s", "elapsed_s", "started", "finished", "host", "seconds", "run_seconds",
-               "date", "created", "python", "version", "integration_seconds"}
+               "date", "created", "python", "version", "integration_seconds",
+               "engine_seconds"}
+# keys that hold a path of the tree the runs were recorded from (two checkouts differ there)
+PATH_KEYS = {"source"}
 
 
 def _cut_case(src: Path, dst: Path, duration: float, cycles: int | None = None) -> Path:
@@ -85,7 +88,8 @@ def record(out: Path) -> None:
 
 def _strip(obj):
     if isinstance(obj, dict):
-        return {k: _strip(v) for k, v in obj.items() if k not in TIMING_KEYS}
+        return {k: _strip(v) for k, v in obj.items()
+                if k not in TIMING_KEYS and k not in PATH_KEYS}
     if isinstance(obj, list):
         return [_strip(v) for v in obj]
     return obj

@@ -11,8 +11,7 @@ import numpy as np
 import pytest
 
 from dem.engine.containers import State
-from dem.engine.launcher import DEVICE_CHUNK
-from dem.engine.residency import DeviceResidency
+from dem.engine.residency import DEVICE_CHUNK, DeviceResidency
 from dem.engine.simulation import Engine
 from tests.engine_helpers import ROUND_OFF_POS_M, ROUND_OFF_QUAT
 from tests.test_engine_batch import JOINTS, assert_same, options, shake, wall

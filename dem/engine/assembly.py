@@ -2,7 +2,7 @@
 by side (dem.engine.containers: scene g's bodies are rows model.scene_bodies[g] of every body
 array, its pair slots the g-th block of the Contacts' slots).
 
-    box = assemble(scenes, joints, gravity, options, on_device)
+    box = assemble(scenes, joints, gravity, options, chunk_steps, probe_slots)
     box.model, box.state, box.contacts, box.control      # the engine's containers
     box.models[g]                                        # scene g's own Model
 """
@@ -13,10 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dem.engine.containers import (PROBE_SLOTS, SERIAL_CHUNK, Contacts, Control, Model,
-                                   State)
+from dem.engine.containers import Contacts, Control, Model, State
 from dem.engine.errors import InputError
-from dem.engine.launcher import DEVICE_CHUNK, DEVICE_PROBE_SLOTS
 from dem.engine.options import StepOptions
 from dem.scene import Scene
 
@@ -41,12 +39,12 @@ class Assembly:
         return len(self.scenes)
 
 
-def assemble(scenes: list[Scene], joints, gravity, options: StepOptions,
-             on_device: bool) -> Assembly:
+def assemble(scenes: list[Scene], joints, gravity, options: StepOptions, chunk_steps: int,
+             probe_slots: int) -> Assembly:
     """The containers of ``scenes`` (in order) with ``joints`` (one JointLaw per scene, or one
     for all), ``gravity`` (per scene, or one 3-vector for all; None: -9.81 m/s^2 along z) and
-    the StepOptions ``options``; the control's chunk length and probe slots are those of a
-    device engine where ``on_device`` (dem.engine.launcher)."""
+    the StepOptions ``options``; the control holds the loads of ``chunk_steps`` steps and
+    ``probe_slots`` probed steps a scene (the residency's: dem.engine.residency)."""
     scenes = list(scenes)
     G = len(scenes)
     if G == 0:
@@ -56,15 +54,11 @@ def assemble(scenes: list[Scene], joints, gravity, options: StepOptions,
                                          dtype=float), (G, 3))
     models = [Model.from_scene(sc, j) for sc, j in zip(scenes, joints)]
     model = Model.concat(models)
-    states = [State.from_scene(sc, m) for sc, m in zip(scenes, models)]
-    if G == 1:
-        state = states[0]
-    else:
-        state = State(model.n_bodies)
-        for g, st in enumerate(states):
-            b0, b1 = model.scene_bodies[g]
-            for k, a in st.arrays().items():
-                getattr(state, k)[b0:b1] = a
+    state = State(model.n_bodies)
+    for g, (sc, m) in enumerate(zip(scenes, models)):
+        b0, b1 = model.scene_bodies[g]
+        for k, a in State.from_scene(sc, m).arrays().items():
+            getattr(state, k)[b0:b1] = a
     # capacity of one scene: max_pairs_per_block counts each pair for both blocks, plus one
     # table pair each (the largest scene's, for every scene)
     capacity = max(int(np.ceil(0.5 * options.max_pairs_per_block * m.n_bodies))
@@ -73,6 +67,5 @@ def assemble(scenes: list[Scene], joints, gravity, options: StepOptions,
     hmin = min(float(m.half_np[: m.n_blocks].min()) for m in models)
     skin = float(options.skin) if options.skin is not None else 0.1 * hmin
     control = Control(skin, options.max_speed, options.local_damping, options.patch_reuse, G,
-                      DEVICE_CHUNK if on_device else SERIAL_CHUNK,
-                      DEVICE_PROBE_SLOTS if on_device else PROBE_SLOTS)
+                      chunk_steps, probe_slots)
     return Assembly(scenes, joints, gravity, models, model, state, contacts, control, skin)

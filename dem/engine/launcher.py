@@ -1,7 +1,8 @@
 """Launching the stepping kernels: which kernel and which compile-time variant, chunks of steps,
 the probes inside a chunk, and what the host does between two chunks.
 
-A *chunk* is the steps run between two looks of the host: the loads of its steps are written
+A *chunk* is the steps run between two looks of the host (at most control.loads' S rows: the
+residency's ``CHUNK_STEPS``, dem.engine.residency): the loads of its steps are written
 into control.loads (one row a step and scene), the serial kernel runs them in one launch (the
 parallel kernel in one launch a step, with no read-back between them), and the chunk ends early
 after a step that raised a status bit of any scene (STOP: a scene failed; REBUILD: a scene's
@@ -34,15 +35,6 @@ from dem.engine.launch import CachedLaunch
 # bricks and won at 3078; on a 16-core machine (4-8 threads) it won from ~300-500.
 # solver.mode: serial / parallel forces either.
 PARALLEL_MIN_BODIES = {2: 2500, 4: 500}  # threads (at most) -> bodies
-
-# an engine on a device: steps per chunk of launches (the loads of a chunk are copied to the
-# device before it; the host reads the status back after it)
-DEVICE_CHUNK = 256
-
-# an engine on a device: probed steps of a scene per chunk (its probe_buf, Q x G x 16 x 13
-# reals, is copied back whole after a chunk with a probe: 4 slots hold the samples of a chunk
-# of DEVICE_CHUNK steps down to 64 steps apart; more shorten the chunk)
-DEVICE_PROBE_SLOTS = 4
 
 
 def parallel_min_bodies(threads: int) -> int | float:
@@ -187,12 +179,10 @@ class Launcher:
                 on_chunk(done)
 
     def n_pair_slots(self) -> int:
-        """The pair slots the kernels loop over: a lone scene's pairs, else up to the last
-        slot in use."""
+        """The pair slots the kernels loop over: up to the last slot in use (one scene: its
+        pairs)."""
         e = self.engine
         sp = e.contacts.scene_pairs
-        if not self.variants.batched:
-            return int(sp[0])
         P = e.contacts.capacity
         used = [g * P + int(n) for g, n in enumerate(sp) if n > 0]
         return max(used, default=0)

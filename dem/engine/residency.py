@@ -36,7 +36,16 @@ import numpy as np
 import taichi as ti
 
 from dem import ti_runtime
-from dem.engine.containers import Contacts, State, pair_lists
+from dem.engine.containers import PROBE_SLOTS, SERIAL_CHUNK, Contacts, State, pair_lists
+
+# an engine on a device: steps per chunk of launches (the loads of a chunk are copied to the
+# device before it; the host reads the status back after it)
+DEVICE_CHUNK = 256
+
+# an engine on a device: probed steps of a scene per chunk (its probe_buf, Q x G x 16 x 13
+# reals, is copied back whole after a chunk with a probe: 4 slots hold the samples of a chunk
+# of DEVICE_CHUNK steps down to 64 steps apart; more shorten the chunk)
+DEVICE_PROBE_SLOTS = 4
 
 # a patch is counted as possibly over its area cap from (1 - this) x the cap
 # (DeviceResidency.patches_over_caps); the device's and the host's sums of a patch's <= 9 point
@@ -50,6 +59,8 @@ class HostResidency:
     copied."""
 
     on_device = False
+    CHUNK_STEPS = SERIAL_CHUNK  # the most steps of a chunk (control.loads' rows)
+    PROBE_SLOTS = PROBE_SLOTS   # probed steps of a scene in a chunk (control.probe_buf's)
 
     def __init__(self, model, state, contacts, control):
         self.model, self.state, self.contacts, self.control = model, state, contacts, control
@@ -96,6 +107,8 @@ class DeviceResidency:
     of State and Contacts, which copy is current: the module docstring."""
 
     on_device = True
+    CHUNK_STEPS = DEVICE_CHUNK
+    PROBE_SLOTS = DEVICE_PROBE_SLOTS
 
     # Contacts fields that only the host writes between launches (the broad phase's index
     # arrays: the stepping kernels read them, install_pairs writes on the device the values the
@@ -242,7 +255,7 @@ class DeviceResidency:
         return dict(self._installs)
 
 
-def residency(on_device: bool, model, state, contacts, control):
-    """The residency of an engine's containers: on a device, or on the host only."""
-    cls = DeviceResidency if on_device else HostResidency
-    return cls(model, state, contacts, control)
+def residency_kind(on_device: bool) -> type:
+    """The residency of an engine's containers: on a device, or on the host only (its
+    CHUNK_STEPS and PROBE_SLOTS shape the Control; an instance holds the containers)."""
+    return DeviceResidency if on_device else HostResidency

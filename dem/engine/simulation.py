@@ -48,7 +48,7 @@ from dem.engine.containers import NONFINITE, PROBES_PER_SCENE, Contacts, Control
 from dem.engine.launcher import Launcher, kernel_mode
 from dem.engine.options import JointLaw, StepOptions
 from dem.engine.errors import CapacityError, InputError, InstabilityError, SimulationError
-from dem.engine.residency import residency
+from dem.engine.residency import residency_kind
 from dem.engine.stepsize import StepSize
 from dem.engine.timestep import Clock
 from dem.scene import Scene
@@ -65,6 +65,8 @@ class Engine:
     joints   : one JointLaw per scene (or one for all)
     options  : the StepOptions of every scene (one time step, one kernel, one skin)
     gravity  : per scene, the gravity at rest (m/s^2, table frame), or one 3-vector for all
+    views    : the Simulation objects to bind, one per scene (Simulation's own constructor);
+               None: new ones
     device_arrays : keep the arrays on the device (dem.engine.residency); None: where Taichi
                runs on a GPU (dem.ti_runtime.init(arch="cuda")); True on the CPU runs the device
                path in host memory (its tests)
@@ -75,7 +77,7 @@ class Engine:
     """
 
     def __init__(self, scenes: list[Scene], joints, options: StepOptions, gravity=None,
-                 fast_launch: bool = True, lone: "Simulation | None" = None,
+                 fast_launch: bool = True, views: "list[Simulation] | None" = None,
                  device_arrays: bool | None = None):
         # Taichi is started by the process's entry point (dem.run.build, dem.batch,
         # dem.run.batched: arch, threads, precision); for a library user who did not, this
@@ -84,7 +86,8 @@ class Engine:
         # on a GPU always (numpy arguments would be copied at every launch, and a reused launch
         # context of copied arrays crashed Taichi 1.7.4); on the CPU where asked (its tests)
         self.on_device = (ti_runtime.settings()["arch"] == "cuda" or bool(device_arrays))
-        box = assemble(scenes, joints, gravity, options, self.on_device)
+        kind = residency_kind(self.on_device)
+        box = assemble(scenes, joints, gravity, options, kind.CHUNK_STEPS, kind.PROBE_SLOTS)
         G = box.n_scenes
         self.n_scenes = G
         self.batched = G > 1
@@ -97,12 +100,11 @@ class Engine:
         self.step_size = StepSize(box.models, box.joints, self.model, options)
         sims = []
         for g in range(G):
-            sim = lone if (lone is not None and G == 1) else Simulation.__new__(Simulation)
+            sim = views[g] if views is not None else Simulation.__new__(Simulation)
             sim._bind(self, g, box.scenes[g], box.models[g], box.joints[g], box.gravity[g])
             sims.append(sim)
         self.simulations = sims
-        self.residency = residency(self.on_device, self.model, self.state, self.contacts,
-                                   self.control)
+        self.residency = kind(self.model, self.state, self.contacts, self.control)
         self.launcher = Launcher(self, fast_launch)
         t0 = time.perf_counter()
         self.launcher.warm_up()
@@ -115,10 +117,11 @@ class Engine:
                 patch[b0:b1] = sim.check_initial_overlaps(options.overlap_tolerance)
             except (InputError, CapacityError) as err:
                 self.fail(g, err)
+        if not self.control.active.any():
+            return  # every scene failed (a lone Simulation raises its failure): no step
         self.step_size.start(patch)
         for sim in sims:
-            if G > 1:
-                sim.clock.dt = self.clock.dt
+            sim.clock.dt = self.clock.dt
             sim.energy_initial = sim.mechanical_energy()
 
     # ------------------------------------------------------------------------------------
@@ -131,9 +134,6 @@ class Engine:
         """The engine's clock: dt, dt_crit and the area caps (dem.engine.stepsize)."""
         return self.step_size.clock
 
-    dt_changes = property(lambda self: self.step_size.dt_changes,
-                          lambda self, v: setattr(self.step_size, "dt_changes", v),
-                          doc="the changes of the time step (summary.json)")
     variants = property(lambda self: self.launcher.variants,
                         doc="the kernels' compile-time variants (launcher.KernelVariants)")
     n_chunks = property(lambda self: self.launcher.n_chunks, doc="chunks launched")
@@ -146,9 +146,8 @@ class Engine:
         self.control.active[g] = 0
 
     def fail(self, g: int, err: Exception) -> None:
-        """Scene g failed: a lone scene raises, a scene among others is frozen and keeps it."""
-        if not self.batched:
-            raise err
+        """Scene g failed: it is frozen and keeps its failure (``simulations[g].failure``,
+        raised by its Simulation.advance); the others go on."""
         self.simulations[g].failure = err
         self.deactivate(g)
 
@@ -160,9 +159,9 @@ class Engine:
     def advance(self, n_steps: int, loads: list, on_chunk: Callable[[int], None] | None = None
                 ) -> None:
         """Advance every active scene by n_steps steps, scene g with ``loads[g]`` (a LoadFn;
-        ignored for a frozen scene).  A lone scene's failure raises (InstabilityError,
-        CapacityError, SimulationError; the state is then that of the failing step); a scene
-        among others is frozen with its failure in ``simulations[g].failure``."""
+        ignored for a frozen scene).  A scene that fails (InstabilityError, CapacityError,
+        SimulationError) is frozen in the state of its failing step, with its failure in
+        ``simulations[g].failure``; the others go on (Simulation.advance raises it)."""
         self.launcher.advance(n_steps, loads, on_chunk)
 
     def n_pair_slots(self) -> int:
@@ -235,7 +234,11 @@ class Simulation:
 
     def __init__(self, scene: Scene, joints: JointLaw, options: StepOptions,
                  gravity=(0.0, 0.0, -9.81), fast_launch: bool = True):
-        Engine([scene], [joints], options, [gravity], fast_launch, lone=self)
+        """An engine of this one scene; raises what the scene failed with while the engine
+        was made (an overlap, a neighbour-list overflow, a fixed step above the bound)."""
+        Engine([scene], [joints], options, [gravity], fast_launch, views=[self])
+        if self.failure is not None:
+            raise self.failure
 
     def _bind(self, engine: Engine, g: int, scene: Scene, model: Model, joints, gravity
               ) -> None:
@@ -252,17 +255,13 @@ class Simulation:
         self.model = model
         self._movable = ~model.fixed_np
         self._movable[model.table] = False
-        if engine.batched:
-            self._state = engine.state.region(self._b0, self._b1)
-            self._contacts = engine.contacts.region(g, self._b0, self._b1)
-            self.control = engine.control.region(g)
-            self.clock = Clock()
-            self._slot0 = g * engine.contacts.capacity
-        else:
-            self._state, self._contacts, self.control = \
-                engine.state, engine.contacts, engine.control
-            self.clock = engine.clock
-            self._slot0 = 0
+        # this scene's slices of the engine's containers (the whole arrays for an engine of one)
+        self._state = engine.state.region(self._b0, self._b1)
+        self._contacts = engine.contacts.region(g, self._b0, self._b1)
+        self.control = engine.control.region(g)
+        self.clock = Clock()  # this scene's t (its anchors); dt is the engine's
+        self._slot0 = g * engine.contacts.capacity
+        self.dt_changes: list[dict] = []  # the changes of the time step (StepSize.set_dt)
         self.step_count = 0
         self._deepest_time = 0.0
         self.n_rebuilds = 0
@@ -339,10 +338,6 @@ class Simulation:
     skin = property(lambda self: self.engine.skin, doc="neighbour-list skin (m)")
     mode = property(lambda self: self.engine.mode, doc="the stepping kernel: serial / parallel")
     compile_seconds = property(lambda self: self.engine.compile_seconds)
-    dt_changes = property(lambda self: self.engine.dt_changes,
-                          lambda self, v: setattr(self.engine, "dt_changes", v),
-                          doc="the changes of the (engine's) time step")
-
     @property
     def dt(self) -> float:
         """time step in use (s): the engine's"""
@@ -350,17 +345,18 @@ class Simulation:
 
     @dt.setter
     def dt(self, value: float) -> None:
-        if self.engine.batched:
-            # (a restart point's dt, set after its anchors) this scene's clock at its present
-            # step in that dt, then the engine's step from here on (the smaller of the two)
-            value = float(value)
-            if value != self.engine.clock.dt:  # the same step: the anchors stand as saved
-                t = self.clock.t_anchor + (self.step_count - self.clock.step_anchor) * value
-                self.clock.anchor(t, self.step_count)
-                self.clock.dt = self.engine.clock.dt
-                self.engine.adopt_dt(value)
-        else:
-            self.engine.clock.dt = value
+        """A restart point's dt, set after its anchors (which count t in that step): the engine
+        takes the smaller of it and its own (StepSize.adopt_dt: the other scenes are
+        re-anchored, this one keeps its anchors); where the engine's is the smaller, this
+        scene's clock is re-anchored at its present step, as at any change of dt."""
+        value = float(value)
+        step_size = self.engine.step_size
+        self.clock.dt = value
+        if value < step_size.dt:
+            step_size.adopt_dt(value, [s for s in self.engine.simulations if s is not self])
+        elif value > step_size.dt:
+            self.clock.anchor(self.t, self.step_count)
+        self.clock.dt = step_size.dt
 
     @property
     def dt_crit(self) -> float:
@@ -369,8 +365,10 @@ class Simulation:
 
     @dt_crit.setter
     def dt_crit(self, value: float) -> None:
-        if not self.engine.batched:  # several scenes: the engine's, recomputed from the caps
-            self.engine.clock.dt_crit = value
+        """A restart point's dt_crit: the engine's is the smallest of its scenes' (the caps
+        only rise, so a scene's saved one is at most the engine's at its start)."""
+        clock = self.engine.clock
+        clock.dt_crit = min(clock.dt_crit, float(value))
 
     # the clock's anchors under the names Simulation always had (restart points save them so)
     def _clock_field(name: str, doc: str):  # a helper of the class body, deleted below
@@ -382,15 +380,11 @@ class Simulation:
     del _clock_field
 
     def _caps_field(name: str, doc: str):  # a helper of the class body, deleted below
-        def get(self):
-            a = getattr(self.engine.clock, name)
-            return a[self._b0:self._b1] if self.engine.batched else a
+        def get(self):  # this scene's rows of the engine's array (a view)
+            return getattr(self.engine.clock, name)[self._b0:self._b1]
 
         def put(self, v):
-            if self.engine.batched:
-                getattr(self.engine.clock, name)[self._b0:self._b1] = v
-            else:
-                setattr(self.engine.clock, name, v)
+            getattr(self.engine.clock, name)[self._b0:self._b1] = v
         return property(get, put, doc=doc)
 
     area_cap = _caps_field("area_cap", "per body, the capped contact area (m^2, inf: none)")
@@ -400,20 +394,23 @@ class Simulation:
     # ------------------------------------------------------------------------------------
     def advance(self, n_steps: int, loads: LoadFn, on_chunk: Callable[[int], None] | None = None
                 ) -> None:
-        """Advance n_steps steps.  Raises InstabilityError / CapacityError on failure (the state
-        is then that of the failing step).  A scene of an engine of several scenes advances
-        through the engine's hub (dem.run.batched), with the others."""
-        if not self.engine.batched:
-            self.engine.advance(n_steps, [loads], on_chunk)
-            return
-        if self.engine.hub is None:
-            raise RuntimeError("a scene of an engine of several scenes advances with the others: "
-                               "Engine.advance, or the engine's hub (dem.run.batched)")
-        self.engine.hub.advance(self.scene_index, n_steps, loads)
+        """Advance n_steps steps.  Raises InstabilityError / CapacityError / SimulationError on
+        failure (the state is then that of the failing step).  Where other scenes of its
+        engine are still active, they advance with it: through the engine's hub
+        (dem.run.batched), which gathers every scene's request."""
+        e = self.engine
+        if e.hub is not None:
+            e.hub.advance(self.scene_index, n_steps, loads)
+        elif self.failure is None:
+            others = [g for g in np.flatnonzero(e.control.active) if g != self.scene_index]
+            if others:
+                raise RuntimeError("a scene of an engine with other active scenes advances "
+                                   "with the others: Engine.advance, or the engine's hub "
+                                   "(dem.run.batched)")
+            e.advance(n_steps, [loads if g == self.scene_index else None
+                                for g in range(e.n_scenes)], on_chunk)
         if self.failure is not None:
             raise self.failure
-        if on_chunk is not None:
-            on_chunk(n_steps)
 
     def rebuild(self) -> None:
         """Broad phase of this scene: new neighbour list, history carried over for pairs that
@@ -578,18 +575,16 @@ class Simulation:
                 if b.shape != a.shape or b.dtype != a.dtype:
                     raise ValueError(f"{key}: {b.dtype} {b.shape} in the snapshot, {a.dtype} "
                                      f"{a.shape} in this simulation")
-        shared = Control.SHARED if self.engine.batched else ()
-        for name, box in self._boxes():
+        for name, box in self._boxes():  # the control's shared fields stay the engine's
             for k, a in box.arrays().items():
-                if (name == "control" and k in shared) or (name, k) in self.TRANSIENT:
+                if (name == "control" and k in Control.SHARED) or (name, k) in self.TRANSIENT:
                     continue
                 a[...] = snap[f"{name}.{k}"]
         self.contacts.n_pairs = int(snap["contacts.n_pairs"])
         for k in self.EVOLVING:
             v = np.asarray(snap[f"sim.{k}"])
             setattr(self, k, v.copy() if v.ndim else v.item())
-        if not self.engine.batched:
-            self.dt_changes = json.loads(str(snap["sim.dt_changes"]))
+        self.dt_changes = json.loads(str(snap["sim.dt_changes"]))
 
     def _read_all(self, name: str):
         """The container ``name`` ("state" or "contacts") itself, every field current on the

@@ -5,8 +5,8 @@ The scenes of an engine share one step (the smallest of their critical steps x s
 kernel launch steps them all); each scene keeps its own clock (dem.engine.timestep.Clock: t
 counted from an anchor, so a change of dt never moves t).  :class:`StepSize` owns the engine's
 side: ``clock`` (dt, dt_crit and the per-body area caps and face areas behind dt_crit; its
-anchors are unused), the stiffness the bound is made for, and ``dt_changes`` (the log of every
-shortening, summary.json).  The bound itself and the caps are pure functions of
+anchors are unused) and the stiffness the bound is made for; each shortening is logged in every
+scene's ``dt_changes`` (summary.json).  The bound itself and the caps are pure functions of
 dem.engine.timestep.
 """
 
@@ -28,7 +28,6 @@ class StepSize:
         self.options = options
         self.movable = ~model.fixed_np
         self.clock = Clock()
-        self.dt_changes: list[dict] = []
         # the stiffest pair of materials in use (one pair: the material's kn, ks, zeta; the
         # hyperbolic law: its tangent at the largest closure the step is made for)
         stiff = [m.stiffest() for m in models]
@@ -77,14 +76,16 @@ class StepSize:
 
     def set_dt(self, new: float, sims, why: dict | None = None) -> None:
         """Change the time step of every scene (``sims``): each clock is re-anchored at its
-        present step (its t does not move)."""
+        present step (its t does not move); ``why`` (a dict) is logged in each scene's
+        ``dt_changes`` with the old and new step."""
         old = self.clock.dt
+        record = None if why is None else {**why, "old_dt": old, "new_dt": new}
         for sim in sims:
             sim.clock.anchor(sim.t, sim.step_count)
             sim.clock.dt = new
+            if record is not None:
+                sim.dt_changes.append(record)
         self.clock.dt = new
-        if why is not None:
-            self.dt_changes.append({**why, "old_dt": old, "new_dt": new})
 
     def adopt_dt(self, dt: float, sims) -> None:
         """A scene restored from a restart point taken with ``dt``: the engine takes the smaller
@@ -104,7 +105,7 @@ class StepSize:
         if not capped.any():
             return
         if not engine.residency.patches_over_caps(engine.n_pair_slots(), area_cap,
-                                                  engine.batched):
+                                                  engine.variants.batched):
             return  # no patch near its cap: the areas need not come to the host
         engine.host("contacts", write=False, fields=("area", "npts"))  # the patches' areas
         patch = np.zeros(self.model.n_bodies)
