@@ -92,7 +92,6 @@ class Engine:
         self.n_scenes = G
         self.batched = G > 1
         self.options = options
-        self.hub = None  # with several scenes: what Simulation.advance calls (dem.run.batched)
         self.model, self.state, self.contacts, self.control = \
             box.model, box.state, box.contacts, box.control
         self.skin = box.skin
@@ -395,18 +394,16 @@ class Simulation:
     def advance(self, n_steps: int, loads: LoadFn, on_chunk: Callable[[int], None] | None = None
                 ) -> None:
         """Advance n_steps steps.  Raises InstabilityError / CapacityError / SimulationError on
-        failure (the state is then that of the failing step).  Where other scenes of its
-        engine are still active, they advance with it: through the engine's hub
-        (dem.run.batched), which gathers every scene's request."""
+        failure (the state is then that of the failing step).  Only while the other scenes of
+        its engine are frozen (a lone scene: always): scenes that share an engine advance
+        together, Engine.advance (the runs of a batch: dem.run.batched.drive_together)."""
         e = self.engine
-        if e.hub is not None:
-            e.hub.advance(self.scene_index, n_steps, loads)
-        elif self.failure is None:
+        if self.failure is None:
             others = [g for g in np.flatnonzero(e.control.active) if g != self.scene_index]
             if others:
                 raise RuntimeError("a scene of an engine with other active scenes advances "
-                                   "with the others: Engine.advance, or the engine's hub "
-                                   "(dem.run.batched)")
+                                   "with the others: Engine.advance, or the runs' one loop "
+                                   "(dem.run.batched.drive_together)")
             e.advance(n_steps, [loads if g == self.scene_index else None
                                 for g in range(e.n_scenes)], on_chunk)
         if self.failure is not None:
