@@ -150,7 +150,8 @@ def test_the_device_counts_the_patches_over_their_caps_as_the_host_would():
         cap = np.full(dev.model.n_bodies, cap_value)
         cap_dev = ti.ndarray(ti.f64, shape=(dev.model.n_bodies,))
         cap_dev.from_numpy(cap)
-        on_device = patches_over_caps(dev.n_pair_slots(), cap_dev, 1.0, m, cd, ctl, dev.batched)
+        on_device = patches_over_caps(dev.n_pair_slots(), cap_dev, 1.0, m, cd, ctl,
+                                      dev.variants.batched)
         on_host = int((areas > np.minimum(cap[slots[:, 0]], cap[slots[:, 1]])).sum())
         assert on_device == on_host, (cap_value, on_device, on_host)
     assert on_host > 0  # the last caps are exceeded

@@ -90,7 +90,6 @@ class Engine:
         box = assemble(scenes, joints, gravity, options, kind.CHUNK_STEPS, kind.PROBE_SLOTS)
         G = box.n_scenes
         self.n_scenes = G
-        self.batched = G > 1
         self.options = options
         self.model, self.state, self.contacts, self.control = \
             box.model, box.state, box.contacts, box.control
@@ -318,8 +317,8 @@ class Simulation:
     def read_contacts(self, *fields: str) -> FieldView:
         """This scene's Contacts fields ``fields`` (none given: all) to read only, as
         :meth:`read_state`; the view also has ``n_pairs``.  The broad phase's index arrays
-        (pairs, adj_ptr, adj, scene_pairs: DeviceResidency.HOST_KEPT) are current on the host and never
-        copied."""
+        (pairs, adj_ptr, adj, scene_pairs: DeviceResidency.HOST_KEPT) are current on the host
+        and never copied."""
         names = fields or Contacts.field_names()
         self.engine.host("contacts", write=False, fields=names)
         view = FieldView(self._contacts, names)
