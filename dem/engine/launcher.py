@@ -121,7 +121,7 @@ class Launcher:
         per-call argument handling unless ``fast_launch`` is False)."""
         e = self.engine
         self.variants = KernelVariants.of(e.model, [s.model for s in e.simulations],
-                                          [s._contacts for s in e.simulations], e.mode,
+                                          [s.contacts_on_host for s in e.simulations], e.mode,
                                           e.on_device)
         self.record_launch()
         v = self.variants
@@ -160,7 +160,7 @@ class Launcher:
             done_total += done
             status = ctl.status.copy()
             for g in np.flatnonzero(status & STOP):
-                e.fail(g, e.simulations[g]._instability())
+                e.fail(g, e.simulations[g].instability_error())
             for g in np.flatnonzero(status & REBUILD):
                 if ctl.active[g]:
                     try:
@@ -171,7 +171,7 @@ class Launcher:
                 for g in np.flatnonzero(ctl.active):
                     limit = e.step_size.closure_limits[g]
                     err = None if limit is None else \
-                        e.simulations[g]._closure_error(limit)
+                        e.simulations[g].closure_error(limit)
                     if err is not None:
                         e.fail(g, err)
             e.step_size.check_caps(e)
@@ -205,7 +205,7 @@ class Launcher:
         ctl.deepest_step[...] = -1
         ctl.steps_done[...] = 0
         v = self.variants
-        if v.warped and overlap_wanted(v.warped, [s._contacts for s in e.simulations]) \
+        if v.warped and overlap_wanted(v.warped, [s.contacts_on_host for s in e.simulations]) \
                 != v.overlap:
             # coherence.set_overlap_reuse switched the overlap reuse
             self.variants = dataclasses.replace(v, overlap=not v.overlap)
@@ -224,12 +224,8 @@ class Launcher:
         if probes:
             self.take_probes(probes, done)
         for g, sim in enumerate(e.simulations):
-            if not ctl.active[g]:
-                continue
-            if ctl.deepest_step[g] >= 0:  # the time of that step's start, as sim.t counts it
-                steps = sim.step_count + int(ctl.deepest_step[g]) - sim.clock.step_anchor
-                sim._deepest_time = sim.clock.t_anchor + steps * dt
-            sim.step_count += done
+            if ctl.active[g]:
+                sim.count_steps(done, int(ctl.deepest_step[g]), dt)
         return done
 
     def plan_probes(self, k: int) -> tuple[int, dict]:

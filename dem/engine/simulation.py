@@ -276,6 +276,21 @@ class Simulation:
         return self._state
 
     @property
+    def contacts_on_host(self) -> Contacts:
+        """This scene's Contacts as the host holds them, nothing copied: current only where
+        Engine.host made them so (the broad phase's index arrays always are)."""
+        return self._contacts
+
+    def count_steps(self, done: int, deepest_step: int, dt: float) -> None:
+        """After a launch that did ``done`` steps of ``dt``: the step count goes on; where the
+        deepest penetration since t = 0 was reached in it (``deepest_step`` >= 0, the step of
+        the launch), its time (the start of that step, as :attr:`t` counts it)."""
+        if deepest_step >= 0:
+            steps = self.step_count + deepest_step - self.clock.step_anchor
+            self._deepest_time = self.clock.t_anchor + steps * dt
+        self.step_count += done
+
+    @property
     def contacts(self) -> Contacts:
         """This scene's Contacts, to read and write (on a device: as :attr:`state`).  To read
         only: :meth:`read_contacts`."""
@@ -459,7 +474,7 @@ class Simulation:
             np.maximum.at(patch, pairs[:, side], area[:n])
         return patch
 
-    def _closure_error(self, closure_limit: float) -> SimulationError | None:
+    def closure_error(self, closure_limit: float) -> SimulationError | None:
         """The hyperbolic law: the error to stop with when a joint closed beyond the closure
         the step is made for (d_lim = closure_limit x d_max; dem.engine.laws: past it the law is
         linearised, stable but no longer the hyperbolic law), else None."""
@@ -601,7 +616,8 @@ class Simulation:
         them (every scene of the engine)."""
         return self.engine.containers()
 
-    def _instability(self) -> InstabilityError:
+    def instability_error(self) -> InstabilityError:
+        """The error of this scene's failing step (its status bits: NaN or too fast)."""
         b = int(self.control.bad_body[0])
         st = self.read_state("pos", "vel")
         v = st.vel[b]

@@ -111,7 +111,7 @@ class StepSize:
         patch = np.zeros(self.model.n_bodies)
         over_any = False
         for g, sim in enumerate(engine.simulations):
-            c = sim._contacts
+            c = sim.contacts_on_host
             n = c.n_pairs
             if n == 0 or not engine.control.active[g]:
                 continue
