@@ -156,7 +156,7 @@ def run_batch(k: int, steps: int, threads: int | None, device: bool, out_root: P
     sim_s = steps * dt
     rec = {"arch": "run", "K": k, "device_arrays": engine.on_device, "threads": threads,
            "mode": engine.mode, "steps": steps, "steps_done": done, "dt_s": dt,
-           "dt_changes": len(engine.dt_changes), "sim_s": sim_s,
+           "dt_changes": len(engine.simulations[0].dt_changes), "sim_s": sim_s,
            "status": [r["status"] for r in records],
            "settling_steps": [(s.get("settling") or {}).get("steps") for s in summaries],
            "rebuilds": sum(s.n_rebuilds for s in engine.simulations),

@@ -4,16 +4,19 @@ results.)
     python benchmarks/same_outputs.py record DIR     # run the cases below into DIR
     python benchmarks/same_outputs.py compare A B    # compare two such directories file by file
 
-The runs (through the command line, as a user runs them; ~3 min on the 2-core VM):
+The runs (through the command line, as a user runs them; ~4 min on the 2-core VM):
   * tilt   ``dem run`` of the in-plane 5 x 5 small-brick wall (collapse, mechanism, limit analysis)
            and ``dem run`` of the block on the tilting table;
-  * shake  ``dem run`` of the shaken block (frames, VTK) and of Model II, group 3, cut to 0.3 s
-           (instruments.npz), then ``dem post`` of the Model II run (the shake analysis);
+  * shake  ``dem run`` of the shaken block (frames, VTK) and of Model II, group 3, cut to one
+           cycle of 2.8 Hz in 0.4 s (instruments.npz), then ``dem post`` of the Model II run (the shake analysis);
   * warped ``dem run`` of the imperfect wall at rest with the overlap reuse on, cut to 0.2 s
            (the warped kernels' narrow phase and coherence.warped_faces);
-  * sweep  ``dem sweep`` of the shaken block at two frequencies, two cycles each, one worker.
+  * hyperbolic ``dem run`` of the column on the hyperbolic joint law, cut to 0.2 s (the
+           hyperbolic kernels and the closure-limit check);
+  * sweep  ``dem sweep`` of the shaken block at two frequencies, two cycles each, one worker:
+           point by point, and with ``--batch 2`` (both points as scenes of one engine).
 Every file is compared: JSON after dropping the keys that hold timings or machine facts
-(``TIMING_KEYS``), ``.npz`` array by array (exactly), every other file byte for byte.
+(``TIMING_KEYS``) or the path of the checkout (``PATH_KEYS``), ``.npz`` array by array (exactly), every other file byte for byte.
 Exit status 0 when everything matches, 1 otherwise (the differences are printed).
 """
 
@@ -31,12 +34,19 @@ ROOT = Path(__file__).resolve().parents[1]
 DEM = [sys.executable, "-m", "dem_cli"]
 TIMING_KEYS = {"wall_seconds", "compile_seconds", "brick_steps_per_second", "cpu_seconds",
                "wall_s", "elapsed_s", "started", "finished", "host", "seconds", "run_seconds",
-               "date", "created", "python", "version", "integration_seconds"}
+               "date", "created", "python", "version", "integration_seconds",
+               "engine_seconds"}
+# keys that hold a path of the tree the runs were recorded from (two checkouts differ there)
+PATH_KEYS = {"source"}
 
 
-def _cut_case(src: Path, dst: Path, duration: float) -> Path:
+def _cut_case(src: Path, dst: Path, duration: float, cycles: int | None = None) -> Path:
+    """``src`` with run.duration ``duration`` (s) and, for a shake, loading.cycles ``cycles``
+    (a run must not end before its shake does: dem.validate)."""
     case = yaml.safe_load(src.read_text())
     case["run"]["duration"] = duration
+    if cycles is not None:
+        case["loading"]["cycles"] = cycles
     dst.write_text(yaml.safe_dump(case))
     return dst
 
@@ -44,9 +54,11 @@ def _cut_case(src: Path, dst: Path, duration: float) -> Path:
 def record(out: Path) -> None:
     out.mkdir(parents=True, exist_ok=True)
     model_ii = _cut_case(ROOT / "cases/shake/model-ii/group-3-y-1.53.yaml",
-                         out / "model-ii-cut.yaml", 0.3)
+                         out / "model-ii-cut.yaml", 0.4, cycles=1)
     imperfect = _cut_case(ROOT / "cases/analytic/imperfect-wall-overlap-reuse.yaml",
                           out / "imperfect-wall-cut.yaml", 0.2)
+    hyperbolic = _cut_case(ROOT / "cases/joint/hyperbolic-column.yaml",
+                           out / "hyperbolic-column-cut.yaml", 0.2)
     block = ROOT / "cases/analytic/block-under-base-acceleration.yaml"
     commands = [
         DEM + ["run", str(ROOT / "cases/tilt/in-plane/small-5x5.yaml"), "--out",
@@ -57,8 +69,12 @@ def record(out: Path) -> None:
         DEM + ["run", str(model_ii), "--out", str(out / "shake-model-ii"), "--no-progress"],
         DEM + ["post", str(out / "shake-model-ii")],
         DEM + ["run", str(imperfect), "--out", str(out / "warped-wall"), "--no-progress"],
+        DEM + ["run", str(hyperbolic), "--out", str(out / "hyperbolic-column"),
+               "--no-progress"],
         DEM + ["sweep", str(block), "--out", str(out / "sweep-block"), "--frequencies",
                "1.5,2.0", "--cycles", "2", "--workers", "1"],
+        DEM + ["sweep", str(block), "--out", str(out / "sweep-block-batched"), "--frequencies",
+               "1.5,2.0", "--cycles", "2", "--workers", "1", "--batch", "2"],
     ]
     for cmd in commands:
         print("$", " ".join(cmd[2:]), flush=True)
@@ -66,11 +82,14 @@ def record(out: Path) -> None:
         (out / "log.txt").open("a").write(f"$ {' '.join(cmd[2:])}\nexit {proc.returncode}\n"
                                           f"{proc.stdout}\n{proc.stderr}\n")
         print(f"  exit {proc.returncode}", flush=True)
+        if proc.returncode != 0:
+            print(proc.stderr[-2000:], flush=True)
 
 
 def _strip(obj):
     if isinstance(obj, dict):
-        return {k: _strip(v) for k, v in obj.items() if k not in TIMING_KEYS}
+        return {k: _strip(v) for k, v in obj.items()
+                if k not in TIMING_KEYS and k not in PATH_KEYS}
     if isinstance(obj, list):
         return [_strip(v) for v in obj]
     return obj

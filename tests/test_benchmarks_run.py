@@ -32,6 +32,7 @@ RUNS = [
     (["startup_time.py", "--repeat", "1"], "Simulation.compile_seconds"),
     (["rocking_speed.py", "--repeat", "1"], "50-cycle rocking run"),
     (["checkpoint_cost.py", "--duration", "0.3", "--repeats", "1"], "restart.npz"),
+    (["engine_branches.py"], "device or not:"),
 ]
 
 

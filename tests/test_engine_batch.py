@@ -8,8 +8,9 @@ is therefore round-off: tests/engine_helpers.py's ROUND_OFF_POS_M / ROUND_OFF_QU
 compilations of the same arithmetic, ~5 orders below a missed or doubled load of one step).
 Covered: tilts at different rates, shakes at different frequencies and amplitudes (with
 neighbour-list rebuilds), imperfect faces (the warped kernel) with different realisations, scenes
-of different sizes in one engine, a scene that fails while the others go on, and a scene's
-restart point taken in an engine of several and resumed alone.
+of different sizes in one engine, a scene that fails while the others go on, a scene's
+restart point taken in an engine of several and resumed alone, and a restart point's clock kept
+as saved alone and among others (one rule for both).
 """
 
 from __future__ import annotations
@@ -112,7 +113,7 @@ def test_imperfect_realisations_equal_separate_runs():
     opts = options(dt=2e-5)
     loads = [shake(3.0, 2.5), shake(3.0, 2.5)]
     engine = Engine([realisation(1), realisation(2)], JOINTS, opts)
-    assert engine._warped and engine.batched
+    assert engine.variants.warped and engine.variants.batched
     engine.advance(2000, loads)
     for seed, sim, ld in zip((1, 2), engine.simulations, loads):
         assert_same(sim, run_alone(realisation(seed), ld, 2000, opts))
@@ -180,3 +181,29 @@ def test_a_restart_point_with_another_time_step_keeps_its_clock():
     engine.advance(10, loads)
     assert engine.simulations[1].t == pytest.approx(lone.t + 10 * lone.dt, rel=1e-12)
     assert engine.simulations[0].t == pytest.approx(t_other + 10 * lone.dt, rel=1e-12)
+
+
+def test_a_restored_scene_keeps_its_saved_clock_alone_or_among_others():
+    """Restart points alike: a scene restored from a restart point taken with a smaller step
+    keeps the snapshot's anchors and step, in an engine of two as in a lone Simulation, so its
+    times are the lone run's bit for bit (t = t_anchor + (step - step_anchor) dt, the same
+    operands), and the engine's other scene is re-anchored where it stood."""
+    opts = options()
+    loads = [shake(2.0, 2.0), shake(3.0, 3.0)]
+    lone = Simulation(wall(), JOINTS, options(dt=0.5 * Engine([wall()], JOINTS, opts).dt))
+    lone.advance(401, loads[1])
+    snap = lone.snapshot()
+    alone = Simulation(wall(), JOINTS, opts)
+    alone.restore(snap)
+    engine = Engine([wall(), wall()], JOINTS, opts)
+    engine.advance(100, loads)
+    t_other = engine.simulations[0].t
+    among = engine.simulations[1]
+    among.restore(snap)
+    for sim in (alone, among):
+        assert (sim._t_anchor, sim._step_anchor, sim.dt) == \
+            (float(snap["sim._t_anchor"]), int(snap["sim._step_anchor"]), float(snap["sim.dt"]))
+        assert sim.dt_changes == lone.dt_changes and sim.dt_crit == lone.dt_crit
+        assert [sim.clock.time(lone.step_count + k) for k in (0, 7, 1000)] == \
+            [lone.clock.time(lone.step_count + k) for k in (0, 7, 1000)]
+    assert engine.simulations[0].t == t_other  # re-anchored at its own t: the same value

@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from dem.engine.containers import State
-from dem.engine.simulation import DEVICE_CHUNK, Engine
+from dem.engine.residency import DEVICE_CHUNK, DeviceResidency
+from dem.engine.simulation import Engine
 from tests.engine_helpers import ROUND_OFF_POS_M, ROUND_OFF_QUAT
 from tests.test_engine_batch import JOINTS, assert_same, options, shake, wall
 
@@ -67,7 +68,7 @@ def test_read_only_accessors_copy_only_the_stale_fields_asked_for_and_nothing_ba
     e.advance(300, loads)
     n_state = len(State.field_names())
     # the control goes to the device every chunk, but for what only the kernels write
-    control_pushes = len(e._dev["control"].dev) - len(Engine.CONTROL_KERNEL_ONLY)
+    control_pushes = len(e.residency.dev["control"].dev) - len(DeviceResidency.CONTROL_KERNEL_ONLY)
     assert control_pushes > 0
 
     p0, pb0, q0, qb0 = _copies(e)
@@ -87,7 +88,7 @@ def test_read_only_accessors_copy_only_the_stale_fields_asked_for_and_nothing_ba
     a.kinetic_energy()
     a.unbalanced_force_ratio((0.0, 0.0, -9.81))
     assert _copies(e)[0] - p2 == 2  # omega, angmom (vel and wrench are current)
-    assert not e._dirty["state"] and not e._dirty["contacts"]
+    assert not e.residency.dirty["state"] and not e.residency.dirty["contacts"]
 
     _, _, q3, qb3 = _copies(e)
     e.advance(DEVICE_CHUNK, loads)  # one chunk (a rebuild would push nothing either)
@@ -121,7 +122,7 @@ def test_a_field_read_then_written_whole_goes_to_the_device():
 
 
 def test_the_device_counts_the_patches_over_their_caps_as_the_host_would():
-    """Engine._check_caps copies every patch area to the host only where the device counts a
+    """StepSize.check_caps copies every patch area to the host only where the device counts a
     patch over (or within CAP_CHECK_MARGIN of) its bodies' smaller area cap
     (dem.engine.device.patches_over_caps): the count must be the host's own count from the
     copied areas, for caps that no patch reaches and for caps that some exceed."""
@@ -149,7 +150,8 @@ def test_the_device_counts_the_patches_over_their_caps_as_the_host_would():
         cap = np.full(dev.model.n_bodies, cap_value)
         cap_dev = ti.ndarray(ti.f64, shape=(dev.model.n_bodies,))
         cap_dev.from_numpy(cap)
-        on_device = patches_over_caps(dev.n_pair_slots(), cap_dev, 1.0, m, cd, ctl, dev.batched)
+        on_device = patches_over_caps(dev.n_pair_slots(), cap_dev, 1.0, m, cd, ctl,
+                                      dev.variants.batched)
         on_host = int((areas > np.minimum(cap[slots[:, 0]], cap[slots[:, 1]])).sum())
         assert on_device == on_host, (cap_value, on_device, on_host)
     assert on_host > 0  # the last caps are exceeded

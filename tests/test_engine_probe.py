@@ -44,7 +44,7 @@ def _rows(sim, bodies) -> np.ndarray:
 BODIES = [0, 3, 7, 11]
 # single steps, two probes in consecutive steps, 41 probes in a row (more than a launch's
 # slots: the launch is cut), and probes across a launch's end (the serial kernel's 2000 steps,
-# the device path's chunks of 256: dem.engine.simulation.DEVICE_CHUNK)
+# the device path's chunks of 256: dem.engine.residency.DEVICE_CHUNK)
 STEPS = {"serial": [1, 5, 17, 18, *range(100, 141), 1999, 2000, 2001, 2600],
          "parallel": [1, 5, 17, 18, *range(100, 141), 255, 256, 257, 600]}
 

@@ -4,7 +4,10 @@ Modules: ``options`` (the engine's inputs: JointLaw, StepOptions), ``containers`
 Contacts / Control: field tables and argpacks), ``geometry`` (box-box contact patches, Ig2),
 ``pair`` (pair properties, Ip2), ``laws`` (joint law, Law2), ``step`` (stages and kernels),
 ``launch`` (cached kernel launches), ``broadphase`` (neighbour list), ``timestep`` (critical
-step), ``simulation`` (driver), ``errors``.
+step, Clock), and the engine by job: ``assembly`` (the containers of the scenes), ``stepsize``
+(the time step), ``launcher`` (kernel variants, chunks, probes), ``residency`` (host / device
+arrays), ``simulation`` (Engine, and Simulation: one scene's view); ``device`` (device arrays
+and kernels), ``errors``.
 
 ``Simulation`` is imported on first use (PEP 562): it imports Taichi and defines the kernels,
 which ``dem check`` and the options / errors must not pay for.

@@ -167,9 +167,9 @@ P_SKIN, P_MAX_SPEED, P_PATCH_TOLERANCE = range(len(STEP_PARAMETERS))
 # Control, by role (the kernels take one argpack of the four tables in this order):
 # what the host writes before each launch ...
 CONTROL_LOADS = (
-    _f("loads", "vec3", ("S", "G", 2), "m/s^2", "Engine._launch",
+    _f("loads", "vec3", ("S", "G", 2), "m/s^2", "Launcher.launch",
        "per step of a launch and scene: (gravity, base acceleration), table frame"),
-    _f("probe_slot", "i32", ("S", "G"), "-", "Engine._launch",
+    _f("probe_slot", "i32", ("S", "G"), "-", "Launcher.launch",
        "per step of a launch and scene: the slot of probe_buf that takes the scene's probed "
        "bodies after the step, -1: none (Simulation.set_probe)"),
 )
@@ -507,7 +507,7 @@ class Control(_Container):
                  patch_tolerance: float = 0.0, n_scenes: int = 1, steps: int = SERIAL_CHUNK,
                  probe_slots: int = PROBE_SLOTS):
         """``steps``: S, the most steps of one launch (or chunk of launches); ``probe_slots``:
-        Q, the most probed steps of a scene in one (Engine._plan_probes)."""
+        Q, the most probed steps of a scene in one (Launcher.plan_probes)."""
         _allocate(self, CONTROL_FIELDS, {"S": int(steps), "G": int(n_scenes),
                                          "Q": int(probe_slots)})
         self.probe_slot[...] = -1

@@ -163,9 +163,10 @@ def patches_over_caps(n_slots: ti.i32, cap: ti.types.ndarray(ndim=1), margin: fl
                       batched: ti.template()) -> ti.i32:
     """The number of live pair slots whose contact patch (the sum of its points' areas, m^2)
     exceeds ``margin`` x the smaller area cap of its two bodies (``cap``: per body, m^2, inf
-    where uncapped).  Engine._check_caps asks it before copying every patch area to the host:
-    with ``margin`` just below 1 (CAP_CHECK_MARGIN) a count of 0 means the host's own check,
-    whose sums differ from these by round-off only, would find no patch over its cap."""
+    where uncapped).  StepSize.check_caps (dem.engine.stepsize) asks it before copying every
+    patch area to the host: with ``margin`` just below 1 (residency.CAP_CHECK_MARGIN) a count
+    of 0 means the host's own check, whose sums differ from these by round-off only, would find
+    no patch over its cap."""
     over = 0
     for p in range(n_slots):
         if slot_live(p, contacts, control, batched) == 1:

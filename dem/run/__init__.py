@@ -7,8 +7,11 @@
     stop    (stop.py)     end time, step limit, collapse of a tilt run
     write   (write.py)    summary.json, frames.npz, instruments.npz, vtk/, final.png, atomically
 
-``run_case`` (loop.py) strings them together; analyses that read the finished run (the mechanism
-of a tilt) are handed in by the caller (dem_cli.commands), so the loop never imports the analysis.
+``run_case`` (loop.py) strings them together: ``run_case_steps``, a generator that yields each
+advance of its scene (steps.py: ``Advance``), driven alone (``steps.drive``) or with the other
+runs of a batch by one loop (batched.py: ``drive_together``).  Analyses that read the finished
+run (the mechanism of a tilt) are handed in by the caller (dem_cli.commands), so the loop never
+imports the analysis.
 """
 
 from dem.run.build import scene_from_case

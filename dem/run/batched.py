@@ -4,28 +4,26 @@ run (dem.run.loop.run_case) writes it.
 
     records = run_cases_in_one_engine([(name, case), ...], [out_dir, ...], max_steps=None)
 
-How it runs.  The run loop is a blocking loop per run (build, settle, record, stop, write), so
-each point runs its own :func:`dem.run.loop.run_case` in a thread of its own, on its own
-Simulation (``engine.simulations[g]``, its own clock, loads and outputs).  Taichi is not
-thread-safe, so the threads pass a *baton*: exactly one thread runs Python at a time.  A point
-gives the baton back when it asks its Simulation to advance (``sim.advance`` calls
-``engine.hub.advance``, :class:`Hub`) or when it ends.  Once every live point waits, the
-scheduler (the calling thread) advances the whole engine by the smallest remaining request
-(``engine.advance(m, loads)``: each scene with its own loads), and hands the baton in turn (in
-index order: the run is deterministic) to each point whose request is complete, or whose scene
-failed: that point's ``sim.advance`` raises the failure (``sims[g].failure``), its run loop
-writes the failed run as a lone run does, and its batch-mates go on.  A point that ended
-(finished or failed) is deactivated (``engine.deactivate(g)``: its bodies stop, it costs ~0).
+How it runs.  Each point's run is the run loop as a generator
+(dem.run.loop.run_case_steps, dem.run.steps): it yields a request "advance my scene by n steps
+under my loads" and goes on when that is done.  One loop (:func:`drive_together`) drives the K
+generators over one engine: it runs each point up to its next request, then advances the whole
+engine by the smallest request of those waiting (``engine.advance(m, loads)``: each scene with
+its own loads), and resumes in turn (in index order: the run is deterministic) each point whose
+request is complete, or whose scene failed: that point gets its failure (``sims[g].failure``)
+raised at its request, its run loop writes the failed run as a lone run does, and its
+batch-mates go on.  A point that ended (finished or failed) is deactivated
+(``engine.deactivate(g)``: its bodies stop, it costs ~0).  No threads: Taichi and a CUDA context
+see one thread, as in a lone run.
 
-Stopping.  dem.signals' handlers run in the main thread only.  The scheduler is the calling
-thread (the main thread of ``dem``'s process): a SIGINT / SIGTERM / SIGHUP raises there while it
-waits for a point, or after the engine's advance (held by dem.signals.deferred, so that the
-bookkeeping of requests is never cut in half); then every point's ``sim.advance`` raises
-dem.signals.Interrupted in its thread, in turn, so each run ends ``interrupted`` with its last
-frame and its restart point (the one of its last checkpoint, as a lone run), and the
-KeyboardInterrupt is raised again in the caller.  A point that stops by itself (a signal seen by
-dem.signals.raise_if_stopped in its thread, a KeyboardInterrupt) stops the whole batch the same
-way.
+Stopping.  dem.signals' handlers run in the main thread, where everything runs.  The stop
+signals are held (dem.signals.deferred) while the loop runs, so that a stop never cuts the
+bookkeeping of requests in half: a point sees a stop at its run loop's next look
+(dem.signals.raise_if_stopped) and the loop between two advances of the engine; then every
+point gets dem.signals.Interrupted raised at its request, in turn, so each run ends
+``interrupted`` with its last frame and its restart point (the one of its last checkpoint, as a
+lone run), and the KeyboardInterrupt is raised again in the caller.  A point that stops by
+itself (a KeyboardInterrupt out of its run) stops the whole batch the same way.
 
 Resuming works per point: a point whose directory holds a usable restart point goes on from it
 (run_case(resume=True) restores its Simulation), the others start fresh.
@@ -148,37 +146,6 @@ def running_arch() -> str:
     return "cuda" if arch == ti.cuda else ("cpu" if arch in (ti.x64, ti.arm64) else str(arch))
 
 
-def cuda_context_binder() -> Callable[[], None]:
-    """A function that makes Taichi's CUDA context current in the thread that calls it.
-
-    Why: a CUDA context is current per thread.  Taichi makes its context current in the thread
-    that started it and guards its kernel launches, but not its memory copies (an ndarray read,
-    a kernel's returned value): from another thread (a point thread of :class:`Hub`) they find
-    no context.  The context is this thread's current one (Taichi's, started here), else the
-    device's primary context, which Taichi retains (cuDevicePrimaryCtxRetain); made current
-    here too.  Through the driver API (libcuda), as Taichi itself.  Not yet run on a GPU."""
-    import ctypes
-
-    lib = ctypes.CDLL("libcuda.so.1")
-
-    def check(code: int, what: str) -> None:
-        if code != 0:
-            raise CudaUnavailable(f"--arch cuda: {what} failed (CUDA driver error {code})")
-
-    ctx = ctypes.c_void_p()
-    check(lib.cuCtxGetCurrent(ctypes.byref(ctx)), "cuCtxGetCurrent")
-    if not ctx.value:
-        dev = ctypes.c_int()
-        check(lib.cuInit(0), "cuInit")
-        check(lib.cuDeviceGet(ctypes.byref(dev), 0), "cuDeviceGet")
-        check(lib.cuDevicePrimaryCtxRetain(ctypes.byref(ctx), dev), "cuDevicePrimaryCtxRetain")
-        check(lib.cuCtxSetCurrent(ctx), "cuCtxSetCurrent")
-
-    def bind() -> None:
-        check(lib.cuCtxSetCurrent(ctx), "cuCtxSetCurrent")
-    return bind
-
-
 def solver_difference(cases: Sequence[Case]) -> str | None:
     """None if every case has the first one's ``solver:`` section, else a sentence naming the
     first field that differs (one engine steps every scene with the same solver options)."""
@@ -194,173 +161,94 @@ def solver_difference(cases: Sequence[Case]) -> str | None:
 
 
 # ---------------------------------------------------------------------------------------------
-# the hub: the baton and the scheduler
+# one loop over the points' generators
 # ---------------------------------------------------------------------------------------------
-class Hub:
-    """The scheduler of K point threads over one engine (module docstring).
+def drive_together(engine, bodies: Sequence) -> list:
+    """Drive the points' generators ``bodies[g]`` (steppable runs, dem.run.steps: each yields
+    Advance requests of scene g of ``engine`` and returns its result) to their ends over the
+    one engine (module docstring); returns each one's result, or the exception it raised.
+    Raises the KeyboardInterrupt that stopped the batch once every point has ended."""
+    import contextlib
+    import signal
 
-    ``engine.hub = hub``: a scene's ``sim.advance(n, loads)`` calls :meth:`advance` in its point
-    thread; :meth:`run` (the calling thread) starts the point threads and advances the engine.
-    The baton: a point runs only between ``turn[g].acquire()`` and ``back.release()``; the
-    scheduler runs only while every live point waits."""
+    from dem.signals import Interrupted, deferred, raise_if_stopped, signal_name, stop_on_signals
 
-    def __init__(self, engine, n: int, bind_thread: Callable[[], None] | None = None):
-        self.engine = engine
-        self.n = n
-        self.bind_thread = bind_thread  # run first in each point thread (cuda_context_binder)
-        self.turn = [threading.Semaphore(0) for _ in range(n)]  # point g may run
-        self.back = threading.Semaphore(0)  # the running point gave the baton back
-        self.request: list[list | None] = [None] * n  # [steps left, loads] of a waiting point
-        self.wake_error: list[BaseException | None] = [None] * n
-        self.ended = [False] * n
-        self.stop: BaseException | None = None  # the KeyboardInterrupt that stops the batch
-        self.engine_advances = 0  # engine.advance calls (a batch's launches, for benchmarks)
+    n = len(bodies)
+    results: list = [None] * n
+    request: list = [None] * n  # [steps left, loads] of a waiting point; None: ended
+    stop: list[BaseException] = []  # the KeyboardInterrupt that stops the batch
 
-    # --- in a point thread, holding the baton ----------------------------------------------
-    def advance(self, g: int, n_steps: int, loads) -> None:
-        """Scene g's ``sim.advance(n_steps, loads)``: give the baton back, wait until the engine
-        has done the n_steps steps of scene g; raise its failure (``sims[g].failure``) if it
-        failed, dem.signals.Interrupted if the batch is stopping."""
-        self._raise_if_stopping()
-        if n_steps <= 0:
-            return
-        self.request[g] = [int(n_steps), loads]
-        self.back.release()
-        self.turn[g].acquire()
-        err, self.wake_error[g] = self.wake_error[g], None
-        if err is not None:
-            raise err
-
-    def _raise_if_stopping(self) -> None:
-        from dem.signals import Interrupted, signal_name
-
-        if self.stop is not None:
-            raise Interrupted(signal_name(self.stop))
-
-    # --- the scheduler (the calling thread) ------------------------------------------------
-    def run(self, bodies: Sequence[Callable[[], object]]) -> list:
-        """Run ``bodies[g]()`` (point g's run) in K threads over the engine; returns each one's
-        result, or the exception it raised.  Raises the KeyboardInterrupt that stopped the
-        batch once every point has ended.
-
-        In the main thread the stop signals are held (dem.signals.deferred: recorded, not
-        raised) for the whole run and looked at between the steps, so that a stop never cuts
-        the scheduler's bookkeeping in half; where no handler is installed (the default
-        SIGINT handler), dem.signals.stop_on_signals installs them for the run."""
-        import contextlib
-        import signal
-
-        from dem.signals import deferred, stop_on_signals
-
-        main = threading.current_thread() is threading.main_thread()
-        install = main and signal.getsignal(signal.SIGINT) is signal.default_int_handler
-        results: list = [None] * self.n
-        threads = [threading.Thread(target=self._body, args=(g, fn, results), daemon=True,
-                                    name=f"dem-batch-point-{g}")
-                   for g, fn in enumerate(bodies)]
-        with stop_on_signals() if install else contextlib.nullcontext():
-            try:
-                with deferred():
-                    for th in threads:
-                        th.start()
-                    self._schedule()
-            except KeyboardInterrupt as err:  # held during the run, raised at its end
-                self._stop(err)
-            for th in threads:
-                th.join()
-        if self.stop is not None:
-            raise self.stop
-        return results
-
-    def _schedule(self) -> None:
-        runnable = list(range(self.n))
-        while True:
-            for g in runnable:  # each in turn: it runs until it waits or ends
-                self.turn[g].release()
-                self._wait_back()
-            live = [g for g in range(self.n) if not self.ended[g]]
-            if not live:
-                return
-            self._look_at_signals()
-            runnable = self._step(live)
-
-    def _body(self, g: int, fn, results: list) -> None:
-        self.turn[g].acquire()
+    def resume(g: int, err: BaseException | None = None) -> None:
+        """Run point g up to its next request (or its end), ``err`` raised at its request."""
         try:
-            if self.bind_thread is not None:
-                self.bind_thread()
-            results[g] = fn()
-        except BaseException as err:  # noqa: BLE001 - reported as the point's result
-            results[g] = err
-            if isinstance(err, KeyboardInterrupt) and self.stop is None:
-                self.stop = err  # a stop seen by one point stops the batch
-        finally:
-            self.ended[g] = True
-            self.request[g] = None
-            try:
-                self.engine.deactivate(g)
-            except Exception as err:  # noqa: BLE001 - the others must still run
-                if not isinstance(results[g], BaseException):
-                    results[g] = err
-            self.back.release()
+            req = bodies[g].send(None) if err is None else bodies[g].throw(err)
+        except StopIteration as done:
+            results[g] = done.value
+        except BaseException as exc:  # noqa: BLE001 - reported as the point's result
+            results[g] = exc
+            if isinstance(exc, KeyboardInterrupt) and not stop:
+                stop.append(exc)  # a stop seen by one point stops the batch
+        else:
+            request[g] = [int(req.n_steps), req.loads]
+            return
+        request[g] = None
+        try:
+            engine.deactivate(g)
+        except Exception as exc:  # noqa: BLE001 - the others must still run
+            if not isinstance(results[g], BaseException):
+                results[g] = exc
 
-    def _wait_back(self) -> None:
-        """Wait until the running point gives the baton back, looking at the stop signals
-        meanwhile (a stop is then seen by the point at its next advance)."""
-        while True:
-            try:
-                if self.back.acquire(timeout=0.25):
-                    return
-            except KeyboardInterrupt as err:  # a handler that raises here (not dem.signals')
-                self._stop(err)
-            self._look_at_signals()
-
-    def _look_at_signals(self) -> None:
-        from dem.signals import raise_if_stopped
-
+    def look_at_signals() -> None:
         try:
             raise_if_stopped()
         except KeyboardInterrupt as err:
-            self._stop(err)
+            if not stop:
+                stop.append(err)
 
-    def _stop(self, err: KeyboardInterrupt) -> None:
-        if self.stop is None:
-            self.stop = err
+    def step(live: list[int]) -> None:
+        """Every live point waits: advance the engine by the smallest request and resume, in
+        index order, each point whose request is done (or failed; all of them when stopping)."""
+        if stop:
+            for g in live:  # stopping: every waiting point ends its run (interrupted)
+                resume(g, Interrupted(signal_name(stop[0])))
+            return
+        m = min(request[g][0] for g in live)
+        loads = [request[g][1] if request[g] is not None else None for g in range(n)]
+        try:
+            engine.advance(m, loads)
+        except Exception as err:  # noqa: BLE001 - the engine itself failed: every live point
+            for g in live:
+                resume(g, err)
+            return
+        sims = engine.simulations
+        for g in live:
+            failure = getattr(sims[g], "failure", None)
+            if failure is not None:
+                resume(g, failure)
+                continue
+            request[g][0] -= m
+            if request[g][0] <= 0:
+                resume(g)
 
-    def _step(self, live: list[int]) -> list[int]:
-        """Every live point waits: advance the engine by the smallest request; the points to
-        wake, in index order (each with its failure, or Interrupted when stopping)."""
-        from dem.signals import Interrupted, signal_name
-
-        if self.stop is None:
-            try:
-                m = min(self.request[g][0] for g in live)
-                loads = [self.request[g][1] if self.request[g] is not None else None
-                         for g in range(self.n)]
-                try:
-                    self.engine.advance(m, loads)
-                except Exception as err:  # noqa: BLE001 - the engine itself failed
-                    for g in live:
-                        self.wake_error[g] = err
-                    return list(live)
-                self.engine_advances += 1
-                sims = self.engine.simulations
-                wake = []
-                for g in live:
-                    failure = getattr(sims[g], "failure", None)
-                    if failure is not None:
-                        self.wake_error[g] = failure
-                        wake.append(g)
-                        continue
-                    self.request[g][0] -= m
-                    if self.request[g][0] <= 0:
-                        wake.append(g)
-                return wake
-            except KeyboardInterrupt as err:  # a handler that raises (not dem.signals')
-                self._stop(err)
-        for g in live:  # stopping: every waiting point ends its run (interrupted)
-            self.wake_error[g] = Interrupted(signal_name(self.stop))
-        return list(live)
+    main = threading.current_thread() is threading.main_thread()
+    install = main and signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    with stop_on_signals() if install else contextlib.nullcontext():
+        try:
+            with deferred():
+                for g in range(n):  # each in turn: it runs up to its first request or its end
+                    resume(g)
+                while True:
+                    live = [g for g in range(n) if request[g] is not None]
+                    if not live:
+                        break
+                    look_at_signals()
+                    step(live)
+        except KeyboardInterrupt as err:  # held during the run, raised at its end
+            if not stop:
+                stop.append(err)
+    if stop:
+        raise stop[0]
+    return results
 
 
 # ---------------------------------------------------------------------------------------------
@@ -447,9 +335,8 @@ def _run_members(cases, out_dirs, members, scenes, joints, gravity, options, rec
                  on_engine=None) -> None:
     """The engine of the points ``members`` (indices into cases) and their runs."""
     from dem.engine.simulation import Engine
-    from dem.run.loop import run_case
+    from dem.run.loop import run_case_steps
 
-    bind = cuda_context_binder() if running_arch() == "cuda" else None
     t1 = time.perf_counter()
     try:
         engine = Engine(scenes, joints, options, gravity=gravity, device_arrays=device_arrays)
@@ -462,9 +349,6 @@ def _run_members(cases, out_dirs, members, scenes, joints, gravity, options, rec
         on_engine(engine)
     sims = engine.simulations
     k = len(members)
-    hub = Hub(engine, k, bind) if k > 1 else None
-    if hub is not None:
-        engine.hub = hub
 
     def stamp(i: int, summary: dict | None, before: float) -> None:
         """summary.json's ``batch`` (module docstring), in the file and in ``summary``; the
@@ -501,6 +385,7 @@ def _run_members(cases, out_dirs, members, scenes, joints, gravity, options, rec
             pass  # the run's own write errors are in summary.json already
 
     def body(i: int):
+        """Point i's run, steppable (dem.run.steps); returns its record."""
         g = members[i]
         name, case = cases[g]
         t1 = time.perf_counter()
@@ -509,8 +394,9 @@ def _run_members(cases, out_dirs, members, scenes, joints, gravity, options, rec
         if failure is not None:  # the scene failed while the engine was made
             return failed(g, failure)
         try:
-            res = run_case(case, out_dirs[g], progress=False, max_steps=max_steps,
-                           scene=scenes[i], analyses=analyses, resume=resume, sim=sims[i])
+            res = yield from run_case_steps(case, out_dirs[g], progress=False,
+                                            max_steps=max_steps, scene=scenes[i],
+                                            analyses=analyses, resume=resume, sim=sims[i])
             stamp(i, res.summary, before)
             record = {"name": name, "status": "ok", "out_dir": out_dirs[g],
                       "summary": res.summary}
@@ -526,12 +412,6 @@ def _run_members(cases, out_dirs, members, scenes, joints, gravity, options, rec
             stamp(i, None, before)
             raise
 
-    if hub is None:
-        try:
-            results = [body(0)]
-        finally:
-            engine.deactivate(0)
-    else:
-        results = hub.run([lambda i=i: body(i) for i in range(k)])
+    results = drive_together(engine, [body(i) for i in range(k)])
     for i, res in enumerate(results):
         records[members[i]] = res if isinstance(res, dict) else failed(members[i], res)

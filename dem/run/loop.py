@@ -29,7 +29,8 @@ from dem.run.progress import Progress
 from dem.run import resume as resume_mod
 from dem.run.quasi_static import QuasiStaticTilt
 from dem.run.record import FRAME_KEYS, Recording
-from dem.run.settle import settle
+from dem.run.settle import settle_steps
+from dem.run.steps import Advance, Steps, drive
 from dem.run.stop import StopRule
 from dem.run.table_start import apply_table_start
 from dem.rundir import clear
@@ -76,6 +77,18 @@ def run_case(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
              max_steps: int | None = None, scene: Scene | None = None,
              analyses: Sequence[Analysis] = (), resume: bool = False, sim=None) -> RunResult:
     """Run a validated case.  Writes the output directory (dem.run.write) if ``out_dir`` given.
+    :func:`run_case_steps` with its scene advancing alone (dem.run.steps.drive); the arguments
+    and what is raised are its."""
+    return drive(run_case_steps(case, out_dir, progress, max_steps, scene, analyses, resume,
+                                sim))
+
+
+def run_case_steps(case: Case, out_dir: str | Path | None = None, progress: bool = False,
+                   max_steps: int | None = None, scene: Scene | None = None,
+                   analyses: Sequence[Analysis] = (), resume: bool = False, sim=None) -> Steps:
+    """Run a validated case, steppable (dem.run.steps): yields each advance of its scene
+    (``Advance``), returns the :class:`RunResult`.  Writes the output directory
+    (dem.run.write) if ``out_dir`` given.
 
     ``resume``: ``out_dir`` may hold an unfinished run of this case with a restart point
     (dem.run.resume); go on from it, else clear the directory and start over (summary.json
@@ -166,7 +179,7 @@ def run_case(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
 
             settling_bar = Progress(progress, MAX_TIME, f"{case.name} settling")
             try:
-                summary["settling"] = settle(
+                summary["settling"] = yield from settle_steps(
                     sim, loading, case.solver.local_damping, max_steps,
                     on_look=lambda: (raise_if_stopped(), settling_bar.update(
                         sim.t, sim.step_count / max(time.perf_counter() - run0, 1e-9))))
@@ -180,10 +193,11 @@ def run_case(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
         if isinstance(loading, HeldTilt):                             # load: quasi-static
             search = QuasiStaticTilt(case, scene, loading, sim, recording, progressed,
                                      max_steps)
-            summary["collapse"] = search.run()
+            summary["collapse"] = yield from search.run()
         else:                                                         # load: in time
             while not stop.at_end(sim):
-                sim.advance(stop.limit_steps(sim, recording.steps_to_next(stop.t_end)), loading)
+                yield Advance(sim, stop.limit_steps(sim, recording.steps_to_next(stop.t_end)),
+                              loading)
                 if recording.after_advance(last=stop.at_end(sim)) and stop.collapse_stop:
                     break
                 progressed()

@@ -62,6 +62,7 @@ import math
 import numpy as np
 
 from dem.collapse import motion_measure
+from dem.run.steps import Advance
 
 CHECK_STEPS = 100  # steps between two looks at R and the motion while relaxing
 CALM_CHECKS = 3    # equilibrium: R below the tolerance and every block at rest at this many
@@ -95,7 +96,8 @@ class QuasiStaticTilt:
 
     # -- one angle -----------------------------------------------------------------------
     def relax(self, angle: float) -> tuple[bool, float, float]:
-        """Turn to ``angle`` and relax; (in equilibrium, R, largest motion in m).  When
+        """Turn to ``angle`` and relax; returns (in equilibrium, R, largest motion in m), its
+        advances yielded (a steppable phase: dem.run.steps).  When
         run.duration or the step limit runs out first, the angle is undecided:
         ``self.undecided`` is set and the search ends there."""
         sim, sp = self.sim, self.spec
@@ -108,7 +110,7 @@ class QuasiStaticTilt:
         calm = 0
         failed_at = None  # (snapshot, R, motion) where the motion first reached confirm
         while True:
-            sim.advance(self._chunk(CHECK_STEPS), self.loading)
+            yield Advance(sim, self._chunk(CHECK_STEPS), self.loading)
             ratio = sim.unbalanced_force_ratio(self.loading.gravity(np.array([sim.t]))[0])
             st = sim.read_state("pos", "quat")  # after the advance (on a device: copied now)
             moved = float(motion_measure(pos0, quat0, st.pos[: self.n], st.quat[: self.n],
@@ -182,10 +184,11 @@ class QuasiStaticTilt:
 
     # -- the search ----------------------------------------------------------------------
     def run(self) -> dict:
-        """The search, then the dynamic continuation; returns summary.json's ``collapse``."""
+        """The search, then the dynamic continuation; returns summary.json's ``collapse``.  A
+        steppable phase (dem.run.steps): its advances are yielded (``yield from``)."""
         sp, sim, rec = self.spec, self.sim, self.recording
         start = float(self.loading.start_angle)
-        ok, ratio, _ = self.relax(start)
+        ok, ratio, _ = yield from self.relax(start)
         if not ok:
             return self._result(False, None, start, ratio, self._stopped_note() if
                                 self.undecided else "no equilibrium at the start angle")
@@ -194,7 +197,7 @@ class QuasiStaticTilt:
         fail = None
         while fail is None and eq < self.max_angle and not self._out_of_time():
             trial = min(eq + sp.increment, self.max_angle)
-            ok, ratio, _ = self.relax(trial)
+            ok, ratio, _ = yield from self.relax(trial)
             if ok:
                 eq, eq_ratio, saved = trial, ratio, sim.save_point()
                 rec.frame()
@@ -207,7 +210,7 @@ class QuasiStaticTilt:
         while fail - eq > sp.resolution and not self._out_of_time():
             sim.restore_point(saved)
             mid = 0.5 * (eq + fail)
-            ok, ratio, _ = self.relax(mid)
+            ok, ratio, _ = yield from self.relax(mid)
             if self.undecided:
                 break
             if ok:
@@ -216,7 +219,7 @@ class QuasiStaticTilt:
             else:
                 fail = mid
         sim.restore_point(saved)
-        return self._continue_dynamically(eq, fail, eq_ratio, first_fail)
+        return (yield from self._continue_dynamically(eq, fail, eq_ratio, first_fail))
 
     def _continue_dynamically(self, eq: float, fail: float, eq_ratio: float,
                               to_angle: float) -> dict:
@@ -241,7 +244,7 @@ class QuasiStaticTilt:
         m = np.zeros(self.n)
         while True:
             while sim.t < window_end and not self._out_of_time():
-                sim.advance(self._chunk(rec.steps_to_next(window_end)), self.loading)
+                yield Advance(sim, self._chunk(rec.steps_to_next(window_end)), self.loading)
                 rec.after_advance(last=sim.t >= window_end)
                 st = sim.read_state("pos", "quat")  # after the advance
                 m = motion_measure(pos0, quat0, st.pos[: self.n], st.quat[: self.n],

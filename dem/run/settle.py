@@ -28,6 +28,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from dem.run.steps import Advance, Steps, drive
+
 ALPHA = 0.8          # local damping while settling (3DEC's default 0.8)
 REST_SPEED = 1e-5    # m/s: a block at rest (|v| + r |omega|)
 TOLERANCE = 1e-4     # unbalanced-force ratio at rest
@@ -39,7 +41,15 @@ MAX_TIME = 5.0       # s: give up (reported) after this
 def settle(sim, loading, local_damping: float, max_steps: int | None = None,
            on_look=None) -> dict:
     """Bring the scene to rest (module docstring); returns summary.json's ``settling``.
-    ``on_look()`` is called at every look (progress display)."""
+    ``on_look()`` is called at every look (progress display).  The scene advances alone
+    (:func:`settle_steps`, driven by dem.run.steps.drive)."""
+    return drive(settle_steps(sim, loading, local_damping, max_steps, on_look))
+
+
+def settle_steps(sim, loading, local_damping: float, max_steps: int | None = None,
+                 on_look=None) -> Steps:
+    """:func:`settle` as a steppable phase (dem.run.steps): yields its advances, returns
+    summary.json's ``settling``."""
     g0 = loading.gravity(np.array([0.0]))[0]
     zero = np.zeros(3)
 
@@ -60,7 +70,7 @@ def settle(sim, loading, local_damping: float, max_steps: int | None = None,
             k = min(k, max_steps - sim.step_count)
             if k <= 0:
                 break
-        sim.advance(k, loads)
+        yield Advance(sim, k, loads)
         st = sim.read_state("vel", "omega")
         speed = float((np.linalg.norm(st.vel[:n], axis=1)
                        + radius * np.linalg.norm(st.omega[:n], axis=1))[movable].max(initial=0.0))

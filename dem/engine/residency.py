@@ -1,0 +1,261 @@
+"""Where the engine's arrays live, and which copy is current: the host's numpy arrays alone
+(:class:`HostResidency`: the CPU, the kernels use them in place, nothing is ever copied) or
+those plus a device array of every field (:class:`DeviceResidency`: a CUDA GPU, or the CPU with
+``device_arrays=True`` for its tests).  The engine holds exactly one of the two
+(:func:`residency`); every question "is the host's copy current?" and every copy between host
+and device goes through it, so the rest of the engine has no branch on "device or not".
+
+What moves and when (dem.engine.device has the device arrays and the kernels that run there):
+
+* Model: copied once (static).
+* Control: all but the kernel-only fields copied to the device before each launch (the loads
+  of the chunk, the reset diagnostics, local damping, the active scenes); all but the
+  host-written ones copied back after it (status, steps done, deepest penetration, energy
+  sums: a few kB).
+* State and Contacts: per field, copied back only when the host reads it and only where the
+  kernels wrote it since (``stale``); copied to the device only after the host may have written
+  it (``dirty``).  The broad phase's index arrays (pairs, adj_ptr, adj, scene_pairs) are only
+  ever written by the host and never copied back; a rebuild installs them on the device with
+  the shear history carried there (:meth:`DeviceResidency.install_pairs`).
+
+Picture (one chunk of a device engine)::
+
+    host                                   device
+    ----                                   ------
+    loads, probe plan -> Control  --push-->  Control
+    dirty State/Contacts fields  --push-->  State, Contacts
+                                             stepping kernel x k steps
+    Control (status, sums)       <--pull--  Control           (every chunk, a few kB)
+    State/Contacts fields        <--pull--  only the stale ones a reader asks for
+    a rebuild's index arrays     --install_pairs--> Contacts (history moved on the device)
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import taichi as ti
+
+from dem import ti_runtime
+from dem.engine.containers import PROBE_SLOTS, SERIAL_CHUNK, Contacts, State, pair_lists
+
+# an engine on a device: steps per chunk of launches (the loads of a chunk are copied to the
+# device before it; the host reads the status back after it)
+DEVICE_CHUNK = 256
+
+# an engine on a device: probed steps of a scene per chunk (its probe_buf, Q x G x 16 x 13
+# reals, is copied back whole after a chunk with a probe: 4 slots hold the samples of a chunk
+# of DEVICE_CHUNK steps down to 64 steps apart; more shorten the chunk)
+DEVICE_PROBE_SLOTS = 4
+
+# a patch is counted as possibly over its area cap from (1 - this) x the cap
+# (DeviceResidency.patches_over_caps); the device's and the host's sums of a patch's <= 9 point
+# areas differ by ~1e-15 relative, so 1e-9 never hides a patch the host would find over
+CAP_CHECK_MARGIN = 1e-9
+
+
+class HostResidency:
+    """Every array lives on the host only (the CPU path): the kernels take the containers'
+    numpy arrays in place; every question of staleness answers "current" and nothing is
+    copied."""
+
+    on_device = False
+    CHUNK_STEPS = SERIAL_CHUNK  # the most steps of a chunk (control.loads' rows)
+    PROBE_SLOTS = PROBE_SLOTS   # probed steps of a scene in a chunk (control.probe_buf's)
+
+    def __init__(self, model, state, contacts, control):
+        self.model, self.state, self.contacts, self.control = model, state, contacts, control
+        self._args = (model.args, state.args, contacts.args, control.args)
+
+    def containers(self) -> tuple:
+        """The argpacks of (Model, State, Contacts, Control), as the kernels take them."""
+        return self._args
+
+    def host(self, name: str, write: bool = True, fields=None) -> None:
+        """The host's ``name`` is always current here (:meth:`DeviceResidency.host`)."""
+
+    def to_device(self) -> None:
+        """Nothing to copy before a launch."""
+
+    def from_device(self) -> None:
+        """Nothing to copy after a launch."""
+
+    def pull_probes(self) -> None:
+        """The probes' buffer is the host's already."""
+
+    def patches_over_caps(self, n_slots: int, area_cap: np.ndarray, batched: bool) -> bool:
+        """Whether a patch may be over its cap: the host checks every one itself."""
+        return True
+
+    def write_pairs(self, g: int, c, pairs: np.ndarray, n_bodies: int) -> None:
+        """Scene g's new neighbour list ``pairs`` into its Contacts ``c`` (its region of the
+        engine's), the shear history of the pairs that stay carried over (Contacts.write_pairs)."""
+        n_old = c.n_pairs
+        old_pairs = c.pairs[:n_old].copy() if n_old else None
+        history = c.read_history() if n_old else None
+        c.write_pairs(pairs, n_bodies, history, old_pairs)
+
+    def transfer_counts(self) -> dict:
+        """No device arrays: no copies (:meth:`DeviceResidency.transfer_counts`)."""
+        return {}
+
+    def install_counts(self) -> dict:
+        return {"calls": 0, "bytes": 0}
+
+
+class DeviceResidency:
+    """A device array beside every host array (dem.engine.device.DeviceArrays) and, per field
+    of State and Contacts, which copy is current: the module docstring."""
+
+    on_device = True
+    CHUNK_STEPS = DEVICE_CHUNK
+    PROBE_SLOTS = DEVICE_PROBE_SLOTS
+
+    # Contacts fields that only the host writes between launches (the broad phase's index
+    # arrays: the stepping kernels read them, install_pairs writes on the device the values the
+    # host wrote on its own copy): current on the host after any launch, never copied back
+    HOST_KEPT = {"state": frozenset(),
+                 "contacts": frozenset({"pairs", "adj_ptr", "adj", "scene_pairs"})}
+    # Contacts fields that install_pairs writes on the device from the device's history (a
+    # rebuild): stale on the host after it
+    INSTALLED = ("code", "npts", "loc", "shear", "patch_shape")
+    # Control fields only the kernels write and the host reads on demand (the probes' samples)
+    CONTROL_KERNEL_ONLY = ("probe_buf",)
+    # Control fields only the host writes (before a launch): never copied back
+    CONTROL_HOST_WRITTEN = ("loads", "probe_slot", "probe_body")
+
+    def __init__(self, model, state, contacts, control):
+        from dem.engine.device import DeviceArrays, HistoryScratch
+
+        self.model, self.state, self.contacts, self.control = model, state, contacts, control
+        self.dev = {name: DeviceArrays(box) for name, box in (
+            ("model", model), ("state", state), ("contacts", contacts), ("control", control))}
+        for d in self.dev.values():
+            d.push()
+        real = ti.f32 if ti_runtime.real_dtype() == np.float32 else ti.f64
+        self._scratch = HistoryScratch(contacts.capacity, real)
+        self._cap_dev = None  # the area caps, for patches_over_caps
+        self.fields = {"state": State.field_names(), "contacts": Contacts.field_names()}
+        self.stale = {"state": set(), "contacts": set()}   # fields whose device copy is newer
+        self.dirty = {"state": set(), "contacts": set()}   # fields the host may have written
+        self._installs = {"calls": 0, "bytes": 0}  # install_pairs' host arrays
+
+    def containers(self) -> tuple:
+        """The argpacks of the device's (Model, State, Contacts, Control) arrays."""
+        d = self.dev
+        return (d["model"].args, d["state"].args, d["contacts"].args, d["control"].args)
+
+    def host(self, name: str, write: bool = True, fields=None) -> None:
+        """Make the host's ``name`` ("state" or "contacts") current before the host reads it,
+        and, with ``write``, copy it to the device before the next launch (the host may write
+        it).  ``fields``: only these fields of it (names of the container's FIELDS; None: all).
+
+        Per field: a field is *stale* where the kernels wrote it since the host last copied it
+        (every field but :attr:`HOST_KEPT` after a launch; :attr:`INSTALLED` after a rebuild's
+        install): only the stale fields asked for are copied back (one copy per field, of every
+        scene of the engine), once.  ``write`` marks the fields asked for *dirty* (whether the
+        host then writes them or not, and whether they were stale or not: a field the host
+        writes whole without reading it still goes to the device); the dirty fields are copied
+        to the device before the next launch (or install) and are never stale meanwhile, so a
+        copy back never overwrites what the host wrote.  ``sim.state`` / ``sim.contacts`` ask for
+        every field with ``write`` (a writer gets what it always got); the read-only accessors
+        (Simulation.read_state / read_contacts) ask for their fields without it."""
+        names = self.fields[name] if fields is None else tuple(fields)
+        unknown = set(names) - set(self.fields[name])
+        if unknown:
+            raise KeyError(f"{name} has no field(s) {sorted(unknown)}")
+        stale = self.stale[name]
+        pull = [f for f in names if f in stale]
+        if pull:
+            self.dev[name].pull(pull)
+            stale.difference_update(pull)
+        if write:
+            self.dirty[name].update(names)
+
+    def push_dirty(self, name: str) -> None:
+        dirty = self.dirty[name]
+        if dirty:
+            self.dev[name].push([f for f in self.fields[name] if f in dirty])
+            dirty.clear()
+
+    def to_device(self) -> None:
+        """Before a launch: the control (but its kernel-only fields) and every dirty field."""
+        self.dev["control"].push([f for f in self.dev["control"].dev
+                                  if f not in self.CONTROL_KERNEL_ONLY])
+        for name in ("state", "contacts"):
+            self.push_dirty(name)
+
+    def from_device(self) -> None:
+        """After a launch: the control's kernel-written fields back; every State / Contacts
+        field the kernels write marked stale (nothing is dirty: to_device pushed it)."""
+        self.dev["control"].pull([f for f in self.dev["control"].dev
+                                  if f not in self.CONTROL_HOST_WRITTEN
+                                  + self.CONTROL_KERNEL_ONLY])
+        for name in ("state", "contacts"):
+            self.stale[name] = set(self.fields[name]) - self.HOST_KEPT[name]
+
+    def pull_probes(self) -> None:
+        """The probes' samples of the last launch (control.probe_buf) to the host."""
+        self.dev["control"].pull(["probe_buf"])
+
+    def patches_over_caps(self, n_slots: int, area_cap: np.ndarray, batched: bool) -> bool:
+        """Whether any live pair's patch may exceed its bodies' area cap, counted on the device
+        (dem.engine.device.patches_over_caps) so that the patches' areas of every scene (most
+        of the bytes a chunk end brings back) are copied only when one may.  The margin
+        (CAP_CHECK_MARGIN) is far above the round-off between the device's sum of a patch's
+        point areas and the host's: where it says no, the host's check would find none."""
+        from dem.engine.device import patches_over_caps
+
+        if self._cap_dev is None:
+            real = ti.f32 if ti_runtime.real_dtype() == np.float32 else ti.f64
+            self._cap_dev = ti.ndarray(real, shape=(self.model.n_bodies,))
+        self._cap_dev.from_numpy(np.ascontiguousarray(area_cap, dtype=ti_runtime.real_dtype()))
+        m, _, c, ctl = self.containers()
+        return patches_over_caps(n_slots, self._cap_dev, 1.0 - CAP_CHECK_MARGIN, m, c, ctl,
+                                 batched) > 0
+
+    def write_pairs(self, g: int, c, pairs: np.ndarray, n_bodies: int) -> None:
+        """Scene g's new neighbour list ``pairs`` into its Contacts ``c``: the host keeps the
+        index arrays (only it writes them); the history stays on the device
+        (:meth:`install_pairs`)."""
+        n_old = c.n_pairs
+        old_pairs = c.pairs[:n_old].copy() if n_old else None
+        lists = pair_lists(pairs, n_bodies, c.capacity, old_pairs)
+        c.pairs[...] = lists.pairs
+        c.adj_ptr[...] = lists.adj_ptr
+        c.adj[...] = lists.adj
+        c.n_pairs = lists.n
+        self.install_pairs(g, lists, n_old > 0)
+
+    def install_pairs(self, g: int, lists, has_history: bool) -> None:
+        """Scene g's new pair lists (containers.pair_lists) into the device's contacts
+        (dem.engine.device.install_pairs: the history carried on the device)."""
+        from dem.engine.device import install_pairs
+
+        # what the host wrote since goes to the device first
+        self.push_dirty("contacts")
+        self.push_dirty("state")
+        src = lists.src if lists.src is not None else np.zeros(0, dtype=np.int32)
+        src_full = np.full(self.contacts.capacity, -1, dtype=np.int32)
+        src_full[: len(src)] = src
+        sc = self._scratch
+        _, st, c, _ = self.containers()
+        self._installs["calls"] += 1
+        self._installs["bytes"] += (lists.pairs.nbytes + lists.adj_ptr.nbytes + lists.adj.nbytes
+                                    + src_full.nbytes)
+        install_pairs(g, lists.n, int(has_history), lists.pairs, lists.adj_ptr, lists.adj,
+                      src_full, self.dev["model"].args, st, c, sc.code, sc.npts, sc.loc,
+                      sc.shear)
+        self.stale["contacts"].update(self.INSTALLED)  # the history, moved on the device
+
+    def transfer_counts(self) -> dict:
+        """Per container, the copies each way since construction (DeviceArrays.counts)."""
+        return {name: d.counts for name, d in self.dev.items()}
+
+    def install_counts(self) -> dict:
+        return dict(self._installs)
+
+
+def residency_kind(on_device: bool) -> type:
+    """The residency of an engine's containers: on a device, or on the host only (its
+    CHUNK_STEPS and PROBE_SLOTS shape the Control; an instance holds the containers)."""
+    return DeviceResidency if on_device else HostResidency
