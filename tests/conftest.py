@@ -34,6 +34,6 @@ def pytest_sessionstart(session):
         return
     write(f"compiling the engine's kernels once ({len(warm_kernels.VARIANTS)} variants, "
           f"{parts} processes; DEM_TEST_NO_WARMUP=1 skips this)... ")
-    n, seconds, errors = warm_kernels.run_parts(parts)
-    write(f"done in {seconds:.0f} s\n" if not errors else
+    n, seconds, errors, cpu = warm_kernels.run_parts(parts)
+    write(f"done in {seconds:.0f} s ({cpu:.0f} CPU-s)\n" if not errors else
           f"failed ({'; '.join(errors)}): the workers compile what they need\n")

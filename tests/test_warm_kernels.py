@@ -33,3 +33,20 @@ def test_the_stamp_skips_the_warm_up_only_for_the_current_kernels(tmp_path, monk
     assert wk.needed()
     monkeypatch.setenv("TI_OFFLINE_CACHE", "0")          # no cache: nothing to warm
     assert not wk.needed()
+
+
+def test_an_ended_subprocess_is_reaped_with_its_exit_code_and_cpu_time():
+    """The warm-up's account of each variant: the exit code, and the CPU seconds the kernel
+    charged to the child (a busy loop of 0.3 CPU-s reads at least that, less the clock's tick)."""
+    import subprocess
+    import sys
+    import time
+
+    burn = "import sys, time\nt = time.process_time()\nwhile time.process_time() - t < 0.3: pass\nsys.exit(3)"
+    p = subprocess.Popen([sys.executable, "-c", burn])
+    t0 = time.monotonic()
+    while (cpu := wk.reap(p)) is None:
+        assert time.monotonic() - t0 < 60
+        time.sleep(0.05)
+    assert p.returncode == 3
+    assert cpu >= 0.3 - 0.02

@@ -165,26 +165,44 @@ def needed() -> bool:
         return True
 
 
-def run_parts(parts: int) -> tuple[int, float, list[str]]:
+def reap(p: subprocess.Popen) -> float | None:
+    """None while ``p`` runs; else its CPU seconds (user + system, from the kernel's account of
+    the ended child: its compiles and Taichi's cache writing at exit included), with
+    ``p.returncode`` set."""
+    pid, status, usage = os.wait4(p.pid, os.WNOHANG)
+    if pid == 0:
+        return None
+    p.returncode = os.waitstatus_to_exitcode(status)
+    return usage.ru_utime + usage.ru_stime
+
+
+def run_parts(parts: int) -> tuple[int, float, list[str], float]:
     """Warm every variant, each in its own subprocess (a crash loses that variant only:
     Taichi writes its cache at exit), ``parts`` at a time, in the order of :data:`VARIANTS`
-    (the longest first); returns (variants, wall seconds, the last line of each failure).
-    The stamp is written when every variant succeeded."""
+    (the longest first); returns (variants, wall seconds, the last line of each failure, CPU
+    seconds of the subprocesses).  The stamp is written when every variant succeeded, with
+    each variant's CPU seconds (where the warm-up's time goes)."""
     t0 = time.perf_counter()
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(
         [str(ROOT)] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]))
     queue = list(range(len(VARIANTS)))
-    running: list = []  # (process, its log file)
+    running: list = []  # (variant, process, its log file)
     errors = []
+    cpu = {}
     while queue or running:
         while queue and len(running) < parts:
             log = tempfile.TemporaryFile("w+")  # not a pipe: a long crash report cannot block
-            running.append((subprocess.Popen(
-                [sys.executable, "-m", "tests.warm_kernels", "--variant", str(queue.pop(0))],
+            k = queue.pop(0)
+            running.append((k, subprocess.Popen(
+                [sys.executable, "-m", "tests.warm_kernels", "--variant", str(k)],
                 cwd=ROOT, env=env, stdout=log, stderr=subprocess.STDOUT, text=True), log))
         time.sleep(0.2)
-        for p, log in [r for r in running if r[0].poll() is not None]:
-            running.remove((p, log))
+        for k, p, log in list(running):
+            seconds = reap(p)
+            if seconds is None:
+                continue
+            running.remove((k, p, log))
+            cpu[describe(VARIANTS[k])] = round(seconds, 1)
             log.seek(0)
             out = log.read().strip()
             log.close()
@@ -193,8 +211,9 @@ def run_parts(parts: int) -> tuple[int, float, list[str]]:
     stamp = _stamp()
     if not errors and stamp is not None:
         stamp.parent.mkdir(parents=True, exist_ok=True)
-        stamp.write_text(json.dumps({"fingerprint": fingerprint(), "variants": len(VARIANTS)}))
-    return len(VARIANTS), time.perf_counter() - t0, errors
+        stamp.write_text(json.dumps({"fingerprint": fingerprint(), "variants": len(VARIANTS),
+                                     "cpu_seconds": cpu}, indent=1))
+    return len(VARIANTS), time.perf_counter() - t0, errors, sum(cpu.values())
 
 
 def main(argv=None) -> int:
