@@ -27,8 +27,9 @@ def pytest_sessionstart(session):
     """In the xdist controller (``-n``), before the workers start (xdist starts them in its
     own, trylast, pytest_sessionstart): compile the engine's kernel
     variants once into Taichi's offline cache (tests/warm_kernels.py), one subprocess per core
-    (each its share of the variants), instead of once in every worker.  Not in a worker, not without ``-n``, not with
-    ``DEM_TEST_NO_WARMUP=1``; a no-op while the cache holds the current kernels."""
+    (each its share of the variants), instead of once in every worker.  Not in a worker, not
+    without ``-n``, not with ``DEM_TEST_NO_WARMUP=1``; a no-op while the cache holds the
+    current kernels."""
     config = session.config
     if hasattr(config, "workerinput") or os.environ.get("DEM_TEST_NO_WARMUP") == "1":
         return

@@ -46,7 +46,8 @@ def test_an_ended_subprocess_is_reaped_with_its_exit_code_and_cpu_time():
     import sys
     import time
 
-    burn = "import sys, time\nt = time.process_time()\nwhile time.process_time() - t < 0.3: pass\nsys.exit(3)"
+    burn = ("import sys, time\nt = time.process_time()\n"
+            "while time.process_time() - t < 0.3: pass\nsys.exit(3)")
     p = subprocess.Popen([sys.executable, "-c", burn])
     t0 = time.monotonic()
     while (cpu := wk.reap(p)) is None:
