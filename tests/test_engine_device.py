@@ -67,9 +67,9 @@ def test_read_only_accessors_copy_only_the_stale_fields_asked_for_and_nothing_ba
     a, b = e.simulations
     e.advance(300, loads)
     n_state = len(State.field_names())
-    # the control goes to the device every chunk, but for what only the kernels write
-    control_pushes = len(e.residency.dev["control"].dev) - len(DeviceResidency.CONTROL_KERNEL_ONLY)
-    assert control_pushes > 0
+    # the control goes to the device as one copy a chunk (its steps' loads and probe slots:
+    # dem.engine.device.ChunkCopies); its other fields only when the host changed them
+    control_pushes = 1
 
     p0, pb0, q0, qb0 = _copies(e)
     st = a.read_state("pos", "vel")
@@ -155,3 +155,49 @@ def test_the_device_counts_the_patches_over_their_caps_as_the_host_would():
         on_host = int((areas > np.minimum(cap[slots[:, 0]], cap[slots[:, 1]])).sum())
         assert on_device == on_host, (cap_value, on_device, on_host)
     assert on_host > 0  # the last caps are exceeded
+
+
+def test_the_control_goes_as_the_rows_of_a_chunk_and_what_the_host_changed():
+    """A chunk of k steps sends its steps' loads and probe slots in one copy of R rows (the
+    power of two >= k: dem.engine.device.ChunkCopies) and brings the diagnostics and sums back
+    in one; a Control field the host writes between chunks (a scene's local damping, the energy
+    sums of a restored point) reaches the kernels, copied once, not every chunk."""
+    loads = [shake(4.0, 7.0), shake(6.0, 8.0, axis=1)]
+    opts = options()
+    dev = Engine([wall() for _ in loads], JOINTS, opts, device_arrays=True)
+    host = Engine([wall() for _ in loads], JOINTS, opts)
+
+    def fields(way):
+        return dict(dev.transfer_stats()[way]["by_container"]["control"]["fields"])
+
+    for e in (dev, host):
+        e.advance(300, loads)
+    n0, push0, pull0 = dev.n_chunks, fields("host_to_device"), fields("device_to_host")
+    saved = [e.simulations[0].save_point() for e in (dev, host)]
+    for e in (dev, host):
+        e.simulations[1].set_local_damping(0.3)
+        e.advance(200, loads)
+    for e, point in zip((dev, host), saved):
+        e.simulations[0].restore_point(point)  # its energy sums back to the saved ones
+        e.advance(200, loads)
+    n1, push1, pull1 = dev.n_chunks, fields("host_to_device"), fields("device_to_host")
+    chunks = n1 - n0
+    assert chunks >= 2
+    G, row = len(loads), 7 * dev.control.loads.itemsize
+    sent = push1["chunk_rows"] - push0["chunk_rows"]
+    assert chunks * G * row <= sent <= 2 * 400 * G * row  # R < 2k rows a chunk, one at least
+    assert push1.get("local_damping", 0) - push0.get("local_damping", 0) \
+        == dev.control.local_damping.nbytes  # once, not once a chunk
+    assert push1.get("energy_sums", 0) - push0.get("energy_sums", 0) \
+        == dev.control.energy_sums.nbytes
+    for name in ("loads", "probe_slot", "status", "steps_done", "active", "step_parameters"):
+        assert push1.get(name, 0) == push0.get(name, 0), name
+    back = pull1["diagnostics"] - pull0["diagnostics"]
+    assert back == chunks * (G + 1) * (4 + 6) * dev.control.energy_sums.itemsize
+    for name in set(pull1) - {"diagnostics"}:  # no Control field back one by one
+        assert pull1[name] == pull0.get(name, 0), name
+    for a, b in zip(dev.simulations, host.simulations):
+        assert_same(a, b)
+    # the damping reached the kernels of scene 1 only
+    assert dev.simulations[1].energy_report()["dissipated_local_damping"] > 0.0
+    assert dev.simulations[0].energy_report()["dissipated_local_damping"] == 0.0

@@ -35,7 +35,8 @@ import numpy as np
 import taichi as ti
 
 from dem import ti_runtime
-from dem.engine.containers import ContactArgs, ControlArgs, ModelArgs, StateArgs, element_type
+from dem.engine.containers import (ENERGY_TERMS, ContactArgs, ControlArgs, ModelArgs, StateArgs,
+                                   element_type)
 from dem.engine.geometry import MAXP
 from dem.engine.mathutil import vec3
 from dem.engine.step import pair_bodies, slot_live, slots_per_scene
@@ -71,7 +72,7 @@ class DeviceArrays:
         for name in names or self.dev:
             a = np.ascontiguousarray(getattr(self.box, name))
             self.dev[name].from_numpy(a)
-            self._count("push", name, a.nbytes)
+            self.count("push", name, a.nbytes)
         self.counts["push"]["seconds"] += time.perf_counter() - t0
 
     def pull(self, names=None) -> None:
@@ -79,10 +80,12 @@ class DeviceArrays:
         for name in names or self.dev:
             a = self.dev[name].to_numpy()
             getattr(self.box, name)[...] = a
-            self._count("pull", name, a.nbytes)
+            self.count("pull", name, a.nbytes)
         self.counts["pull"]["seconds"] += time.perf_counter() - t0
 
-    def _count(self, way: str, name: str, nbytes: int) -> None:
+    def count(self, way: str, name: str, nbytes: int) -> None:
+        """One copy of ``nbytes`` bytes of ``name`` (a field, or a copy that carries several:
+        ChunkCopies' "chunk_rows" and "diagnostics", the caps' "area_cap") counted ``way``."""
         c = self.counts[way]
         c["copies"] += 1
         c["bytes"] += nbytes
@@ -177,3 +180,123 @@ def patches_over_caps(n_slots: ti.i32, cap: ti.types.ndarray(ndim=1), margin: fl
             if patch > margin * ti.min(cap[i], cap[j]):
                 over += 1
     return over
+
+
+# a chunk's rows sent in one copy (ChunkCopies.push_chunk), per step of the chunk and scene:
+# gravity (3 reals, m/s^2), base acceleration (3, m/s^2), probe slot (control.probe_slot, an
+# integer held exactly by a real)
+CHUNK_COLUMNS = 7
+# the diagnostics and sums brought back in one copy (ChunkCopies.pull_diagnostics), per scene:
+# status, bad_body, deepest (m), deepest_step, then the energy sums (J) in ENERGY_TERMS' order;
+# a last row: steps_done[0], steps_done[1] (the integers held exactly by reals)
+DIAGNOSTIC_COLUMNS = 4 + len(ENERGY_TERMS)
+
+
+class ChunkCopies:
+    """The per-chunk copies of the Control between host and device, one each way:
+
+    * before a launch of k steps, the loads and probe slots of its k steps (not the S rows of
+      control.loads: a chunk cut short by a rebuild has a few steps) in one array of R >= k rows
+      (R a power of two, so that a handful of device arrays serve every k), which
+      :func:`unpack_chunk` writes into control.loads and control.probe_slot on the device while
+      it resets the diagnostics (status, bad_body, deepest_step, steps_done) as the host does;
+    * after it, the diagnostics and energy sums, packed on the device by
+      :func:`pack_diagnostics` into one array of G + 1 rows and unpacked into the host's
+      fields.
+
+    Both copies are counted with the Control's (``counts``: DeviceArrays.counts, under the
+    fields "chunk_rows" and "diagnostics").  The reals are copied as they are and the integers
+    are exactly representable as f64: the host and the device hold the same values as with a
+    copy per field."""
+
+    def __init__(self, control, control_dev: "DeviceArrays", real):
+        self.control, self.dev = control, control_dev
+        self.real = real
+        self.np_real = np.float64 if real == ti.f64 else np.float32
+        self.G = control.status.shape[0]
+        self.S = control.loads.shape[0]
+        self._rows = {}  # R -> (host array [R, G, CHUNK_COLUMNS], device array)
+        self._diag_host = np.zeros((self.G + 1, DIAGNOSTIC_COLUMNS), dtype=self.np_real)
+        self._diag_dev = ti.ndarray(real, shape=self._diag_host.shape)
+
+    def rows(self, k: int) -> int:
+        """R: the rows of the array that carries a chunk of k steps."""
+        return min(self.S, 1 << max(0, int(k) - 1).bit_length())
+
+    def push_chunk(self, k: int) -> None:
+        """The loads and probe slots of the chunk's first k steps to the device, and the
+        diagnostics reset there (:func:`unpack_chunk`)."""
+        t0 = time.perf_counter()
+        R = self.rows(k)
+        if R not in self._rows:
+            host = np.zeros((R, self.G, CHUNK_COLUMNS), dtype=self.np_real)
+            self._rows[R] = (host, ti.ndarray(self.real, shape=host.shape))
+        host, dev = self._rows[R]
+        ctl = self.control
+        host[:k, :, 0:3] = ctl.loads[:k, :, 0]
+        host[:k, :, 3:6] = ctl.loads[:k, :, 1]
+        host[:k, :, 6] = ctl.probe_slot[:k]
+        dev.from_numpy(host)
+        self.dev.count("push", "chunk_rows", host.nbytes)
+        d = self.dev.dev
+        unpack_chunk(k, dev, d["loads"], d["probe_slot"], d["status"], d["bad_body"],
+                     d["deepest_step"], d["steps_done"])
+        self.dev.counts["push"]["seconds"] += time.perf_counter() - t0
+
+    def pull_diagnostics(self) -> tuple:
+        """The diagnostics and energy sums of the last chunk to the host's fields (one copy);
+        returns the names of the fields written."""
+        t0 = time.perf_counter()
+        d = self.dev.dev
+        pack_diagnostics(self._diag_dev, d["status"], d["bad_body"], d["deepest"],
+                         d["deepest_step"], d["steps_done"], d["energy_sums"])
+        out = self._diag_dev.to_numpy()
+        self.dev.count("pull", "diagnostics", out.nbytes)
+        ctl, G = self.control, self.G
+        ctl.status[...] = out[:G, 0]
+        ctl.bad_body[...] = out[:G, 1]
+        ctl.deepest[...] = out[:G, 2]
+        ctl.deepest_step[...] = out[:G, 3]
+        ctl.energy_sums[...] = out[:G, 4:]
+        ctl.steps_done[...] = out[G, :2]
+        self.dev.counts["pull"]["seconds"] += time.perf_counter() - t0
+        return ("status", "bad_body", "deepest", "deepest_step", "energy_sums", "steps_done")
+
+
+@ti.kernel
+def unpack_chunk(k: ti.i32, rows: ti.types.ndarray(ndim=3), loads: ti.types.ndarray(ndim=3),
+                 probe_slot: ti.types.ndarray(ndim=2), status: ti.types.ndarray(ndim=1),
+                 bad_body: ti.types.ndarray(ndim=1), deepest_step: ti.types.ndarray(ndim=1),
+                 steps_done: ti.types.ndarray(ndim=1)):
+    """A chunk's rows (ChunkCopies.push_chunk: [R, G, CHUNK_COLUMNS], the first k filled) into
+    control.loads and control.probe_slot, and the diagnostics reset as Launcher.launch resets
+    the host's: status 0, bad_body 0, deepest_step -1, steps_done 0."""
+    for s, g in ti.ndrange(k, status.shape[0]):
+        loads[s, g, 0] = vec3(rows[s, g, 0], rows[s, g, 1], rows[s, g, 2])
+        loads[s, g, 1] = vec3(rows[s, g, 3], rows[s, g, 4], rows[s, g, 5])
+        probe_slot[s, g] = ti.cast(rows[s, g, 6], ti.i32)
+    for g in range(status.shape[0]):
+        status[g] = 0
+        bad_body[g] = 0
+        deepest_step[g] = -1
+    for i in range(2):
+        steps_done[i] = 0
+
+
+@ti.kernel
+def pack_diagnostics(out: ti.types.ndarray(ndim=2), status: ti.types.ndarray(ndim=1),
+                     bad_body: ti.types.ndarray(ndim=1), deepest: ti.types.ndarray(ndim=1),
+                     deepest_step: ti.types.ndarray(ndim=1), steps_done: ti.types.ndarray(ndim=1),
+                     energy_sums: ti.types.ndarray(ndim=2)):
+    """The diagnostics and energy sums into one array (ChunkCopies.pull_diagnostics: its
+    columns, DIAGNOSTIC_COLUMNS)."""
+    G = status.shape[0]
+    for g in range(G):
+        out[g, 0] = ti.cast(status[g], ti.f64)
+        out[g, 1] = ti.cast(bad_body[g], ti.f64)
+        out[g, 2] = deepest[g]
+        out[g, 3] = ti.cast(deepest_step[g], ti.f64)
+        for e in ti.static(range(len(ENERGY_TERMS))):
+            out[g, 4 + e] = energy_sums[g, e]
+    for i in range(2):
+        out[G, i] = ti.cast(steps_done[i], ti.f64)

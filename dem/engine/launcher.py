@@ -212,7 +212,7 @@ class Launcher:
             self.record_launch()
         n_slots = self.n_pair_slots()
         self.n_chunks += 1
-        e.residency.to_device()
+        e.residency.to_device(k)
         dt = e.dt
         if e.mode == "serial":
             self.kernel(k, n_slots, dt)

@@ -73,7 +73,7 @@ class HostResidency:
     def host(self, name: str, write: bool = True, fields=None) -> None:
         """The host's ``name`` is always current here (:meth:`DeviceResidency.host`)."""
 
-    def to_device(self) -> None:
+    def to_device(self, k: int) -> None:
         """Nothing to copy before a launch."""
 
     def from_device(self) -> None:
@@ -122,9 +122,11 @@ class DeviceResidency:
     CONTROL_KERNEL_ONLY = ("probe_buf",)
     # Control fields only the host writes (before a launch): never copied back
     CONTROL_HOST_WRITTEN = ("loads", "probe_slot", "probe_body")
+    # Control fields whose rows of a chunk go to the device in one copy (ChunkCopies)
+    CONTROL_CHUNK_ROWS = ("loads", "probe_slot")
 
     def __init__(self, model, state, contacts, control):
-        from dem.engine.device import DeviceArrays, HistoryScratch
+        from dem.engine.device import ChunkCopies, DeviceArrays, HistoryScratch
 
         self.model, self.state, self.contacts, self.control = model, state, contacts, control
         self.dev = {name: DeviceArrays(box) for name, box in (
@@ -134,6 +136,18 @@ class DeviceResidency:
         real = ti.f32 if ti_runtime.real_dtype() == np.float32 else ti.f64
         self._scratch = HistoryScratch(contacts.capacity, real)
         self._cap_dev = None  # the area caps, for patches_over_caps
+        self._cap_sent = None  # the caps the device holds
+        self._chunk = ChunkCopies(control, self.dev["control"], real)
+        # the Control fields copied per field only when changed (to_device): what the device
+        # holds, as the host last sent or received it
+        self._sent = {}
+        self._remember([f for f in self.dev["control"].dev
+                        if f not in self.CONTROL_KERNEL_ONLY + self.CONTROL_CHUNK_ROWS])
+        # what unpack_chunk leaves in the diagnostics it resets
+        self._reset = {"status": np.zeros_like(control.status),
+                       "bad_body": np.zeros_like(control.bad_body),
+                       "deepest_step": np.full_like(control.deepest_step, -1),
+                       "steps_done": np.zeros_like(control.steps_done)}
         self.fields = {"state": State.field_names(), "contacts": Contacts.field_names()}
         self.stale = {"state": set(), "contacts": set()}   # fields whose device copy is newer
         self.dirty = {"state": set(), "contacts": set()}   # fields the host may have written
@@ -177,21 +191,35 @@ class DeviceResidency:
             self.dev[name].push([f for f in self.fields[name] if f in dirty])
             dirty.clear()
 
-    def to_device(self) -> None:
-        """Before a launch: the control (but its kernel-only fields) and every dirty field."""
-        self.dev["control"].push([f for f in self.dev["control"].dev
-                                  if f not in self.CONTROL_KERNEL_ONLY])
+    def to_device(self, k: int) -> None:
+        """Before a launch of k steps: the loads and probe slots of its k steps in one copy,
+        with the diagnostics reset on the device (dem.engine.device.ChunkCopies); each other
+        Control field only where the host changed it since the device last had it (its bytes
+        against :attr:`_sent`'s: the host's writes of the step parameters, local damping,
+        active scenes, probed bodies, restored sums, which change seldom); every dirty
+        State / Contacts field."""
+        self._chunk.push_chunk(k)
+        self._sent.update(self._reset)
+        changed = [f for f, sent in self._sent.items()
+                   if not _same_bytes(getattr(self.control, f), sent)]
+        if changed:
+            self.dev["control"].push(changed)
+            self._remember(changed)
         for name in ("state", "contacts"):
             self.push_dirty(name)
 
     def from_device(self) -> None:
-        """After a launch: the control's kernel-written fields back; every State / Contacts
-        field the kernels write marked stale (nothing is dirty: to_device pushed it)."""
-        self.dev["control"].pull([f for f in self.dev["control"].dev
-                                  if f not in self.CONTROL_HOST_WRITTEN
-                                  + self.CONTROL_KERNEL_ONLY])
+        """After a launch: the control's kernel-written fields back in one copy
+        (dem.engine.device.ChunkCopies); every State / Contacts field the kernels write marked
+        stale (nothing is dirty: to_device pushed it)."""
+        self._remember(self._chunk.pull_diagnostics())
         for name in ("state", "contacts"):
             self.stale[name] = set(self.fields[name]) - self.HOST_KEPT[name]
+
+    def _remember(self, names) -> None:
+        """The host's ``names`` of the Control are what the device holds now."""
+        for f in names:
+            self._sent[f] = getattr(self.control, f).copy()
 
     def pull_probes(self) -> None:
         """The probes' samples of the last launch (control.probe_buf) to the host."""
@@ -208,7 +236,11 @@ class DeviceResidency:
         if self._cap_dev is None:
             real = ti.f32 if ti_runtime.real_dtype() == np.float32 else ti.f64
             self._cap_dev = ti.ndarray(real, shape=(self.model.n_bodies,))
-        self._cap_dev.from_numpy(np.ascontiguousarray(area_cap, dtype=ti_runtime.real_dtype()))
+        if self._cap_sent is None or not _same_bytes(area_cap, self._cap_sent):
+            cap = np.ascontiguousarray(area_cap, dtype=ti_runtime.real_dtype())
+            self._cap_dev.from_numpy(cap)
+            self._cap_sent = cap.copy()
+            self.dev["control"].count("push", "area_cap", cap.nbytes)
         m, _, c, ctl = self.containers()
         return patches_over_caps(n_slots, self._cap_dev, 1.0 - CAP_CHECK_MARGIN, m, c, ctl,
                                  batched) > 0
@@ -253,6 +285,13 @@ class DeviceResidency:
 
     def install_counts(self) -> dict:
         return dict(self._installs)
+
+
+def _same_bytes(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether two arrays hold the same bytes (not ==: -0.0 and 0.0 differ, a NaN is itself)."""
+    a, b = np.ascontiguousarray(a), np.ascontiguousarray(b)
+    return a.shape == b.shape and a.dtype == b.dtype and np.array_equal(a.view(np.uint8),
+                                                                         b.view(np.uint8))
 
 
 def residency_kind(on_device: bool) -> type:
