@@ -8,10 +8,13 @@ and device goes through it, so the rest of the engine has no branch on "device o
 What moves and when (dem.engine.device has the device arrays and the kernels that run there):
 
 * Model: copied once (static).
-* Control: all but the kernel-only fields copied to the device before each launch (the loads
-  of the chunk, the reset diagnostics, local damping, the active scenes); all but the
-  host-written ones copied back after it (status, steps done, deepest penetration, energy
-  sums: a few kB).
+* Control: one copy to the device before each launch (dem.engine.device.ChunkCopies: the
+  loads of the chunk's steps that the device does not hold yet, and the probe slots; the
+  diagnostics are reset on the device) and one back after it (status, steps done, deepest
+  penetration, energy sums, packed on the device: a few hundred bytes a scene).  Its other
+  fields (step parameters, local damping, active scenes, probed bodies, restored sums) go to
+  the device only when the host changed them (their bytes against what the device holds),
+  the area caps likewise.
 * State and Contacts: per field, copied back only when the host reads it and only where the
   kernels wrote it since (``stale``); copied to the device only after the host may have written
   it (``dirty``).  The broad phase's index arrays (pairs, adj_ptr, adj, scene_pairs) are only
@@ -22,10 +25,11 @@ Picture (one chunk of a device engine)::
 
     host                                   device
     ----                                   ------
-    loads, probe plan -> Control  --push-->  Control
+    new loads rows, probe plan   --push-->  ring of loads -> Control   (one copy; unpack_chunk)
+    changed Control fields       --push-->  Control           (seldom)
     dirty State/Contacts fields  --push-->  State, Contacts
                                              stepping kernel x k steps
-    Control (status, sums)       <--pull--  Control           (every chunk, a few kB)
+    Control (status, sums)       <--pull--  Control           (one copy; pack_diagnostics)
     State/Contacts fields        <--pull--  only the stale ones a reader asks for
     a rebuild's index arrays     --install_pairs--> Contacts (history moved on the device)
 """
