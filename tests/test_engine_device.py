@@ -204,3 +204,55 @@ def test_the_control_goes_as_the_rows_of_a_chunk_and_what_the_host_changed():
     # the damping reached the kernels of scene 1 only
     assert dev.simulations[1].energy_report()["dissipated_local_damping"] > 0.0
     assert dev.simulations[0].energy_report()["dissipated_local_damping"] == 0.0
+
+
+def test_a_rebuild_reads_the_poses_of_its_own_scenes_only():
+    """Engine.host_scenes (a rebuild's read of pos, rot, quat): the rows of the scenes asked
+    for, gathered on the device, one copy a field; the rows equal those of the whole field's
+    copy; asked again, nothing is copied; after the next chunk they are stale again."""
+    loads = [shake(4.0, 7.0), shake(6.0, 8.0, axis=1), shake(5.0, 6.0)]
+    e = Engine([wall() for _ in loads], JOINTS, options(), device_arrays=True)
+    e.advance(300, loads)
+
+    def pulled():
+        return dict(e.transfer_stats()["device_to_host"]["by_container"]["state"]["fields"])
+
+    sb = e.model.scene_bodies
+    rows = int((sb[:, 1] - sb[:, 0]).max())
+    b0, b1 = (int(x) for x in sb[1])
+    before = pulled()
+    e.host_scenes("state", ("pos", "quat"), [1])
+    after = pulled()
+    assert after["pos"] - before.get("pos", 0) == rows * e.state.pos[0].nbytes  # one scene of 3
+    assert after["quat"] - before.get("quat", 0) == rows * e.state.quat[0].nbytes
+    got = e.state.pos[b0:b1].copy(), e.state.quat[b0:b1].copy()
+    e.host_scenes("state", ("pos", "quat"), [1])
+    assert pulled() == after  # current: nothing copied again
+    whole = e.simulations[1].read_state("pos", "quat")  # the whole fields, copied
+    assert np.array_equal(whole.pos, got[0]) and np.array_equal(whole.quat, got[1])
+    e.advance(10, loads)
+    now = pulled()
+    e.host_scenes("state", ("pos",), [0, 2])  # stale again: scenes 0 and 2, one copy
+    assert pulled()["pos"] - now["pos"] == 2 * rows * e.state.pos[0].nbytes
+
+
+def test_host_scenes_names_many_scenes_by_a_list_on_the_device():
+    """More scenes than the gathering kernel's scalars name (device.FEW_SCENES): their list
+    goes to the device (one copy) and each scene's rows are its own."""
+    from dem.engine.device import FEW_SCENES
+
+    G = FEW_SCENES + 2
+    loads = [shake(3.0 + g, 5.0 + g, axis=g % 2) for g in range(G)]
+    e = Engine([wall() for _ in loads], JOINTS, options(), device_arrays=True)
+    e.advance(40, loads)
+    pushed = e.transfer_stats()["host_to_device"]["by_container"]["state"]["copies"]
+    asked = list(range(1, G))  # FEW_SCENES + 1 scenes
+    e.host_scenes("state", ("pos",), asked)
+    assert e.transfer_stats()["host_to_device"]["by_container"]["state"]["copies"] == pushed + 1
+    got = e.state.pos.copy()
+    whole = e.simulations[0].read_state("pos")  # the whole field now (every scene)
+    sb = e.model.scene_bodies
+    for g in asked:
+        b0, b1 = (int(x) for x in sb[g])
+        assert np.array_equal(got[b0:b1], e.state.pos[b0:b1])
+    assert whole.pos.shape[0] == int(sb[0, 1] - sb[0, 0])

@@ -349,3 +349,31 @@ def pack_diagnostics(out: ti.types.ndarray(ndim=2), status: ti.types.ndarray(ndi
             out[g, 4 + e] = energy_sums[g, e]
     for i in range(2):
         out[G, i] = ti.cast(steps_done[i], ti.f64)
+
+
+# scenes that DeviceResidency.host_scenes names by the gathering kernel's scalar arguments (the
+# usual case: one or a few scenes rebuild at a chunk end); more go to the device as a list
+FEW_SCENES = 4
+
+
+@ti.kernel
+def gather_scene_rows(n: ti.i32, rows: ti.i32, g0: ti.i32, g1: ti.i32, g2: ti.i32, g3: ti.i32,
+                      scenes: ti.types.ndarray(ndim=1), scene_bodies: ti.types.ndarray(ndim=1),
+                      src: ti.types.ndarray(ndim=1), out: ti.types.ndarray(ndim=1)):
+    """The bodies' rows of ``src`` (a per-body field) of n scenes into ``out``, the r-th
+    scene's bodies from row r x ``rows`` on (``rows``: at least the largest scene's bodies):
+    DeviceResidency.host_scenes copies only these back.  The scenes: g0 .. g3 for n <=
+    FEW_SCENES, else ``scenes[:n]`` (a list on the device)."""
+    for r, i in ti.ndrange(n, rows):
+        g = g0
+        if n > FEW_SCENES:
+            g = scenes[r]
+        elif r == 1:
+            g = g1
+        elif r == 2:
+            g = g2
+        elif r == 3:
+            g = g3
+        b0 = scene_bodies[g][0]
+        if b0 + i < scene_bodies[g][1]:
+            out[r * rows + i] = src[b0 + i]

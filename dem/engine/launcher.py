@@ -161,6 +161,9 @@ class Launcher:
             status = ctl.status.copy()
             for g in np.flatnonzero(status & STOP):
                 e.fail(g, e.simulations[g].instability_error())
+            rebuilding = [int(g) for g in np.flatnonzero(status & REBUILD) if ctl.active[g]]
+            if rebuilding:  # their poses to the host in one copy a field (a device's)
+                e.host_scenes("state", e.simulations[0].BROAD_PHASE_READS, rebuilding)
             for g in np.flatnonzero(status & REBUILD):
                 if ctl.active[g]:
                     try:

@@ -40,7 +40,8 @@ import numpy as np
 import taichi as ti
 
 from dem import ti_runtime
-from dem.engine.containers import PROBE_SLOTS, SERIAL_CHUNK, Contacts, State, pair_lists
+from dem.engine.containers import (PROBE_SLOTS, SERIAL_CHUNK, Contacts, State, element_type,
+                                   pair_lists)
 
 # an engine on a device: steps per chunk of launches (the loads of a chunk are copied to the
 # device before it; the host reads the status back after it)
@@ -76,6 +77,9 @@ class HostResidency:
 
     def host(self, name: str, write: bool = True, fields=None) -> None:
         """The host's ``name`` is always current here (:meth:`DeviceResidency.host`)."""
+
+    def host_scenes(self, name: str, fields, scenes) -> None:
+        """The host's rows are always current here (:meth:`DeviceResidency.host_scenes`)."""
 
     def to_device(self, k: int) -> None:
         """Nothing to copy before a launch."""
@@ -156,6 +160,9 @@ class DeviceResidency:
         self.stale = {"state": set(), "contacts": set()}   # fields whose device copy is newer
         self.dirty = {"state": set(), "contacts": set()}   # fields the host may have written
         self._installs = {"calls": 0, "bytes": 0}  # install_pairs' host arrays
+        self._current = {}  # (container, stale field) -> scenes whose rows the host holds
+        self._scene_lists = {}  # host_scenes' device arrays: scene lists, gathered rows
+        self._gathered = {}
 
     def containers(self) -> tuple:
         """The argpacks of the device's (Model, State, Contacts, Control) arrays."""
@@ -189,6 +196,53 @@ class DeviceResidency:
         if write:
             self.dirty[name].update(names)
 
+    def host_scenes(self, name: str, fields, scenes) -> None:
+        """Make the host's rows of the scenes ``scenes`` of ``fields`` (per-body fields of
+        ``name``) current, to read them (a neighbour-list rebuild reads the poses of its scene
+        only): a stale field's rows of those scenes are gathered on the device
+        (dem.engine.device.gather_scene_rows) and copied back, one copy a field for all of them
+        (and, for more than FEW_SCENES scenes, one of their list to the device), not the field
+        of every scene.  The
+        field stays stale for the other scenes (``_current``: the scenes whose rows of a stale
+        field the host holds); nothing is marked to go back."""
+        from dem.engine.device import FEW_SCENES, gather_scene_rows
+
+        sb = self.model.scene_bodies
+        need = {f: [g for g in scenes if g not in self._current.setdefault((name, f), set())]
+                for f in fields if f in self.stale[name]}
+        want = sorted({g for gs in need.values() for g in gs})
+        if not want:
+            return
+        G = len(sb)
+        n_cap = min(G, 1 << (len(want) - 1).bit_length())
+        rows = int((sb[:, 1] - sb[:, 0]).max())
+        d = self.dev[name]
+        few = (want + [0] * FEW_SCENES)[:FEW_SCENES]  # the kernel's scalars name up to 4
+        list_cap = n_cap if len(want) > FEW_SCENES else 1
+        scenes_dev = self._scene_lists.get(list_cap)
+        if scenes_dev is None:
+            scenes_dev = self._scene_lists[list_cap] = ti.ndarray(ti.i32, shape=(list_cap,))
+        if len(want) > FEW_SCENES:
+            listed = np.zeros(n_cap, dtype=np.int32)
+            listed[:len(want)] = want
+            scenes_dev.from_numpy(listed)
+            d.count("push", "scene_list", listed.nbytes)
+        for f in need:
+            dtype, elem = element_type(next(x for x in d.box.FIELDS if x.name == f))
+            key = (name, f, n_cap * rows)
+            out = self._gathered.get(key)
+            if out is None:
+                out = self._gathered[key] = ti.ndarray(dtype, shape=(n_cap * rows,))
+            gather_scene_rows(len(want), rows, *few, scenes_dev,
+                              self.dev["model"].dev["scene_bodies"], d.dev[f], out)
+            got = out.to_numpy()
+            d.count("pull", f, got.nbytes)
+            host = getattr(d.box, f)
+            for r, g in enumerate(want):
+                b0, b1 = int(sb[g, 0]), int(sb[g, 1])
+                host[b0:b1] = got[r * rows:r * rows + b1 - b0]
+            self._current[(name, f)].update(want)
+
     def push_dirty(self, name: str) -> None:
         dirty = self.dirty[name]
         if dirty:
@@ -219,6 +273,7 @@ class DeviceResidency:
         self._remember(self._chunk.pull_diagnostics())
         for name in ("state", "contacts"):
             self.stale[name] = set(self.fields[name]) - self.HOST_KEPT[name]
+        self._current.clear()
 
     def _remember(self, names) -> None:
         """The host's ``names`` of the Control are what the device holds now."""
@@ -282,6 +337,8 @@ class DeviceResidency:
                       src_full, self.dev["model"].args, st, c, sc.code, sc.npts, sc.loc,
                       sc.shear)
         self.stale["contacts"].update(self.INSTALLED)  # the history, moved on the device
+        for f in self.INSTALLED:  # stale for every scene again
+            self._current.pop(("contacts", f), None)
 
     def transfer_counts(self) -> dict:
         """Per container, the copies each way since construction (DeviceArrays.counts)."""
