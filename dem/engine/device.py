@@ -13,7 +13,8 @@ hands the kernels the device arrays, and moves data only where the host needs it
   penetration and energy sums packed by :func:`pack_diagnostics`.  The other fields only when
   the host changed them (dem.engine.residency).
 * State: per field, copied back only when the host reads it (a neighbour-list rebuild: pos,
-  rot, quat; a recorded frame: pos, quat, vel, omega) and only where the kernels wrote it since
+  rot, quat of the rebuilding scenes' rows only, gathered by :func:`gather_scene_rows`; a
+  recorded frame: pos, quat, vel, omega) and only where the kernels wrote it since
   (``stale``), copied to the device only after the host may have written it (``dirty``:
   ``sim.state``, the writers' access; the read-only ``sim.read_state(...)`` marks nothing).
   Engine.host keeps the two sets.

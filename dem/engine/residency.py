@@ -17,7 +17,8 @@ What moves and when (dem.engine.device has the device arrays and the kernels tha
   the area caps likewise.
 * State and Contacts: per field, copied back only when the host reads it and only where the
   kernels wrote it since (``stale``); copied to the device only after the host may have written
-  it (``dirty``).  The broad phase's index arrays (pairs, adj_ptr, adj, scene_pairs) are only
+  it (``dirty``); a rebuild's poses only for the rebuilding scenes' rows (``host_scenes``).
+  The broad phase's index arrays (pairs, adj_ptr, adj, scene_pairs) are only
   ever written by the host and never copied back; a rebuild installs them on the device with
   the shear history carried there (:meth:`DeviceResidency.install_pairs`).
 
