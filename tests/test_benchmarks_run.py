@@ -10,6 +10,7 @@ tests/test_benchmarks_run.py``.  Timings are not judged here (benchmarks/RESULTS
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -43,3 +44,19 @@ def test_benchmark_runs(args, expected):
                          cwd=ROOT, capture_output=True, text=True, timeout=900)
     assert res.returncode == 0, res.stderr[-3000:]
     assert expected in res.stdout, res.stdout[-3000:]
+
+
+def test_the_gpu_check_dry_run_imports_what_it_runs_and_prints_its_plan(tmp_path):
+    """tools/device/gpu_batch_check.py --dry-run on the CPU: every import of its parts, the
+    case of a realisation, and its plan (the K's, the profile, the GPU-vs-CPU realisations);
+    nothing runs and nothing is written."""
+    out = tmp_path / "out"
+    env = dict(os.environ, ARCH="cpu", OUT=str(out), KS="1,16,64,100", R="4", CYCLES="3")
+    res = subprocess.run([sys.executable, str(ROOT / "tools/device/gpu_batch_check.py"),
+                          "--dry-run"], cwd=ROOT, capture_output=True, text=True, timeout=300,
+                         env=env)
+    assert res.returncode == 0, res.stderr[-3000:]
+    for text in ("imports fine", "--ks 1,16,64,100", "--profile", "part 1 GPU",
+                 "part 1 CPU: 4 realisations", "3 cycles"):
+        assert text in res.stdout, (text, res.stdout)
+    assert not out.exists()

@@ -67,9 +67,9 @@ def test_read_only_accessors_copy_only_the_stale_fields_asked_for_and_nothing_ba
     a, b = e.simulations
     e.advance(300, loads)
     n_state = len(State.field_names())
-    # the control goes to the device every chunk, but for what only the kernels write
-    control_pushes = len(e.residency.dev["control"].dev) - len(DeviceResidency.CONTROL_KERNEL_ONLY)
-    assert control_pushes > 0
+    # the control goes to the device as one copy a chunk (its steps' loads and probe slots:
+    # dem.engine.device.ChunkCopies); its other fields only when the host changed them
+    control_pushes = 1
 
     p0, pb0, q0, qb0 = _copies(e)
     st = a.read_state("pos", "vel")
@@ -155,3 +155,104 @@ def test_the_device_counts_the_patches_over_their_caps_as_the_host_would():
         on_host = int((areas > np.minimum(cap[slots[:, 0]], cap[slots[:, 1]])).sum())
         assert on_device == on_host, (cap_value, on_device, on_host)
     assert on_host > 0  # the last caps are exceeded
+
+
+def test_the_control_goes_as_the_rows_of_a_chunk_and_what_the_host_changed():
+    """A chunk sends the loads of its steps that the device does not hold yet and its probe
+    slots in one copy (dem.engine.device.ChunkCopies) and brings the diagnostics and sums back
+    in one; a Control field the host writes between chunks (a scene's local damping, the energy
+    sums of a restored point) reaches the kernels, copied once, not every chunk."""
+    loads = [shake(4.0, 7.0), shake(6.0, 8.0, axis=1)]
+    opts = options()
+    dev = Engine([wall() for _ in loads], JOINTS, opts, device_arrays=True)
+    host = Engine([wall() for _ in loads], JOINTS, opts)
+
+    def fields(way):
+        return dict(dev.transfer_stats()[way]["by_container"]["control"]["fields"])
+
+    for e in (dev, host):
+        e.advance(300, loads)
+    n0, push0, pull0 = dev.n_chunks, fields("host_to_device"), fields("device_to_host")
+    saved = [e.simulations[0].save_point() for e in (dev, host)]
+    for e in (dev, host):
+        e.simulations[1].set_local_damping(0.3)
+        e.advance(200, loads)
+    for e, point in zip((dev, host), saved):
+        e.simulations[0].restore_point(point)  # its energy sums back to the saved ones
+        e.advance(200, loads)
+    n1, push1, pull1 = dev.n_chunks, fields("host_to_device"), fields("device_to_host")
+    chunks = n1 - n0
+    assert chunks >= 2
+    # a header row a chunk, and each step's loads about once: R < 2 n for n rows sent, and the
+    # rows sent are the 400 steps' and at most one chunk's of DEVICE_CHUNK beyond the last
+    G, row = len(loads), 6 * dev.control.loads.itemsize
+    sent = push1["chunk_rows"] - push0["chunk_rows"]
+    assert chunks * G * row + 400 * G * row <= sent \
+        <= chunks * G * row + 2 * (400 + DEVICE_CHUNK) * G * row
+    assert push1.get("local_damping", 0) - push0.get("local_damping", 0) \
+        == dev.control.local_damping.nbytes  # once, not once a chunk
+    assert push1.get("energy_sums", 0) - push0.get("energy_sums", 0) \
+        == dev.control.energy_sums.nbytes
+    for name in ("loads", "probe_slot", "status", "steps_done", "active", "step_parameters"):
+        assert push1.get(name, 0) == push0.get(name, 0), name
+    back = pull1["diagnostics"] - pull0["diagnostics"]
+    assert back == chunks * (G + 1) * (4 + 6) * dev.control.energy_sums.itemsize
+    for name in set(pull1) - {"diagnostics"}:  # no Control field back one by one
+        assert pull1[name] == pull0.get(name, 0), name
+    for a, b in zip(dev.simulations, host.simulations):
+        assert_same(a, b)
+    # the damping reached the kernels of scene 1 only
+    assert dev.simulations[1].energy_report()["dissipated_local_damping"] > 0.0
+    assert dev.simulations[0].energy_report()["dissipated_local_damping"] == 0.0
+
+
+def test_a_rebuild_reads_the_poses_of_its_own_scenes_only():
+    """Engine.host_scenes (a rebuild's read of pos, rot, quat): the rows of the scenes asked
+    for, gathered on the device, one copy a field; the rows equal those of the whole field's
+    copy; asked again, nothing is copied; after the next chunk they are stale again."""
+    loads = [shake(4.0, 7.0), shake(6.0, 8.0, axis=1), shake(5.0, 6.0)]
+    e = Engine([wall() for _ in loads], JOINTS, options(), device_arrays=True)
+    e.advance(300, loads)
+
+    def pulled():
+        return dict(e.transfer_stats()["device_to_host"]["by_container"]["state"]["fields"])
+
+    sb = e.model.scene_bodies
+    rows = int((sb[:, 1] - sb[:, 0]).max())
+    b0, b1 = (int(x) for x in sb[1])
+    before = pulled()
+    e.host_scenes("state", ("pos", "quat"), [1])
+    after = pulled()
+    assert after["pos"] - before.get("pos", 0) == rows * e.state.pos[0].nbytes  # one scene of 3
+    assert after["quat"] - before.get("quat", 0) == rows * e.state.quat[0].nbytes
+    got = e.state.pos[b0:b1].copy(), e.state.quat[b0:b1].copy()
+    e.host_scenes("state", ("pos", "quat"), [1])
+    assert pulled() == after  # current: nothing copied again
+    whole = e.simulations[1].read_state("pos", "quat")  # the whole fields, copied
+    assert np.array_equal(whole.pos, got[0]) and np.array_equal(whole.quat, got[1])
+    e.advance(10, loads)
+    now = pulled()
+    e.host_scenes("state", ("pos",), [0, 2])  # stale again: scenes 0 and 2, one copy
+    assert pulled()["pos"] - now["pos"] == 2 * rows * e.state.pos[0].nbytes
+
+
+def test_host_scenes_names_many_scenes_by_a_list_on_the_device():
+    """More scenes than the gathering kernel's scalars name (device.FEW_SCENES): their list
+    goes to the device (one copy) and each scene's rows are its own."""
+    from dem.engine.device import FEW_SCENES
+
+    G = FEW_SCENES + 2
+    loads = [shake(3.0 + g, 5.0 + g, axis=g % 2) for g in range(G)]
+    e = Engine([wall() for _ in loads], JOINTS, options(), device_arrays=True)
+    e.advance(40, loads)
+    pushed = e.transfer_stats()["host_to_device"]["by_container"]["state"]["copies"]
+    asked = list(range(1, G))  # FEW_SCENES + 1 scenes
+    e.host_scenes("state", ("pos",), asked)
+    assert e.transfer_stats()["host_to_device"]["by_container"]["state"]["copies"] == pushed + 1
+    got = e.state.pos.copy()
+    whole = e.simulations[0].read_state("pos")  # the whole field now (every scene)
+    sb = e.model.scene_bodies
+    for g in asked:
+        b0, b1 = (int(x) for x in sb[g])
+        assert np.array_equal(got[b0:b1], e.state.pos[b0:b1])
+    assert whole.pos.shape[0] == int(sb[0, 1] - sb[0, 0])

@@ -7,11 +7,14 @@ therefore keeps a device array (``ti.ndarray``) of every field beside the host's
 hands the kernels the device arrays, and moves data only where the host needs it:
 
 * Model: copied once (static).
-* Control: all but the loads copied back after each launch (the status bits, steps done,
-  deepest penetration, energy sums: a few kB); all copied to the device before each launch
-  (the loads of the chunk's steps, the reset diagnostics, local damping, active scenes).
+* Control: one copy each way a chunk (:class:`ChunkCopies`): to the device the loads of the
+  chunk's steps it does not hold yet (a ring of loads kept there) and the probe slots, the
+  diagnostics reset there by :func:`unpack_chunk`; back the status bits, steps done, deepest
+  penetration and energy sums packed by :func:`pack_diagnostics`.  The other fields only when
+  the host changed them (dem.engine.residency).
 * State: per field, copied back only when the host reads it (a neighbour-list rebuild: pos,
-  rot, quat; a recorded frame: pos, quat, vel, omega) and only where the kernels wrote it since
+  rot, quat of the rebuilding scenes' rows only, gathered by :func:`gather_scene_rows`; a
+  recorded frame: pos, quat, vel, omega) and only where the kernels wrote it since
   (``stale``), copied to the device only after the host may have written it (``dirty``:
   ``sim.state``, the writers' access; the read-only ``sim.read_state(...)`` marks nothing).
   Engine.host keeps the two sets.
@@ -35,7 +38,8 @@ import numpy as np
 import taichi as ti
 
 from dem import ti_runtime
-from dem.engine.containers import ContactArgs, ControlArgs, ModelArgs, StateArgs, element_type
+from dem.engine.containers import (ENERGY_TERMS, ContactArgs, ControlArgs, ModelArgs, StateArgs,
+                                   element_type)
 from dem.engine.geometry import MAXP
 from dem.engine.mathutil import vec3
 from dem.engine.step import pair_bodies, slot_live, slots_per_scene
@@ -71,7 +75,7 @@ class DeviceArrays:
         for name in names or self.dev:
             a = np.ascontiguousarray(getattr(self.box, name))
             self.dev[name].from_numpy(a)
-            self._count("push", name, a.nbytes)
+            self.count("push", name, a.nbytes)
         self.counts["push"]["seconds"] += time.perf_counter() - t0
 
     def pull(self, names=None) -> None:
@@ -79,10 +83,12 @@ class DeviceArrays:
         for name in names or self.dev:
             a = self.dev[name].to_numpy()
             getattr(self.box, name)[...] = a
-            self._count("pull", name, a.nbytes)
+            self.count("pull", name, a.nbytes)
         self.counts["pull"]["seconds"] += time.perf_counter() - t0
 
-    def _count(self, way: str, name: str, nbytes: int) -> None:
+    def count(self, way: str, name: str, nbytes: int) -> None:
+        """One copy of ``nbytes`` bytes of ``name`` (a field, or a copy that carries several:
+        ChunkCopies' "chunk_rows" and "diagnostics", the caps' "area_cap") counted ``way``."""
         c = self.counts[way]
         c["copies"] += 1
         c["bytes"] += nbytes
@@ -177,3 +183,198 @@ def patches_over_caps(n_slots: ti.i32, cap: ti.types.ndarray(ndim=1), margin: fl
             if patch > margin * ti.min(cap[i], cap[j]):
                 over += 1
     return over
+
+
+# the loads kept on the device (ChunkCopies): per row and scene gravity (3 reals, m/s^2) and
+# base acceleration (3, m/s^2), control.loads' two vectors
+LOAD_COLUMNS = 6
+# the diagnostics and sums brought back in one copy (ChunkCopies.pull_diagnostics), per scene:
+# status, bad_body, deepest (m), deepest_step, then the energy sums (J) in ENERGY_TERMS' order;
+# a last row: steps_done[0], steps_done[1] (the integers held exactly by reals)
+DIAGNOSTIC_COLUMNS = 4 + len(ENERGY_TERMS)
+
+
+class ChunkCopies:
+    """The per-chunk copies of the Control between host and device, one each way.
+
+    Before a launch of k steps (:meth:`push_chunk`): the loads of a step are a function of its
+    time only, and a chunk cut short (a rebuild, a failure, a probe) is followed by one whose
+    first steps are the ones the device was sent already.  So the device keeps a *ring* of
+    W = 2 S rows of loads (S: control.loads' rows), step n of the engine's chunks in row
+    n mod W, and the host a copy of what it holds (``_ring``, with ``_held``: rows it holds).
+    The host compares the loads of the chunk's k steps, byte for byte, with its copy of the
+    rows they will be read from, and sends only the rows from the first that differs (or was
+    never sent) on, in one array with a header row (each scene's probed steps, slot by slot:
+    control.probe_slot in Q numbers a scene instead of S); :func:`unpack_chunk` writes them
+    into the ring, the ring's k rows into control.loads, the probe slots into
+    control.probe_slot, and resets the diagnostics as Launcher.launch resets the host's.
+    A row is compared for the scenes that step only (a frozen scene's loads are not read).
+    The kernels read exactly the loads the host computed: a row not sent holds the same bytes.
+
+    After it (:meth:`pull_diagnostics`): the diagnostics and energy sums, packed on the device
+    by :func:`pack_diagnostics` into one array of G + 1 rows, unpacked into the host's fields.
+
+    Both copies are counted with the Control's (DeviceArrays.count, as the fields
+    "chunk_rows" and "diagnostics").  The reals are copied as they are and the integers are
+    exactly representable as reals: the same values as a copy per field."""
+
+    def __init__(self, control, control_dev: "DeviceArrays", real):
+        self.control, self.dev = control, control_dev
+        self.real = real
+        self.np_real = np.float64 if real == ti.f64 else np.float32
+        self.G = control.status.shape[0]
+        self.S = control.loads.shape[0]
+        self.Q = control.probe_buf.shape[0]
+        if self.Q > LOAD_COLUMNS:
+            raise ValueError(f"probe slots {self.Q} do not fit a header row of "
+                             f"{LOAD_COLUMNS} columns")
+        self.W = 2 * self.S
+        self._ring = np.zeros((self.W, self.G, LOAD_COLUMNS), dtype=self.np_real)
+        self._held = np.zeros(self.W, dtype=bool)
+        self._ring_dev = ti.ndarray(real, shape=self._ring.shape)
+        self.first = 0  # the ring row of the next chunk's first step
+        self._rows = {}  # R -> (host array [1 + R, G, LOAD_COLUMNS], device array)
+        self._diag_host = np.zeros((self.G + 1, DIAGNOSTIC_COLUMNS), dtype=self.np_real)
+        self._diag_dev = ti.ndarray(real, shape=self._diag_host.shape)
+
+    def rows(self, n: int) -> int:
+        """R: the rows of the array that carries n rows of loads (a power of two, at most
+        2 S: a handful of device arrays serve every n; 0 for none)."""
+        return 0 if n <= 0 else min(self.W, 1 << (int(n) - 1).bit_length())
+
+    def push_chunk(self, k: int) -> None:
+        """The loads and probe slots of the chunk's first k steps to the device (the rows the
+        ring does not hold yet), and the diagnostics reset there (:func:`unpack_chunk`)."""
+        t0 = time.perf_counter()
+        ctl = self.control
+        loads = ctl.loads[:k].reshape(k, self.G, LOAD_COLUMNS)
+        ring_rows = (self.first + np.arange(k)) % self.W
+        active = ctl.active != 0
+        same = self._held[ring_rows] & np.all(
+            (self._ring[ring_rows][:, active].view(np.uint8)
+             == np.ascontiguousarray(loads[:, active]).view(np.uint8)).reshape(k, -1), axis=1)
+        j = k if same.all() else int(np.argmin(same))  # the first row to send
+        n = k - j
+        R = self.rows(n)
+        if R not in self._rows:
+            host = np.zeros((1 + R, self.G, LOAD_COLUMNS), dtype=self.np_real)
+            self._rows[R] = (host, ti.ndarray(self.real, shape=host.shape))
+        host, dev = self._rows[R]
+        host[0] = -1.0  # the header: each scene's probed step of each slot, -1 none
+        steps, scenes = np.nonzero(ctl.probe_slot[:k] >= 0)
+        host[0, scenes, ctl.probe_slot[steps, scenes]] = steps
+        host[1:1 + n] = loads[j:]
+        self._ring[ring_rows[j:]] = loads[j:]
+        self._held[ring_rows[j:]] = True
+        dev.from_numpy(host)
+        self.dev.count("push", "chunk_rows", host.nbytes)
+        d = self.dev.dev
+        unpack_chunk(k, self.first, j, n, dev, self._ring_dev, d["loads"], d["probe_slot"],
+                     d["status"], d["bad_body"], d["deepest_step"], d["steps_done"])
+        self.dev.counts["push"]["seconds"] += time.perf_counter() - t0
+
+    def advance(self, done: int) -> None:
+        """The chunk did ``done`` steps: the next one starts ``done`` rows on."""
+        self.first = (self.first + int(done)) % self.W
+
+    def pull_diagnostics(self) -> tuple:
+        """The diagnostics and energy sums of the last chunk to the host's fields (one copy);
+        returns the names of the fields written."""
+        t0 = time.perf_counter()
+        d = self.dev.dev
+        pack_diagnostics(self._diag_dev, d["status"], d["bad_body"], d["deepest"],
+                         d["deepest_step"], d["steps_done"], d["energy_sums"])
+        out = self._diag_dev.to_numpy()
+        self.dev.count("pull", "diagnostics", out.nbytes)
+        ctl, G = self.control, self.G
+        ctl.status[...] = out[:G, 0]
+        ctl.bad_body[...] = out[:G, 1]
+        ctl.deepest[...] = out[:G, 2]
+        ctl.deepest_step[...] = out[:G, 3]
+        ctl.energy_sums[...] = out[:G, 4:]
+        ctl.steps_done[...] = out[G, :2]
+        self.dev.counts["pull"]["seconds"] += time.perf_counter() - t0
+        self.advance(int(ctl.steps_done[0]))
+        return ("status", "bad_body", "deepest", "deepest_step", "energy_sums", "steps_done")
+
+
+@ti.kernel
+def unpack_chunk(k: ti.i32, first: ti.i32, j: ti.i32, n: ti.i32,
+                 rows: ti.types.ndarray(ndim=3), ring: ti.types.ndarray(ndim=3),
+                 loads: ti.types.ndarray(ndim=3), probe_slot: ti.types.ndarray(ndim=2),
+                 status: ti.types.ndarray(ndim=1), bad_body: ti.types.ndarray(ndim=1),
+                 deepest_step: ti.types.ndarray(ndim=1), steps_done: ti.types.ndarray(ndim=1)):
+    """A chunk of k steps from ChunkCopies.push_chunk's array ``rows`` ([1 + R, G,
+    LOAD_COLUMNS]: a header row, each scene's probed step of each probe slot, -1 none; then
+    the loads of the chunk's steps j .. j + n - 1): those loads into the ring (step s of the
+    chunk in row (first + s) mod W), the ring's rows of steps 0 .. k - 1 into control.loads, the
+    probe slots into control.probe_slot, and the diagnostics reset as Launcher.launch resets
+    the host's: status 0, bad_body 0, deepest_step -1, steps_done 0.  (Top-level loops run one
+    after the other.)"""
+    W = ring.shape[0]
+    G = status.shape[0]
+    for i, g in ti.ndrange(n, G):
+        for c in ti.static(range(LOAD_COLUMNS)):
+            ring[(first + j + i) % W, g, c] = rows[1 + i, g, c]
+    for s, g in ti.ndrange(k, G):
+        r = (first + s) % W
+        loads[s, g, 0] = vec3(ring[r, g, 0], ring[r, g, 1], ring[r, g, 2])
+        loads[s, g, 1] = vec3(ring[r, g, 3], ring[r, g, 4], ring[r, g, 5])
+        probe_slot[s, g] = -1
+    for g in range(G):
+        for q in range(rows.shape[2]):
+            s = ti.cast(rows[0, g, q], ti.i32)
+            if 0 <= s < k:
+                probe_slot[s, g] = q
+        status[g] = 0
+        bad_body[g] = 0
+        deepest_step[g] = -1
+    for i in range(2):
+        steps_done[i] = 0
+
+
+@ti.kernel
+def pack_diagnostics(out: ti.types.ndarray(ndim=2), status: ti.types.ndarray(ndim=1),
+                     bad_body: ti.types.ndarray(ndim=1), deepest: ti.types.ndarray(ndim=1),
+                     deepest_step: ti.types.ndarray(ndim=1), steps_done: ti.types.ndarray(ndim=1),
+                     energy_sums: ti.types.ndarray(ndim=2)):
+    """The diagnostics and energy sums into one array (ChunkCopies.pull_diagnostics: its
+    columns, DIAGNOSTIC_COLUMNS)."""
+    G = status.shape[0]
+    for g in range(G):
+        out[g, 0] = ti.cast(status[g], ti.f64)
+        out[g, 1] = ti.cast(bad_body[g], ti.f64)
+        out[g, 2] = deepest[g]
+        out[g, 3] = ti.cast(deepest_step[g], ti.f64)
+        for e in ti.static(range(len(ENERGY_TERMS))):
+            out[g, 4 + e] = energy_sums[g, e]
+    for i in range(2):
+        out[G, i] = ti.cast(steps_done[i], ti.f64)
+
+
+# scenes that DeviceResidency.host_scenes names by the gathering kernel's scalar arguments (the
+# usual case: one or a few scenes rebuild at a chunk end); more go to the device as a list
+FEW_SCENES = 4
+
+
+@ti.kernel
+def gather_scene_rows(n: ti.i32, rows: ti.i32, g0: ti.i32, g1: ti.i32, g2: ti.i32, g3: ti.i32,
+                      scenes: ti.types.ndarray(ndim=1), scene_bodies: ti.types.ndarray(ndim=1),
+                      src: ti.types.ndarray(ndim=1), out: ti.types.ndarray(ndim=1)):
+    """The bodies' rows of ``src`` (a per-body field) of n scenes into ``out``, the r-th
+    scene's bodies from row r x ``rows`` on (``rows``: at least the largest scene's bodies):
+    DeviceResidency.host_scenes copies only these back.  The scenes: g0 .. g3 for n <=
+    FEW_SCENES, else ``scenes[:n]`` (a list on the device)."""
+    for r, i in ti.ndrange(n, rows):
+        g = g0
+        if n > FEW_SCENES:
+            g = scenes[r]
+        elif r == 1:
+            g = g1
+        elif r == 2:
+            g = g2
+        elif r == 3:
+            g = g3
+        b0 = scene_bodies[g][0]
+        if b0 + i < scene_bodies[g][1]:
+            out[r * rows + i] = src[b0 + i]

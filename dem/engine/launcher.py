@@ -161,6 +161,9 @@ class Launcher:
             status = ctl.status.copy()
             for g in np.flatnonzero(status & STOP):
                 e.fail(g, e.simulations[g].instability_error())
+            rebuilding = [int(g) for g in np.flatnonzero(status & REBUILD) if ctl.active[g]]
+            if rebuilding:  # their poses to the host in one copy a field (a device's)
+                e.host_scenes("state", e.simulations[0].BROAD_PHASE_READS, rebuilding)
             for g in np.flatnonzero(status & REBUILD):
                 if ctl.active[g]:
                     try:
@@ -212,7 +215,7 @@ class Launcher:
             self.record_launch()
         n_slots = self.n_pair_slots()
         self.n_chunks += 1
-        e.residency.to_device()
+        e.residency.to_device(k)
         dt = e.dt
         if e.mode == "serial":
             self.kernel(k, n_slots, dt)

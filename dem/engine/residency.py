@@ -8,13 +8,17 @@ and device goes through it, so the rest of the engine has no branch on "device o
 What moves and when (dem.engine.device has the device arrays and the kernels that run there):
 
 * Model: copied once (static).
-* Control: all but the kernel-only fields copied to the device before each launch (the loads
-  of the chunk, the reset diagnostics, local damping, the active scenes); all but the
-  host-written ones copied back after it (status, steps done, deepest penetration, energy
-  sums: a few kB).
+* Control: one copy to the device before each launch (dem.engine.device.ChunkCopies: the
+  loads of the chunk's steps that the device does not hold yet, and the probe slots; the
+  diagnostics are reset on the device) and one back after it (status, steps done, deepest
+  penetration, energy sums, packed on the device: a few hundred bytes a scene).  Its other
+  fields (step parameters, local damping, active scenes, probed bodies, restored sums) go to
+  the device only when the host changed them (their bytes against what the device holds),
+  the area caps likewise.
 * State and Contacts: per field, copied back only when the host reads it and only where the
   kernels wrote it since (``stale``); copied to the device only after the host may have written
-  it (``dirty``).  The broad phase's index arrays (pairs, adj_ptr, adj, scene_pairs) are only
+  it (``dirty``); a rebuild's poses only for the rebuilding scenes' rows (``host_scenes``).
+  The broad phase's index arrays (pairs, adj_ptr, adj, scene_pairs) are only
   ever written by the host and never copied back; a rebuild installs them on the device with
   the shear history carried there (:meth:`DeviceResidency.install_pairs`).
 
@@ -22,10 +26,11 @@ Picture (one chunk of a device engine)::
 
     host                                   device
     ----                                   ------
-    loads, probe plan -> Control  --push-->  Control
+    new loads rows, probe plan   --push-->  ring of loads -> Control   (one copy; unpack_chunk)
+    changed Control fields       --push-->  Control           (seldom)
     dirty State/Contacts fields  --push-->  State, Contacts
                                              stepping kernel x k steps
-    Control (status, sums)       <--pull--  Control           (every chunk, a few kB)
+    Control (status, sums)       <--pull--  Control           (one copy; pack_diagnostics)
     State/Contacts fields        <--pull--  only the stale ones a reader asks for
     a rebuild's index arrays     --install_pairs--> Contacts (history moved on the device)
 """
@@ -36,7 +41,8 @@ import numpy as np
 import taichi as ti
 
 from dem import ti_runtime
-from dem.engine.containers import PROBE_SLOTS, SERIAL_CHUNK, Contacts, State, pair_lists
+from dem.engine.containers import (PROBE_SLOTS, SERIAL_CHUNK, Contacts, State, element_type,
+                                   pair_lists)
 
 # an engine on a device: steps per chunk of launches (the loads of a chunk are copied to the
 # device before it; the host reads the status back after it)
@@ -73,7 +79,10 @@ class HostResidency:
     def host(self, name: str, write: bool = True, fields=None) -> None:
         """The host's ``name`` is always current here (:meth:`DeviceResidency.host`)."""
 
-    def to_device(self) -> None:
+    def host_scenes(self, name: str, fields, scenes) -> None:
+        """The host's rows are always current here (:meth:`DeviceResidency.host_scenes`)."""
+
+    def to_device(self, k: int) -> None:
         """Nothing to copy before a launch."""
 
     def from_device(self) -> None:
@@ -122,9 +131,11 @@ class DeviceResidency:
     CONTROL_KERNEL_ONLY = ("probe_buf",)
     # Control fields only the host writes (before a launch): never copied back
     CONTROL_HOST_WRITTEN = ("loads", "probe_slot", "probe_body")
+    # Control fields whose rows of a chunk go to the device in one copy (ChunkCopies)
+    CONTROL_CHUNK_ROWS = ("loads", "probe_slot")
 
     def __init__(self, model, state, contacts, control):
-        from dem.engine.device import DeviceArrays, HistoryScratch
+        from dem.engine.device import ChunkCopies, DeviceArrays, HistoryScratch
 
         self.model, self.state, self.contacts, self.control = model, state, contacts, control
         self.dev = {name: DeviceArrays(box) for name, box in (
@@ -134,10 +145,25 @@ class DeviceResidency:
         real = ti.f32 if ti_runtime.real_dtype() == np.float32 else ti.f64
         self._scratch = HistoryScratch(contacts.capacity, real)
         self._cap_dev = None  # the area caps, for patches_over_caps
+        self._cap_sent = None  # the caps the device holds
+        self._chunk = ChunkCopies(control, self.dev["control"], real)
+        # the Control fields copied per field only when changed (to_device): what the device
+        # holds, as the host last sent or received it
+        self._sent = {}
+        self._remember([f for f in self.dev["control"].dev
+                        if f not in self.CONTROL_KERNEL_ONLY + self.CONTROL_CHUNK_ROWS])
+        # what unpack_chunk leaves in the diagnostics it resets
+        self._reset = {"status": np.zeros_like(control.status),
+                       "bad_body": np.zeros_like(control.bad_body),
+                       "deepest_step": np.full_like(control.deepest_step, -1),
+                       "steps_done": np.zeros_like(control.steps_done)}
         self.fields = {"state": State.field_names(), "contacts": Contacts.field_names()}
         self.stale = {"state": set(), "contacts": set()}   # fields whose device copy is newer
         self.dirty = {"state": set(), "contacts": set()}   # fields the host may have written
         self._installs = {"calls": 0, "bytes": 0}  # install_pairs' host arrays
+        self._current = {}  # (container, stale field) -> scenes whose rows the host holds
+        self._scene_lists = {}  # host_scenes' device arrays: scene lists, gathered rows
+        self._gathered = {}
 
     def containers(self) -> tuple:
         """The argpacks of the device's (Model, State, Contacts, Control) arrays."""
@@ -171,27 +197,89 @@ class DeviceResidency:
         if write:
             self.dirty[name].update(names)
 
+    def host_scenes(self, name: str, fields, scenes) -> None:
+        """Make the host's rows of the scenes ``scenes`` of ``fields`` (per-body fields of
+        ``name``) current, to read them (a neighbour-list rebuild reads the poses of its scene
+        only): a stale field's rows of those scenes are gathered on the device
+        (dem.engine.device.gather_scene_rows) and copied back, one copy a field for all of them
+        (and, for more than FEW_SCENES scenes, one of their list to the device), not the field
+        of every scene.  The
+        field stays stale for the other scenes (``_current``: the scenes whose rows of a stale
+        field the host holds); nothing is marked to go back."""
+        from dem.engine.device import FEW_SCENES, gather_scene_rows
+
+        sb = self.model.scene_bodies
+        need = {f: [g for g in scenes if g not in self._current.setdefault((name, f), set())]
+                for f in fields if f in self.stale[name]}
+        want = sorted({g for gs in need.values() for g in gs})
+        if not want:
+            return
+        G = len(sb)
+        n_cap = min(G, 1 << (len(want) - 1).bit_length())
+        rows = int((sb[:, 1] - sb[:, 0]).max())
+        d = self.dev[name]
+        few = (want + [0] * FEW_SCENES)[:FEW_SCENES]  # the kernel's scalars name up to 4
+        list_cap = n_cap if len(want) > FEW_SCENES else 1
+        scenes_dev = self._scene_lists.get(list_cap)
+        if scenes_dev is None:
+            scenes_dev = self._scene_lists[list_cap] = ti.ndarray(ti.i32, shape=(list_cap,))
+        if len(want) > FEW_SCENES:
+            listed = np.zeros(n_cap, dtype=np.int32)
+            listed[:len(want)] = want
+            scenes_dev.from_numpy(listed)
+            d.count("push", "scene_list", listed.nbytes)
+        for f in need:
+            dtype, elem = element_type(next(x for x in d.box.FIELDS if x.name == f))
+            key = (name, f, n_cap * rows)
+            out = self._gathered.get(key)
+            if out is None:
+                out = self._gathered[key] = ti.ndarray(dtype, shape=(n_cap * rows,))
+            gather_scene_rows(len(want), rows, *few, scenes_dev,
+                              self.dev["model"].dev["scene_bodies"], d.dev[f], out)
+            got = out.to_numpy()
+            d.count("pull", f, got.nbytes)
+            host = getattr(d.box, f)
+            for r, g in enumerate(want):
+                b0, b1 = int(sb[g, 0]), int(sb[g, 1])
+                host[b0:b1] = got[r * rows:r * rows + b1 - b0]
+            self._current[(name, f)].update(want)
+
     def push_dirty(self, name: str) -> None:
         dirty = self.dirty[name]
         if dirty:
             self.dev[name].push([f for f in self.fields[name] if f in dirty])
             dirty.clear()
 
-    def to_device(self) -> None:
-        """Before a launch: the control (but its kernel-only fields) and every dirty field."""
-        self.dev["control"].push([f for f in self.dev["control"].dev
-                                  if f not in self.CONTROL_KERNEL_ONLY])
+    def to_device(self, k: int) -> None:
+        """Before a launch of k steps: the loads and probe slots of its k steps in one copy,
+        with the diagnostics reset on the device (dem.engine.device.ChunkCopies); each other
+        Control field only where the host changed it since the device last had it (its bytes
+        against :attr:`_sent`'s: the host's writes of the step parameters, local damping,
+        active scenes, probed bodies, restored sums, which change seldom); every dirty
+        State / Contacts field."""
+        self._chunk.push_chunk(k)
+        self._sent.update(self._reset)
+        changed = [f for f, sent in self._sent.items()
+                   if not _same_bytes(getattr(self.control, f), sent)]
+        if changed:
+            self.dev["control"].push(changed)
+            self._remember(changed)
         for name in ("state", "contacts"):
             self.push_dirty(name)
 
     def from_device(self) -> None:
-        """After a launch: the control's kernel-written fields back; every State / Contacts
-        field the kernels write marked stale (nothing is dirty: to_device pushed it)."""
-        self.dev["control"].pull([f for f in self.dev["control"].dev
-                                  if f not in self.CONTROL_HOST_WRITTEN
-                                  + self.CONTROL_KERNEL_ONLY])
+        """After a launch: the control's kernel-written fields back in one copy
+        (dem.engine.device.ChunkCopies); every State / Contacts field the kernels write marked
+        stale (nothing is dirty: to_device pushed it)."""
+        self._remember(self._chunk.pull_diagnostics())
         for name in ("state", "contacts"):
             self.stale[name] = set(self.fields[name]) - self.HOST_KEPT[name]
+        self._current.clear()
+
+    def _remember(self, names) -> None:
+        """The host's ``names`` of the Control are what the device holds now."""
+        for f in names:
+            self._sent[f] = getattr(self.control, f).copy()
 
     def pull_probes(self) -> None:
         """The probes' samples of the last launch (control.probe_buf) to the host."""
@@ -208,7 +296,11 @@ class DeviceResidency:
         if self._cap_dev is None:
             real = ti.f32 if ti_runtime.real_dtype() == np.float32 else ti.f64
             self._cap_dev = ti.ndarray(real, shape=(self.model.n_bodies,))
-        self._cap_dev.from_numpy(np.ascontiguousarray(area_cap, dtype=ti_runtime.real_dtype()))
+        if self._cap_sent is None or not _same_bytes(area_cap, self._cap_sent):
+            cap = np.ascontiguousarray(area_cap, dtype=ti_runtime.real_dtype())
+            self._cap_dev.from_numpy(cap)
+            self._cap_sent = cap.copy()
+            self.dev["control"].count("push", "area_cap", cap.nbytes)
         m, _, c, ctl = self.containers()
         return patches_over_caps(n_slots, self._cap_dev, 1.0 - CAP_CHECK_MARGIN, m, c, ctl,
                                  batched) > 0
@@ -246,6 +338,8 @@ class DeviceResidency:
                       src_full, self.dev["model"].args, st, c, sc.code, sc.npts, sc.loc,
                       sc.shear)
         self.stale["contacts"].update(self.INSTALLED)  # the history, moved on the device
+        for f in self.INSTALLED:  # stale for every scene again
+            self._current.pop(("contacts", f), None)
 
     def transfer_counts(self) -> dict:
         """Per container, the copies each way since construction (DeviceArrays.counts)."""
@@ -253,6 +347,13 @@ class DeviceResidency:
 
     def install_counts(self) -> dict:
         return dict(self._installs)
+
+
+def _same_bytes(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether two arrays hold the same bytes (not ==: -0.0 and 0.0 differ, a NaN is itself)."""
+    a, b = np.ascontiguousarray(a), np.ascontiguousarray(b)
+    return a.shape == b.shape and a.dtype == b.dtype and np.array_equal(a.view(np.uint8),
+                                                                         b.view(np.uint8))
 
 
 def residency_kind(on_device: bool) -> type:

@@ -178,6 +178,12 @@ class Engine:
         (dem.engine.residency.DeviceResidency.host; nothing to do on the host alone)."""
         self.residency.host(name, write, fields)
 
+    def host_scenes(self, name: str, fields, scenes) -> None:
+        """Make the host's rows of the scenes ``scenes`` of ``fields`` (per-body fields of
+        ``name``) current, to read them, and only those rows
+        (dem.engine.residency.DeviceResidency.host_scenes; nothing to do on the host alone)."""
+        self.residency.host_scenes(name, fields, scenes)
+
     def transfer_stats(self) -> dict:
         """The host <-> device traffic since construction (benchmarks/batch_speed.py ``run``):
         ``host_to_device`` / ``device_to_host``: ``copies`` (one per field moved), ``bytes``,
@@ -229,6 +235,9 @@ class Simulation:
     where stale, never back (Engine.host).  On the CPU without device arrays both are the
     host's arrays, nothing is copied.  The run loop's reads (frames, instruments, settling,
     energies, the summary) use the read-only accessors."""
+
+    # the State fields the broad phase reads (rebuild): of its own scene only
+    BROAD_PHASE_READS = ("pos", "rot", "quat")
 
     def __init__(self, scene: Scene, joints: JointLaw, options: StepOptions,
                  gravity=(0.0, 0.0, -9.81), fast_launch: bool = True):
@@ -426,7 +435,7 @@ class Simulation:
     def rebuild(self) -> None:
         """Broad phase of this scene: new neighbour list, history carried over for pairs that
         stay."""
-        self.engine.host("state", write=False, fields=("pos", "rot", "quat"))
+        self.engine.host_scenes("state", self.BROAD_PHASE_READS, [self.scene_index])
         st = self._state
         m = self.model
         pairs = candidate_pairs(st.pos, st.rot, m.half_np, m.radius_np, m.fixed_np, m.table,

@@ -16,6 +16,13 @@ Taichi's kernel profiler on K = PROFILE_KS, each task's GPU time, printed to log
 ``PARTS`` (default "0,2,1") picks the parts to run (3 runs where time is left, LONE_BEFORE_S);
 ``CPU_PROCS`` (default R) the processes of part 1's CPU side; each point's record carries its
 run's size and speed (steps, dt, wall seconds, neighbour rebuilds: SUMMARY_KEYS).
+
+``python tools/device/gpu_batch_check.py --dry-run`` (any machine, no GPU, nothing run): imports
+everything the parts import (Taichi, the engine and its device kernels, the shake analysis, the
+benchmarks' realisations), builds the case of realisation 0, and prints the plan: each part's
+command, its time budget and the files it writes, with the settings read from the environment
+as a real call would read them.  The host's share of a GPU step comes from parts 0 and 2 of
+one call: 1 - (the stepping kernel's time a step, part 0's profile) / (part 2's step time).
 """
 
 from __future__ import annotations
@@ -109,23 +116,10 @@ def heartbeat(t0: float, every: float = 15.0) -> None:
                 f"({len(sims)} scenes)")
 
 
-def main() -> int:
-    R = int(os.environ.get("R", "8"))
-    cycles = int(os.environ.get("CYCLES", "10"))
-    if sys.argv[1:] == ["gpu-points"]:
-        gpu_points(R, cycles)
-        return 0
+def plan() -> list[tuple[str, list[str], float, str]]:
+    """The GPU parts in the order they run, as the environment sets them: (part, command,
+    time budget in s, what it writes to $OUT)."""
     ks = os.environ.get("KS", "1,16,64,100")
-    OUT.mkdir(parents=True, exist_ok=True)
-    # part 1, CPU side: in the background from the start (one process per realisation)
-    cpu_points = os.environ.get("CPU_POINTS", "1") == "1"  # 0: an earlier call's are kept
-    parts = os.environ.get("PARTS", "0,2,1")  # which of parts 0, 2, 1 (in that order) run
-    procs = int(os.environ.get("CPU_PROCS", str(R)))  # CPU processes of part 1
-    pool = mp.get_context("spawn").Pool(procs) if cpu_points else None
-    if pool is not None:
-        cpu_async = pool.map_async(cpu_point, [(s, cycles, Path("/tmp/cpu_runs"))
-                                               for s in range(R)])
-        say(f"part 1: {R} CPU processes started ({cycles} cycles each)")
     # part 2: throughput on the GPU (part 1's CPU processes running on other cores)
     cmd = [sys.executable, str(ROOT / "benchmarks/batch_speed.py"), ARCH, "--ks", ks,
            "--steps", os.environ.get("STEPS", "1000"), "--repeats", "3", "--error",
@@ -133,13 +127,61 @@ def main() -> int:
     profile = [sys.executable, str(ROOT / "benchmarks/batch_speed.py"), ARCH, "--ks",
                os.environ.get("PROFILE_KS", "16,64"), "--steps", "300", "--repeats", "1",
                "--profile", "--json", str(OUT / "gpu_profile.jsonl")]
-    for part, argv, budget in (
-            ("0 (each kernel task's time)", profile, float(os.environ.get("PROFILE_S", "150"))),
-            ("2 (throughput)", cmd, float(os.environ.get("THROUGHPUT_S", "240"))),
-            ("1 GPU (realisations)", [sys.executable, __file__, "gpu-points"],
-             float(os.environ.get("GPU_POINTS_S", "200")))):
-        if part[0] not in parts.split(","):
-            continue
+    out = [("0 (each kernel task's time)", profile, float(os.environ.get("PROFILE_S", "150")),
+            "gpu_profile.jsonl, the profile in log.txt"),
+           ("2 (throughput)", cmd, float(os.environ.get("THROUGHPUT_S", "240")),
+            "gpu.jsonl (step time against K, error against lone runs), states_K*.npz"),
+           ("1 GPU (realisations)", [sys.executable, __file__, "gpu-points"],
+            float(os.environ.get("GPU_POINTS_S", "200")),
+            f"points_gpu{TAG}.json (ds amplification and lag of each seed)")]
+    parts = os.environ.get("PARTS", "0,2,1")  # which of parts 0, 2, 1 (in that order) run
+    return [p for p in out if p[0][0] in parts.split(",")]
+
+
+def dry_run() -> int:
+    """Import what every part imports, build realisation 0's case, print the plan (no
+    kernel runs, no GPU needed)."""
+    import taichi  # noqa: F401
+    import dem.engine.device  # noqa: F401 - the device kernels (decorated, not compiled)
+    from dem.engine.simulation import Engine  # noqa: F401
+    from dem.run.batched import run_cases_in_one_engine  # noqa: F401
+    from postprocess.sweep import analyze_point  # noqa: F401
+
+    R = int(os.environ.get("R", "8"))
+    cycles = int(os.environ.get("CYCLES", "10"))
+    case = case_of(0, cycles)
+    print(f"dry run: imports fine (taichi {taichi.__version__}); realisation 0: {case.name}, "
+          f"{cycles} cycles, {case.run.duration:.3f} s simulated; ARCH={ARCH}, OUT={OUT}")
+    if os.environ.get("CPU_POINTS", "1") == "1":
+        print(f"part 1 CPU: {R} realisations, {int(os.environ.get('CPU_PROCS', str(R)))} "
+              f"single-threaded processes from the start -> points_cpu{TAG}.json")
+    for part, argv, budget, writes in plan():
+        print(f"part {part}, at most {budget:.0f} s: {' '.join(argv[1:])}\n    -> {writes}")
+    print(f"part 3 if started before {os.environ.get('LONE_BEFORE_S', '450')} s: 16 lone "
+          "single-threaded processes, 90 s at most -> cpu_lone.jsonl")
+    print("then: python benchmarks/batch_speed.py compare $OUT (GPU vs CPU states); the host's "
+          "share of a step: 1 - part 0's stepping-kernel time a step / part 2's step time")
+    return 0
+
+
+def main() -> int:
+    R = int(os.environ.get("R", "8"))
+    cycles = int(os.environ.get("CYCLES", "10"))
+    if sys.argv[1:] == ["gpu-points"]:
+        gpu_points(R, cycles)
+        return 0
+    if sys.argv[1:] == ["--dry-run"]:
+        return dry_run()
+    OUT.mkdir(parents=True, exist_ok=True)
+    # part 1, CPU side: in the background from the start (one process per realisation)
+    cpu_points = os.environ.get("CPU_POINTS", "1") == "1"  # 0: an earlier call's are kept
+    procs = int(os.environ.get("CPU_PROCS", str(R)))  # CPU processes of part 1
+    pool = mp.get_context("spawn").Pool(procs) if cpu_points else None
+    if pool is not None:
+        cpu_async = pool.map_async(cpu_point, [(s, cycles, Path("/tmp/cpu_runs"))
+                                               for s in range(R)])
+        say(f"part 1: {R} CPU processes started ({cycles} cycles each)")
+    for part, argv, budget, _ in plan():
         try:
             subprocess.run(argv, timeout=budget, check=False)
             say(f"part {part} done")
