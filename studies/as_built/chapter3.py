@@ -315,7 +315,40 @@ def run(sets=ORDER, n_seeds: int = 1, specimens: list[str] | None = None, large:
     prev = read_json(Path(out_root) / "summary.json") or {}
     summary["sets"] = {**(prev.get("sets") or {}), **summary["sets"]}
     write_json(Path(out_root) / "summary.json", summary, indent=1)
+    plot(summary, Path(out_root) / "lambda.png")
     return summary
+
+
+def plot(summary: dict, path: Path) -> None:
+    """lambda with each set against the calibration's, (lambda_set / lambda_cal - 1) in %, per
+    specimen (the large-brick walls last, against the calibration's held-out run); the 5 %
+    tolerance dashed."""
+    from dem.output.plotting import agg_pyplot
+
+    plt = agg_pyplot()
+    names = list(cal_specimens.specimens()) + list(cal_specimens.held_out_specimens())
+    fig, ax = plt.subplots(figsize=(8.0, 3.6))
+    for i, (name, st) in enumerate(summary["sets"].items()):
+        pts, label = {**st["specimens"], **st["large_brick"]}, name
+        for k, s in enumerate(names):
+            for r in (pts.get(s) or {}).get("rows") or []:
+                ax.scatter(k + 0.12 * (i - 1),
+                           100 * (r["lambda_now"] / r["lambda_calibrated"] - 1),
+                           color=f"C{i}", s=22, label=label)
+                label = None
+    for y in (-100 * c3.TOLERANCE, 100 * c3.TOLERANCE):
+        ax.axhline(y, color="0.5", ls="--", lw=0.8)
+    ax.axhline(0.0, color="0.8", lw=0.6)
+    ax.axvline(len(cal_specimens.specimens()) - 0.5, color="0.7", lw=0.6)
+    ax.set_xticks(range(len(names)), [n.removeprefix("ip-").removeprefix("oop-")
+                                      for n in names], rotation=40, ha="right", fontsize=7)
+    ax.set_ylabel("lambda with the set / calibrated - 1, %")
+    ax.set_title("Chapter 3 tilts with the loose sets (seed by seed; right of the line: the "
+                 "large-brick L/H = 2.5 walls)", fontsize=8)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
 
 
 def table(summary: dict) -> str:
