@@ -88,6 +88,38 @@ def kick_start(stop_at: str = typer.Option(None, help="UTC HH:MM after which no 
     exp.run(stop_at=stop_at, seeds=tuple(seed or exp.SEEDS))
 
 
+@app.command()
+def chapter3(sets: list[str] = typer.Option(None, "--set", help="loose sets (repeatable; default "
+                                            "all three: loose-1mm, loose-2mm, loose-0.5mm)"),
+             seeds: int = typer.Option(1, metavar="N", help="the calibration's seeds 0 .. N-1"),
+             specimens: list[str] = typer.Option(None, help="calibration specimens (repeatable; "
+                                                 "default all)"),
+             large: bool = typer.Option(True, "--large/--no-large",
+                                        help="the large-brick L/H = 2.5 walls too"),
+             stop_at: str = typer.Option(None, help="UTC HH:MM after which no new point starts"),
+             max_steps: int = typer.Option(None, help="cap each run (smoke only)"),
+             compare_only: bool = typer.Option(False, "--compare-only", help="run nothing")
+             ) -> None:
+    """Criterion (i) of the loose sets: the Chapter 3 tilts with the frozen candidate plus a
+    set's as-built fields, compared seed by seed with the calibration, the invariants, and the
+    large-brick L/H = 2.5 walls (resumable).  studies/as_built/chapter3.py."""
+    import sys
+
+    from studies.as_built import chapter3 as exp
+    from studies.chapter3.check import CheckInputError
+
+    if seeds < 1:
+        raise typer.BadParameter("must be >= 1", param_hint="--seeds")
+    try:
+        s = exp.run(tuple(sets or exp.ORDER), seeds, specimens or None, large, stop_at,
+                    max_steps, compare_only, argv=sys.argv[1:],
+                    log=lambda m: print(m, flush=True))
+    except (CheckInputError, ValueError) as err:
+        print(f"error: {err}", file=sys.stderr)
+        raise typer.Exit(2) from None
+    print(exp.table(s))
+
+
 def main(argv=None) -> int:
     app(args=argv, prog_name="python -m studies as-built", standalone_mode=True)
     return 0

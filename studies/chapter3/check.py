@@ -28,6 +28,12 @@ has more, and is pending while a specimen has not finished.  The mechanisms are 
 says whether the re-run case is the calibration's (their fingerprints with the calibration's N;
 a case file or builder changed since then reads False).  The record, ``<out>/check.json``, names
 the commit that ran and the engine's results revision; the prediction report reads it.
+
+Other imperfections on top (:func:`run_points`, :func:`compare` with ``patches``): a specimen's
+patch (imperfection fields, e.g. the as-built ``head_gap``) is added to the frozen candidate's
+parameters of that specimen's case, and the re-run is compared with the calibration seed by seed
+in the same way (studies.as_built.chapter3).  Without patches the cases, fingerprints and
+records are the check's own.
 """
 
 from __future__ import annotations
@@ -134,15 +140,46 @@ def verdict(points: dict[str, dict], tol: float = TOLERANCE,
     return {"status": status, "why": why}
 
 
+def case_params(params: dict, patch: dict | None) -> dict:
+    """The imperfections of one specimen's re-run: the candidate's ``params`` with ``patch``'s
+    fields (imperfection fields of the case schema, dem/case/imperfections.py) added; a patch
+    may not replace a candidate's own parameter (the check would no longer be of that set)."""
+    patch = patch or {}
+    clash = sorted(set(patch) & set(params))
+    if clash:
+        raise CheckInputError(f"patch: {clash} would replace the candidate's own parameters")
+    return {**params, **patch}
+
+
+def run_points(out: Path, runs: Path, candidate: str, params: dict, specs: dict,
+               n_seeds: int, max_steps: int | None = None, patches: dict | None = None,
+               stop_at: str | None = None, study=None, log=print) -> list[str]:
+    """Run (resumable) each specimen of ``specs`` with the calibration's seeds 0 .. n_seeds-1
+    and ``params`` plus the specimen's patch (``patches``: specimen -> fields, none by default)
+    through studies.calibration.points.Ensembles, records under ``out``, raw runs under
+    ``runs``; ``stop_at``: UTC HH:MM after which no point starts; ``study``: an Ensembles of
+    n_seeds to plan on (default a new one).  Returns each point's state."""
+    study = study if study is not None else cal_points.Ensembles(n_seeds, max_steps)
+    for s, spec in specs.items():
+        study.add(out, runs, candidate, case_params(params, (patches or {}).get(s)), s, spec)
+    return [state for _, state in kit.run(study, stop_at, log=log)]
+
+
 def compare(out: Path, calibration: Path, candidate: str, specs: dict, seeds: list[int],
-            params: dict, tol: float = TOLERANCE) -> dict:
-    """check.json's content from the committed calibration and the re-run points."""
+            params: dict, tol: float = TOLERANCE, patches: dict | None = None) -> dict:
+    """check.json's content from the committed calibration and the re-run points; with
+    ``patches`` (specimen -> extra imperfection fields, :func:`case_params`) each specimen's
+    re-run case is the patched one, and its entry names its patch."""
     points = {}
     for s, spec in specs.items():
         calib = read_json(cal_points.point_path(calibration, candidate, s))
         rerun = read_json(cal_points.point_path(out, candidate, s))
         p = compare_point(calib, rerun, seeds, tol)
-        case = cal_specimens.specimen_case(spec["path"], params, f"cal-{candidate}-{s}")
+        if patches is not None:
+            p["patch"] = patches.get(s) or {}
+        case = cal_specimens.specimen_case(
+            spec["path"], params if patches is None else case_params(params, patches.get(s)),
+            f"cal-{candidate}-{s}")
         n_cal = ((calib or {}).get("calibration") or {}).get("n_realisations")
         p["same_case"] = (None if n_cal is None else
                           cal_specimens.fingerprint(case, n_cal, None) ==
@@ -206,10 +243,8 @@ def _check(args, argv: list[str]) -> int:
     seeds = list(range(args.seeds))
     states = []
     if not args.compare_only:
-        study = cal_points.Ensembles(args.seeds, args.max_steps)
-        for s, spec in specs.items():
-            study.add(args.out, args.runs, candidate, params, s, spec)
-        states = [state for _, state in kit.run(study, log=lambda m: print(m, flush=True))]
+        states = run_points(args.out, args.runs, candidate, params, specs, args.seeds,
+                            args.max_steps, log=lambda m: print(m, flush=True))
     from dem.output.atomic import write_json
 
     args.out.mkdir(parents=True, exist_ok=True)
