@@ -29,7 +29,8 @@ import dem.run.write
 from dem.case import Case
 from dem_cli.app import app
 from dem_cli.commands.exit_codes import ExitCode
-from dem.run.batched import BatchInputError, cuda_present, run_cases_in_one_engine
+from dem.run.batched import (BatchInputError, cuda_present, engine_groups,
+                             run_cases_in_one_engine)
 from dem.run.resume import RESTART_FILE
 from dem.run.sweep import realisation_cases
 from dem.run.write import RunWriter
@@ -209,6 +210,110 @@ def test_a_sigterm_stops_every_point_and_a_rerun_resumes_each_from_its_own(tmp_p
     for d, n in zip(cut, names):
         assert_same_run(tmp_path / "whole" / n, d)
         assert not (d / RESTART_FILE).exists()
+
+
+def test_a_cpu_batch_gives_every_worker_an_engine_of_at_most_k_runs():
+    """On the CPU with W > 1 workers a batch is spread over the workers (engine_groups): an
+    engine of K on one thread steps no faster per scene than K lone runs, so the groups are
+    the runs in order, at most K each, sizes within one of each other, and their number the
+    fewest engines of at most K runs rounded up to whole rounds of W (never above the runs).
+    With one worker, or on a GPU, the packing is K in order, the last smaller."""
+    for n in range(1, 14):
+        for k in range(1, 7):
+            fewest = -(-n // k)
+            for w in range(1, 5):
+                for arch in ("cpu", "cuda"):
+                    groups = engine_groups(n, k, w, arch)
+                    assert [i for g in groups for i in g] == list(range(n))
+                    sizes = [len(g) for g in groups]
+                    assert max(sizes) <= k and min(sizes) >= 1
+                    if arch == "cuda" or w == 1:
+                        assert sizes == [k] * (n // k) + ([n % k] if n % k else [])
+                        continue
+                    rounds = -(-fewest // w)
+                    assert len(groups) == min(n, rounds * w)
+                    assert max(sizes) - min(sizes) <= 1
+                    # no fewer rounds of W engines than the runs need, and each round full
+                    # unless there are fewer runs than workers
+                    assert len(groups) >= min(n, w)
+    # the cases of the side-by-side measurement (benchmarks/cpu_batch.py, 2 workers): a batch
+    # of 2 runs as two engines of one, a batch of 4 as two engines of two
+    assert engine_groups(2, 2, 2) == [[0], [1]]
+    assert engine_groups(4, 4, 2) == [[0, 1], [2, 3]]
+    # 100 runs, --batch 40, 2 workers: four engines of 25 (not 40, 40, 20: three engines on two
+    # workers, the last round half idle)
+    assert [len(g) for g in engine_groups(100, 40, 2)] == [25] * 4
+    with pytest.raises(BatchInputError, match="--batch"):
+        engine_groups(3, 0, 2)
+
+
+def test_run_batch_hands_the_workers_the_engine_groups(tmp_path, monkeypatch):
+    """dem.batch.run_batch with ``batch`` on the CPU submits one task per group of
+    engine_groups for its workers (a local cluster of ``n_workers``), and returns the records
+    one per case, in order (the cluster replaced by one that runs each task at once)."""
+    import dask.distributed
+
+    submitted = []
+
+    class Future:
+        def __init__(self, value):
+            self.value = value
+
+        def result(self):
+            return self.value
+
+    class Client:
+        def __init__(self, *args, **kwargs):
+            pass
+
+        def submit(self, fn, *args, key=None, pure=None):
+            return Future(fn(*args))
+
+        def close(self):
+            pass
+
+    class Cluster:
+        def __init__(self, n_workers, **kwargs):
+            self.n_workers = n_workers
+
+        def close(self):
+            pass
+
+    def run_group(names, case_jsons, out_dirs, threads, max_steps, post, analyses, arch):
+        submitted.append((list(names), threads, arch))
+        return [{"name": n, "status": "ok", "out_dir": d} for n, d in zip(names, out_dirs)]
+
+    monkeypatch.setattr(dask.distributed, "Client", Client)
+    monkeypatch.setattr(dask.distributed, "LocalCluster", Cluster)
+    monkeypatch.setattr(dask.distributed, "as_completed", lambda: _Completed())
+    monkeypatch.setattr(dem.batch, "_run_group", run_group)
+    case = Case.model_validate(BLOCK)
+    cases = [(f"p{i}", case) for i in range(5)]
+    recs = dem.batch.run_batch(cases, tmp_path, n_workers=2, batch=5)
+    assert [r["name"] for r in recs] == [f"p{i}" for i in range(5)]
+    names = [n for n, _ in cases]
+    expected = [[names[i] for i in g] for g in engine_groups(5, 5, 2)]
+    assert [s[0] for s in submitted] == expected and len(expected) == 2
+    # each group on one single-threaded worker: the serial kernel (one thread, auto mode)
+    assert {(s[1], s[2]) for s in submitted} == {(1, "cpu")}
+    submitted.clear()
+    dem.batch.run_batch(cases, tmp_path, n_workers=1, batch=2)
+    assert [s[0] for s in submitted] == [names[0:2], names[2:4], names[4:5]]
+
+
+class _Completed:
+    """dask.distributed.as_completed for futures that are already done: each in turn, and
+    those added while iterating."""
+
+    def __init__(self):
+        self.items = []
+
+    def add(self, fut):
+        self.items.append(fut)
+
+    def __iter__(self):
+        while self.items:
+            yield self.items.pop(0)
 
 
 def test_cases_with_different_solver_options_are_refused_naming_the_field(tmp_path):

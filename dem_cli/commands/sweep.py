@@ -314,7 +314,7 @@ def workers_text(scheduler: str | None, workers: int | None, batch: int | None,
         n = workers or (1 if arch == "cuda" else os.cpu_count())
         where = f"local cluster, {n} worker{'s' if n != 1 else ''}"
     if batch is not None:
-        where += f", {batch} to an engine"
+        where += f", at most {batch} to an engine"
     return where + (f", on {arch}" if arch != "cpu" else "")
 
 
