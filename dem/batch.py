@@ -15,12 +15,12 @@ dem.run.write.CHECKPOINT_SECONDS): the next batch into the same directories resu
 
 Each case writes its own output directory (summary.json, frames.npz, ...) under ``out_root``.
 
-Batched (``batch`` K): the cases are packed at most K to an engine and each group is one
-task, one process (dem.run.batched: K scenes in one Taichi engine, each point written into its
-own directory exactly as a lone run); dask spreads the groups over the workers.  On a GPU (or
-one worker) the groups are K in order, the last smaller; on the CPU there are at least as many
-groups as workers (dem.run.batched.engine_groups: an engine of K on one thread steps no faster
-per scene than K lone runs, so a batch that left a worker idle would be slower).
+Batched (``batch`` K): on a GPU the cases are packed K to an engine (the last group smaller)
+and each group is one task, one process (dem.run.batched: K scenes in one Taichi engine, each
+point written into its own directory exactly as a lone run); dask spreads the groups over the
+workers.  On the CPU each case is a group of its own, an engine of its own
+(dem.run.batched.engine_groups: an engine of K on one single-threaded worker steps its scenes
+more slowly than K lone engines, and leaves the other workers idle).
 A failed point never ends its batch-mates; the records stay one per case.  ``arch``: Taichi's
 arch of the tasks, "cpu" or "cuda" (with cuda and no ``n_workers``, one local worker: the GPU is
 one device).
@@ -172,9 +172,9 @@ def run_batch(cases: list[tuple[str, Case]], out_root: str | Path, scheduler: st
               batch: int | None = None, arch: str = "cpu") -> list[dict]:
     """Run (name, case) pairs; returns one record per case, in the order given.
 
-    batch: pack the cases at most K to an engine, one task per group (module docstring: on the
-    CPU spread over the workers' threads); None: one case per task, each in an engine of its own
-    (with ``arch`` "cpu": today's path, dem.run).
+    batch: pack the cases K to an engine on a GPU, one task per group; on the CPU one case to
+    an engine (module docstring); None: one case per task, each in an engine of its own (with
+    ``arch`` "cpu": today's path, dem.run).
     arch: "cpu" or "cuda" (Taichi's arch of every task).
 
     analyses: handed to dem.run.run_case (functions merged into each run's summary.json, e.g.
@@ -193,6 +193,14 @@ def run_batch(cases: list[tuple[str, Case]], out_root: str | Path, scheduler: st
     if batch is not None and batch < 1:
         raise ValueError(f"--batch must be >= 1, got {batch}")
     grouped = batch is not None or arch != "cpu"
+    # the tasks: lists of indices into cases (one each without grouping; grouped:
+    # dem.run.batched.engine_groups: K in order on a GPU, one run each on the CPU)
+    if grouped:
+        from dem.run.batched import engine_groups
+
+        groups = engine_groups(len(cases), batch or 1, arch)
+    else:
+        groups = [[i] for i in range(len(cases))]
     cluster = None
     if scheduler is None:
         n_workers = n_workers or (1 if arch == "cuda" else None) or os.cpu_count() or 1
@@ -211,19 +219,8 @@ def run_batch(cases: list[tuple[str, Case]], out_root: str | Path, scheduler: st
         client = Client(cluster)
     else:
         client = Client(scheduler)
-        if drain is not None or (grouped and arch == "cpu"):
-            # their threads set how many cases are handed over, and how a CPU batch is split
-            client.wait_for_workers(1)
-    # the tasks: lists of indices into cases (one each without grouping; grouped:
-    # dem.run.batched.engine_groups, spread over the workers' threads on the CPU)
-    if grouped:
-        from dem.run.batched import engine_groups
-
-        workers = n_workers if scheduler is None else \
-            max(1, sum(client.nthreads().values()))
-        groups = engine_groups(len(cases), batch or 1, workers, arch)
-    else:
-        groups = [[i] for i in range(len(cases))]
+        if drain is not None:
+            client.wait_for_workers(1)  # their threads set how many cases are handed over
     try:
         def free_threads() -> int:
             if drain is None:

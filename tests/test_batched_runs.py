@@ -117,7 +117,7 @@ def test_a_batched_sweep_equals_the_same_sweep_run_point_by_point(tmp_path, monk
     monkeypatch.setattr(dem.batch, "run_batch", in_process_run_batch(calls))
     r = CliRunner().invoke(app, [*args, "--out", str(tmp_path / "batched"), "--batch", "2"])
     assert r.exit_code == 0, r.output
-    assert calls == [2] and "2 to an engine" in r.output
+    assert calls == [2] and "--batch 2" in r.output
     alone, batched = (json.loads((tmp_path / d / "sweep.json").read_text())["points"]
                       for d in ("alone", "batched"))
     assert [p["frequency_hz"] for p in batched] == [6.0, 8.0]
@@ -133,9 +133,10 @@ def test_a_batched_sweep_equals_the_same_sweep_run_point_by_point(tmp_path, monk
         assert "?" not in summ["units"].values()
 
 
-def test_a_point_that_fails_does_not_end_its_batch_mates(tmp_path):
-    """``dem sweep --batch 2`` on dask (one worker): 3 and 10 Hz share an engine, 12 Hz gets
-    the last, smaller one.  The frictionless block slides at up to 2 A w relative to the table
+def test_a_point_that_fails_does_not_end_its_batch_mates(tmp_path, monkeypatch):
+    """``dem sweep --batch 2`` with the points packed 2 to an engine as on a GPU (in this
+    process, on the CPU: in_process_run_batch): 3 and 10 Hz share an engine, 12 Hz gets the
+    last, smaller one.  The frictionless block slides at up to 2 A w relative to the table
     (tests/test_shake_analysis.py, SLIDER): 0.63 m/s at 10 Hz and 0.75 at 12 Hz, above
     solver.max_speed = 0.4, reached when A w (1 - cos w t) = 0.4, within the first cycle (the
     table itself, A w = 0.31 and 0.38 m/s, stays below it: dem check passes the points); those
@@ -143,6 +144,7 @@ def test_a_point_that_fails_does_not_end_its_batch_mates(tmp_path):
     10 Hz one and gives the lone run's analysis (sliding: ds amplification pi)."""
     case = case_file(tmp_path, SLIDER)
     out = tmp_path / "sweep"
+    monkeypatch.setattr(dem.batch, "run_batch", in_process_run_batch())
     r = CliRunner().invoke(app, ["sweep", str(case), "--out", str(out), "--frequencies",
                                  "3,10,12", "--margin", "0", "--workers", "1", "--batch", "2"])
     assert r.exit_code == ExitCode.RUN_FAILED, r.output
@@ -212,45 +214,27 @@ def test_a_sigterm_stops_every_point_and_a_rerun_resumes_each_from_its_own(tmp_p
         assert not (d / RESTART_FILE).exists()
 
 
-def test_a_cpu_batch_gives_every_worker_an_engine_of_at_most_k_runs():
-    """On the CPU with W > 1 workers a batch is spread over the workers (engine_groups): an
-    engine of K on one thread steps no faster per scene than K lone runs, so the groups are
-    the runs in order, at most K each, sizes within one of each other, and their number the
-    fewest engines of at most K runs rounded up to whole rounds of W (never above the runs).
-    With one worker, or on a GPU, the packing is K in order, the last smaller."""
-    for n in range(1, 14):
+def test_a_batch_is_k_to_an_engine_on_a_gpu_and_one_on_the_cpu():
+    """engine_groups: on a GPU the runs in order, K to an engine, the last smaller; on the CPU
+    one run to an engine whatever K (an engine of K on one core is slower per scene-step than
+    K lone engines); every run in exactly one group, in order."""
+    for n in range(0, 14):
         for k in range(1, 7):
-            fewest = -(-n // k)
-            for w in range(1, 5):
-                for arch in ("cpu", "cuda"):
-                    groups = engine_groups(n, k, w, arch)
-                    assert [i for g in groups for i in g] == list(range(n))
-                    sizes = [len(g) for g in groups]
-                    assert max(sizes) <= k and min(sizes) >= 1
-                    if arch == "cuda" or w == 1:
-                        assert sizes == [k] * (n // k) + ([n % k] if n % k else [])
-                        continue
-                    rounds = -(-fewest // w)
-                    assert len(groups) == min(n, rounds * w)
-                    assert max(sizes) - min(sizes) <= 1
-                    # no fewer rounds of W engines than the runs need, and each round full
-                    # unless there are fewer runs than workers
-                    assert len(groups) >= min(n, w)
-    # the cases of the side-by-side measurement (benchmarks/cpu_batch.py, 2 workers): a batch
-    # of 2 runs as two engines of one, a batch of 4 as two engines of two
-    assert engine_groups(2, 2, 2) == [[0], [1]]
-    assert engine_groups(4, 4, 2) == [[0, 1], [2, 3]]
-    # 100 runs, --batch 40, 2 workers: four engines of 25 (not 40, 40, 20: three engines on two
-    # workers, the last round half idle)
-    assert [len(g) for g in engine_groups(100, 40, 2)] == [25] * 4
+            gpu, cpu = engine_groups(n, k, "cuda"), engine_groups(n, k, "cpu")
+            for groups in (gpu, cpu):
+                assert [i for g in groups for i in g] == list(range(n))
+            assert [len(g) for g in gpu] == [k] * (n // k) + ([n % k] if n % k else [])
+            assert [len(g) for g in cpu] == [1] * n
     with pytest.raises(BatchInputError, match="--batch"):
-        engine_groups(3, 0, 2)
+        engine_groups(3, 0, "cuda")
+    with pytest.raises(BatchInputError, match="--arch"):
+        engine_groups(3, 2, "tpu")
 
 
 def test_run_batch_hands_the_workers_the_engine_groups(tmp_path, monkeypatch):
-    """dem.batch.run_batch with ``batch`` on the CPU submits one task per group of
-    engine_groups for its workers (a local cluster of ``n_workers``), and returns the records
-    one per case, in order (the cluster replaced by one that runs each task at once)."""
+    """dem.batch.run_batch with ``batch`` submits one task per group of engine_groups (on the
+    CPU one run each, on single-threaded workers; on a GPU K each) and returns the records one
+    per case, in order (the cluster replaced by one that runs each task at once)."""
     import dask.distributed
 
     submitted = []
@@ -289,16 +273,17 @@ def test_run_batch_hands_the_workers_the_engine_groups(tmp_path, monkeypatch):
     monkeypatch.setattr(dem.batch, "_run_group", run_group)
     case = Case.model_validate(BLOCK)
     cases = [(f"p{i}", case) for i in range(5)]
-    recs = dem.batch.run_batch(cases, tmp_path, n_workers=2, batch=5)
-    assert [r["name"] for r in recs] == [f"p{i}" for i in range(5)]
     names = [n for n, _ in cases]
-    expected = [[names[i] for i in g] for g in engine_groups(5, 5, 2)]
-    assert [s[0] for s in submitted] == expected and len(expected) == 2
-    # each group on one single-threaded worker: the serial kernel (one thread, auto mode)
+    recs = dem.batch.run_batch(cases, tmp_path, n_workers=2, batch=5)
+    assert [r["name"] for r in recs] == names
+    assert [s[0] for s in submitted] == [[n] for n in names]
+    # each run on one single-threaded worker: the lone serial kernel (one thread, auto mode)
     assert {(s[1], s[2]) for s in submitted} == {(1, "cpu")}
     submitted.clear()
-    dem.batch.run_batch(cases, tmp_path, n_workers=1, batch=2)
+    recs = dem.batch.run_batch(cases, tmp_path, n_workers=1, batch=2, arch="cuda")
+    assert [r["name"] for r in recs] == names
     assert [s[0] for s in submitted] == [names[0:2], names[2:4], names[4:5]]
+    assert {s[2] for s in submitted} == {"cuda"}
 
 
 class _Completed:

@@ -163,38 +163,27 @@ def solver_difference(cases: Sequence[Case]) -> str | None:
 # ---------------------------------------------------------------------------------------------
 # which runs share an engine
 # ---------------------------------------------------------------------------------------------
-def engine_groups(n_cases: int, batch: int, workers: int, arch: str = "cpu") -> list[list[int]]:
+def engine_groups(n_cases: int, batch: int, arch: str = "cpu") -> list[list[int]]:
     """The cases' indices 0..n_cases-1 by engine, for ``--batch`` ``batch`` (K, >= 1) on
-    ``workers`` (W: the single-threaded workers, or the GPU's one) on ``arch``; each group is
-    one task, one engine, in order.
+    ``arch``; each group is one task, one engine.
 
-    On a GPU, or with one worker: K to an engine in order, the last group smaller (a GPU's
-    throughput grows with K; one worker runs the engines one after another, whatever their
-    sizes).  On the CPU with W > 1 workers the engines are spread over the workers: a
-    scene-step costs the same in an engine of K on one thread (the serial kernel, one after the
-    other) as alone (benchmarks/RESULTS.md "Batching on the CPU"), so an engine saves
-    processes, never time, and a worker without an engine is a core lost.  The runs go to
-    E = min(n, W ceil(ceil(n / K) / W)) engines (the fewest engines of at most K runs, rounded
-    up to a whole number of rounds of W, and never more engines than runs) of sizes differing by
-    at most one: every worker gets an engine in every round and the largest engine, which sets
-    the wall time of its round, is as small as the rounds allow."""
+    On a GPU: K to an engine in order, the last group smaller (the GPU's throughput grows with
+    K: one launch steps every scene).  On the CPU: one run to an engine, whatever K.  A worker
+    is one thread, and an engine of K scenes on one thread steps them one after the other with
+    the serial kernel's batched variant (each scene's slice of the engine's arrays, its pair
+    slots, the frozen-scene tests), which costs more per scene-step than K lone engines
+    stepping the same scenes: x 1.10, 1.13 and 1.24 at K = 2, 4 and 8 (the shaken 142-block
+    wall; benchmarks/RESULTS.md "Batching on the CPU"); and one engine for K runs leaves the
+    other workers idle where there are fewer engines than workers.  A run alone is also the
+    run that does not depend on its batch-mates (the shared step, the smallest of theirs).
+    The batched engine on the CPU stays for a library user (run_cases_in_one_engine) and as
+    the CPU check of the GPU's batch path (tests, benchmarks/batch_speed.py ``run``)."""
     if batch < 1:
         raise BatchInputError(f"--batch must be >= 1, got {batch}")
-    if workers < 1:
-        raise BatchInputError(f"the workers must be >= 1, got {workers}")
-    if n_cases <= 0:
-        return []
-    if arch != "cpu" or workers == 1:
-        return [list(range(k, min(k + batch, n_cases))) for k in range(0, n_cases, batch)]
-    fewest = -(-n_cases // batch)
-    engines = min(n_cases, workers * -(-fewest // workers))
-    small, extra = divmod(n_cases, engines)
-    groups, start = [], 0
-    for e in range(engines):
-        size = small + (1 if e < extra else 0)
-        groups.append(list(range(start, start + size)))
-        start += size
-    return groups
+    if arch not in ARCHS:
+        raise BatchInputError(f"--arch must be one of {', '.join(ARCHS)}, got '{arch}'")
+    size = batch if arch != "cpu" else 1
+    return [list(range(k, min(k + size, n_cases))) for k in range(0, n_cases, size)]
 
 
 # ---------------------------------------------------------------------------------------------
