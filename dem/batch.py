@@ -20,7 +20,8 @@ and each group is one task, one process (dem.run.batched: K scenes in one Taichi
 point written into its own directory exactly as a lone run); dask spreads the groups over the
 workers.  On the CPU each case is a group of its own, an engine of its own
 (dem.run.batched.engine_groups: an engine of K on one single-threaded worker steps its scenes
-more slowly than K lone engines, and leaves the other workers idle).
+more slowly than K lone engines, and leaves the other workers idle), except with
+``DEM_DEVICE_ARRAYS=1``, the CPU proxy of a GPU batch (K to an engine, as on a GPU).
 A failed point never ends its batch-mates; the records stay one per case.  ``arch``: Taichi's
 arch of the tasks, "cpu" or "cuda" (with cuda and no ``n_workers``, one local worker: the GPU is
 one device).
@@ -198,7 +199,8 @@ def run_batch(cases: list[tuple[str, Case]], out_root: str | Path, scheduler: st
     if grouped:
         from dem.run.batched import engine_groups
 
-        groups = engine_groups(len(cases), batch or 1, arch)
+        groups = engine_groups(len(cases), batch or 1, arch,
+                               device_arrays=os.environ.get("DEM_DEVICE_ARRAYS") == "1")
     else:
         groups = [[i] for i in range(len(cases))]
     cluster = None

@@ -225,6 +225,8 @@ def test_a_batch_is_k_to_an_engine_on_a_gpu_and_one_on_the_cpu():
                 assert [i for g in groups for i in g] == list(range(n))
             assert [len(g) for g in gpu] == [k] * (n // k) + ([n % k] if n % k else [])
             assert [len(g) for g in cpu] == [1] * n
+            # the CPU proxy of a GPU batch (DEM_DEVICE_ARRAYS=1) is grouped as on a GPU
+            assert engine_groups(n, k, "cpu", device_arrays=True) == gpu
     with pytest.raises(BatchInputError, match="--batch"):
         engine_groups(3, 0, "cuda")
     with pytest.raises(BatchInputError, match="--arch"):
@@ -279,6 +281,11 @@ def test_run_batch_hands_the_workers_the_engine_groups(tmp_path, monkeypatch):
     assert [s[0] for s in submitted] == [[n] for n in names]
     # each run on one single-threaded worker: the lone serial kernel (one thread, auto mode)
     assert {(s[1], s[2]) for s in submitted} == {(1, "cpu")}
+    submitted.clear()
+    monkeypatch.setenv("DEM_DEVICE_ARRAYS", "1")
+    dem.batch.run_batch(cases, tmp_path, n_workers=2, batch=2)
+    assert [s[0] for s in submitted] == [names[0:2], names[2:4], names[4:5]]
+    monkeypatch.delenv("DEM_DEVICE_ARRAYS")
     submitted.clear()
     recs = dem.batch.run_batch(cases, tmp_path, n_workers=1, batch=2, arch="cuda")
     assert [r["name"] for r in recs] == names

@@ -163,9 +163,12 @@ def solver_difference(cases: Sequence[Case]) -> str | None:
 # ---------------------------------------------------------------------------------------------
 # which runs share an engine
 # ---------------------------------------------------------------------------------------------
-def engine_groups(n_cases: int, batch: int, arch: str = "cpu") -> list[list[int]]:
+def engine_groups(n_cases: int, batch: int, arch: str = "cpu",
+                  device_arrays: bool = False) -> list[list[int]]:
     """The cases' indices 0..n_cases-1 by engine, for ``--batch`` ``batch`` (K, >= 1) on
-    ``arch``; each group is one task, one engine.
+    ``arch``; each group is one task, one engine.  ``device_arrays``: the CPU runs as a proxy
+    of a GPU batch (``DEM_DEVICE_ARRAYS`` = 1: the engines keep their arrays as on a device),
+    grouped as on a GPU.
 
     On a GPU: K to an engine in order, the last group smaller (the GPU's throughput grows with
     K: one launch steps every scene).  On the CPU: one run to an engine, whatever K.  A worker
@@ -182,7 +185,7 @@ def engine_groups(n_cases: int, batch: int, arch: str = "cpu") -> list[list[int]
         raise BatchInputError(f"--batch must be >= 1, got {batch}")
     if arch not in ARCHS:
         raise BatchInputError(f"--arch must be one of {', '.join(ARCHS)}, got '{arch}'")
-    size = batch if arch != "cpu" else 1
+    size = batch if arch != "cpu" or device_arrays else 1
     return [list(range(k, min(k + size, n_cases))) for k in range(0, n_cases, size)]
 
 
