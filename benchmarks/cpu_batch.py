@@ -16,6 +16,8 @@ repeat, every configuration runs once, in an order that rotates from one repeat 
   batch         the same with ``--batch K`` (this checkout)
   batch-before  the same with ``--batch K`` run from the checkout ``--before`` (its code, this
                 Python), when given
+  one-worker    ``dem sweep CASE --frequencies ... --workers 1``: the K runs one after another
+                in one worker process (``--configs`` to choose; default: the first three)
 
 Each is a fresh ``dem sweep`` process (its local dask cluster of W single-threaded workers
 started and stopped inside it: what a user pays), timed by the wall clock and by the CPU seconds
@@ -171,6 +173,8 @@ def main() -> int:
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--before", default=None, help="another checkout: its --batch beside ours")
+    ap.add_argument("--configs", default="separate,batch,batch-before",
+                    help="which of separate, batch, batch-before, one-worker (module docstring)")
     ap.add_argument("--json", default=None)
     ap.add_argument("--engine", action="store_true",
                     help="the stepping alone, one thread, serial kernel (module docstring)")
@@ -181,9 +185,11 @@ def main() -> int:
         engine_side_by_side([int(x) for x in args.ks.split(",")], args.steps, args.repeats,
                             args.json)
         return 0
-    configs = [("separate", ROOT, False), ("batch", ROOT, True)]
+    known = {"separate": (ROOT, False, args.workers), "batch": (ROOT, True, args.workers),
+             "one-worker": (ROOT, False, 1)}
     if args.before:
-        configs.append(("batch-before", Path(args.before).resolve(), True))
+        known["batch-before"] = (Path(args.before).resolve(), True, args.workers)
+    configs = [(name, *known[name]) for name in args.configs.split(",") if name in known]
     tmp = Path(tempfile.mkdtemp(prefix="cpu-batch-"))
     try:
         case = tmp / "wall-shaken.yaml"
@@ -193,16 +199,16 @@ def main() -> int:
         for k in [int(x) for x in args.ks.split(",")]:
             for rep in range(args.repeats):
                 order = configs[rep % len(configs):] + configs[:rep % len(configs)]
-                for name, tree, batch in order:
+                for name, tree, batch, workers in order:
                     out = tmp / f"run{n}"
                     n += 1
                     rec = {"config": name, "repeat": rep,
-                           **one_sweep(tree, case, out, k, args.workers, batch)}
+                           **one_sweep(tree, case, out, k, workers, batch)}
                     shutil.rmtree(out, ignore_errors=True)
                     runs.setdefault((k, name), []).append(rec)
                     emit(rec, args.json)
         for (k, name), recs in runs.items():
-            emit({"summary": name, "K": k, "workers": args.workers, "repeats": len(recs),
+            emit({"summary": name, "K": k, "workers": recs[0]["workers"], "repeats": len(recs),
                   "engine_sizes": recs[0]["engine_sizes"],
                   "median_cpu_us_per_scene_step":
                       float(np.median([r["cpu_us_per_scene_step"] for r in recs])),

@@ -18,7 +18,7 @@ Each case writes its own output directory (summary.json, frames.npz, ...) under 
 Batched (``batch`` K): on a GPU the cases are packed K to an engine (the last group smaller)
 and each group is one task, one process (dem.run.batched: K scenes in one Taichi engine, each
 point written into its own directory exactly as a lone run); dask spreads the groups over the
-workers.  On the CPU each case is a group of its own, an engine of its own
+workers.  On the CPU each case runs alone, as without ``batch``
 (dem.run.batched.engine_groups: an engine of K on one single-threaded worker steps its scenes
 more slowly than K lone engines, and leaves the other workers idle), except with
 ``DEM_DEVICE_ARRAYS=1``, the CPU proxy of a GPU batch (K to an engine, as on a GPU).
@@ -173,9 +173,9 @@ def run_batch(cases: list[tuple[str, Case]], out_root: str | Path, scheduler: st
               batch: int | None = None, arch: str = "cpu") -> list[dict]:
     """Run (name, case) pairs; returns one record per case, in the order given.
 
-    batch: pack the cases K to an engine on a GPU, one task per group; on the CPU one case to
-    an engine (module docstring); None: one case per task, each in an engine of its own (with
-    ``arch`` "cpu": today's path, dem.run).
+    batch: pack the cases K to an engine on a GPU, one task per group; on the CPU ignored, one
+    case per task (module docstring); None: one case per task, each in an engine of its own
+    (with ``arch`` "cpu": today's path, dem.run).
     arch: "cpu" or "cuda" (Taichi's arch of every task).
 
     analyses: handed to dem.run.run_case (functions merged into each run's summary.json, e.g.
@@ -193,14 +193,15 @@ def run_batch(cases: list[tuple[str, Case]], out_root: str | Path, scheduler: st
     out_root.mkdir(parents=True, exist_ok=True)
     if batch is not None and batch < 1:
         raise ValueError(f"--batch must be >= 1, got {batch}")
-    grouped = batch is not None or arch != "cpu"
-    # the tasks: lists of indices into cases (one each without grouping; grouped:
-    # dem.run.batched.engine_groups: K in order on a GPU, one run each on the CPU)
-    if grouped:
+    # the tasks: lists of indices into cases, dem.run.batched.engine_groups: K in order on a
+    # GPU or on the CPU proxy of one (DEM_DEVICE_ARRAYS=1), each a group task; on the CPU one
+    # case each, a plain run as without --batch (dem.run)
+    proxy = os.environ.get("DEM_DEVICE_ARRAYS") == "1"
+    grouped = arch != "cpu" or (batch is not None and proxy)
+    if batch is not None or arch != "cpu":
         from dem.run.batched import engine_groups
 
-        groups = engine_groups(len(cases), batch or 1, arch,
-                               device_arrays=os.environ.get("DEM_DEVICE_ARRAYS") == "1")
+        groups = engine_groups(len(cases), batch or 1, arch, device_arrays=proxy)
     else:
         groups = [[i] for i in range(len(cases))]
     cluster = None

@@ -234,9 +234,10 @@ def test_a_batch_is_k_to_an_engine_on_a_gpu_and_one_on_the_cpu():
 
 
 def test_run_batch_hands_the_workers_the_engine_groups(tmp_path, monkeypatch):
-    """dem.batch.run_batch with ``batch`` submits one task per group of engine_groups (on the
-    CPU one run each, on single-threaded workers; on a GPU K each) and returns the records one
-    per case, in order (the cluster replaced by one that runs each task at once)."""
+    """dem.batch.run_batch with ``batch`` submits one task per group of engine_groups: on the
+    CPU each run alone (the task of a run without --batch), on a single-threaded worker; on a
+    GPU, or with DEM_DEVICE_ARRAYS=1, K to a group task; the records come back one per case, in
+    order (the cluster replaced by one that runs each task at once)."""
     import dask.distributed
 
     submitted = []
@@ -269,18 +270,23 @@ def test_run_batch_hands_the_workers_the_engine_groups(tmp_path, monkeypatch):
         submitted.append((list(names), threads, arch))
         return [{"name": n, "status": "ok", "out_dir": d} for n, d in zip(names, out_dirs)]
 
+    def run_one(name, case_json, out_dir, threads, max_steps, post, analyses):
+        submitted.append((name, threads, "cpu, alone"))
+        return {"name": name, "status": "ok", "out_dir": out_dir}
+
     monkeypatch.setattr(dask.distributed, "Client", Client)
     monkeypatch.setattr(dask.distributed, "LocalCluster", Cluster)
     monkeypatch.setattr(dask.distributed, "as_completed", lambda: _Completed())
     monkeypatch.setattr(dem.batch, "_run_group", run_group)
+    monkeypatch.setattr(dem.batch, "_run_one", run_one)
     case = Case.model_validate(BLOCK)
     cases = [(f"p{i}", case) for i in range(5)]
     names = [n for n, _ in cases]
     recs = dem.batch.run_batch(cases, tmp_path, n_workers=2, batch=5)
     assert [r["name"] for r in recs] == names
-    assert [s[0] for s in submitted] == [[n] for n in names]
-    # each run on one single-threaded worker: the lone serial kernel (one thread, auto mode)
-    assert {(s[1], s[2]) for s in submitted} == {(1, "cpu")}
+    # on the CPU each run alone, as without --batch, on a single-threaded worker: the lone
+    # serial kernel (one thread, auto mode)
+    assert submitted == [(n, 1, "cpu, alone") for n in names]
     submitted.clear()
     monkeypatch.setenv("DEM_DEVICE_ARRAYS", "1")
     dem.batch.run_batch(cases, tmp_path, n_workers=2, batch=2)

@@ -317,7 +317,7 @@ def workers_text(scheduler: str | None, workers: int | None, batch: int | None,
         where = f"local cluster, {n} worker{'s' if n != 1 else ''}"
     if batch is not None:
         where += (f", {batch} to an engine" if arch != "cpu" else
-                  f", --batch {batch}: one run to an engine on the CPU")
+                  f", --batch {batch} ignored on the CPU: one run to an engine")
     return where + (f", on {arch}" if arch != "cpu" else "")
 
 
