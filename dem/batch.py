@@ -15,9 +15,13 @@ dem.run.write.CHECKPOINT_SECONDS): the next batch into the same directories resu
 
 Each case writes its own output directory (summary.json, frames.npz, ...) under ``out_root``.
 
-Batched (``batch`` K): the cases are packed K to an engine (the last group smaller) and
-each group is one task, one process (dem.run.batched: K scenes in one Taichi engine, each point
-written into its own directory exactly as a lone run); dask spreads the groups over the workers.
+Batched (``batch`` K): on a GPU the cases are packed K to an engine (the last group smaller)
+and each group is one task, one process (dem.run.batched: K scenes in one Taichi engine, each
+point written into its own directory exactly as a lone run); dask spreads the groups over the
+workers.  On the CPU each case runs alone, as without ``batch``
+(dem.run.batched.engine_groups: an engine of K on one single-threaded worker steps its scenes
+more slowly than K lone engines, and leaves the other workers idle), except with
+``DEM_DEVICE_ARRAYS=1``, the CPU proxy of a GPU batch (K to an engine, as on a GPU).
 A failed point never ends its batch-mates; the records stay one per case.  ``arch``: Taichi's
 arch of the tasks, "cpu" or "cuda" (with cuda and no ``n_workers``, one local worker: the GPU is
 one device).
@@ -169,8 +173,9 @@ def run_batch(cases: list[tuple[str, Case]], out_root: str | Path, scheduler: st
               batch: int | None = None, arch: str = "cpu") -> list[dict]:
     """Run (name, case) pairs; returns one record per case, in the order given.
 
-    batch: pack the cases K to an engine, one task per group (module docstring); None: one case
-    per task, each in an engine of its own (with ``arch`` "cpu": today's path, dem.run).
+    batch: pack the cases K to an engine on a GPU, one task per group; on the CPU ignored, one
+    case per task (module docstring); None: one case per task, each in an engine of its own
+    (with ``arch`` "cpu": today's path, dem.run).
     arch: "cpu" or "cuda" (Taichi's arch of every task).
 
     analyses: handed to dem.run.run_case (functions merged into each run's summary.json, e.g.
@@ -188,10 +193,17 @@ def run_batch(cases: list[tuple[str, Case]], out_root: str | Path, scheduler: st
     out_root.mkdir(parents=True, exist_ok=True)
     if batch is not None and batch < 1:
         raise ValueError(f"--batch must be >= 1, got {batch}")
-    grouped = batch is not None or arch != "cpu"
-    size = batch or 1
-    # the tasks: lists of indices into cases (one each without grouping)
-    groups = [list(range(k, min(k + size, len(cases)))) for k in range(0, len(cases), size)]
+    # the tasks: lists of indices into cases, dem.run.batched.engine_groups: K in order on a
+    # GPU or on the CPU proxy of one (DEM_DEVICE_ARRAYS=1), each a group task; on the CPU one
+    # case each, a plain run as without --batch (dem.run)
+    proxy = os.environ.get("DEM_DEVICE_ARRAYS") == "1"
+    grouped = arch != "cpu" or (batch is not None and proxy)
+    if batch is not None or arch != "cpu":
+        from dem.run.batched import engine_groups
+
+        groups = engine_groups(len(cases), batch or 1, arch, device_arrays=proxy)
+    else:
+        groups = [[i] for i in range(len(cases))]
     cluster = None
     if scheduler is None:
         n_workers = n_workers or (1 if arch == "cuda" else None) or os.cpu_count() or 1

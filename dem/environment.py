@@ -9,7 +9,8 @@ bad value is one line naming it (exit 2) instead of a C++ abort after Taichi's s
 ``DEM_TRACEBACK``          ``1``: an unforeseen error shows its traceback
 ``DEM_TI_SOURCE_CARETS``   ``1``: Taichi's full kernel error messages
 ``DEM_TI_PLAIN_FRONT_END`` ``1``: Taichi's own kernel front end (dem.ti_runtime)
-``DEM_DEVICE_ARRAYS``      ``1``: a batch keeps its arrays as on a GPU (dem.run.batched)
+``DEM_DEVICE_ARRAYS``      ``1``: a batch keeps its arrays as on a GPU, K to an engine on the
+                           CPU too (dem.run.batched)
 =========================  ==========================================================
 
 An unset or empty variable is the default.  The flags are on when set to any non-empty value

@@ -43,8 +43,11 @@ app = _DemApp(
 from dem_cli.commands.exit_codes import ExitCode
 
 MAX_BLOCKS_HELP = "refuse scenes above this many blocks (default 20000, or DEM_MAX_BLOCKS)"
-BATCH_HELP = ("run the runs K to an engine: K scenes side by side in one process and one kernel "
-              "launch, each written as a lone run (default: one engine per run)")
+BATCH_HELP = ("with --arch cuda, run the runs K to an engine: K scenes side by side in one "
+              "process and one kernel launch, each written as a lone run (default: one engine "
+              "per run).  On the CPU each run keeps an engine of its own whatever K (an engine "
+              "of K on one core steps them more slowly than K separate runs: "
+              "docs/performance.md, 'Batching on the CPU')")
 ARCH_HELP = ("where the engines run: cpu, or cuda (a GPU; an error where Taichi finds none; one "
              "local worker unless --workers)")
 

@@ -29,7 +29,8 @@ import dem.run.write
 from dem.case import Case
 from dem_cli.app import app
 from dem_cli.commands.exit_codes import ExitCode
-from dem.run.batched import BatchInputError, cuda_present, run_cases_in_one_engine
+from dem.run.batched import (BatchInputError, cuda_present, engine_groups,
+                             run_cases_in_one_engine)
 from dem.run.resume import RESTART_FILE
 from dem.run.sweep import realisation_cases
 from dem.run.write import RunWriter
@@ -116,7 +117,7 @@ def test_a_batched_sweep_equals_the_same_sweep_run_point_by_point(tmp_path, monk
     monkeypatch.setattr(dem.batch, "run_batch", in_process_run_batch(calls))
     r = CliRunner().invoke(app, [*args, "--out", str(tmp_path / "batched"), "--batch", "2"])
     assert r.exit_code == 0, r.output
-    assert calls == [2] and "2 to an engine" in r.output
+    assert calls == [2] and "--batch 2" in r.output
     alone, batched = (json.loads((tmp_path / d / "sweep.json").read_text())["points"]
                       for d in ("alone", "batched"))
     assert [p["frequency_hz"] for p in batched] == [6.0, 8.0]
@@ -132,9 +133,10 @@ def test_a_batched_sweep_equals_the_same_sweep_run_point_by_point(tmp_path, monk
         assert "?" not in summ["units"].values()
 
 
-def test_a_point_that_fails_does_not_end_its_batch_mates(tmp_path):
-    """``dem sweep --batch 2`` on dask (one worker): 3 and 10 Hz share an engine, 12 Hz gets
-    the last, smaller one.  The frictionless block slides at up to 2 A w relative to the table
+def test_a_point_that_fails_does_not_end_its_batch_mates(tmp_path, monkeypatch):
+    """``dem sweep --batch 2`` with the points packed 2 to an engine as on a GPU (in this
+    process, on the CPU: in_process_run_batch): 3 and 10 Hz share an engine, 12 Hz gets the
+    last, smaller one.  The frictionless block slides at up to 2 A w relative to the table
     (tests/test_shake_analysis.py, SLIDER): 0.63 m/s at 10 Hz and 0.75 at 12 Hz, above
     solver.max_speed = 0.4, reached when A w (1 - cos w t) = 0.4, within the first cycle (the
     table itself, A w = 0.31 and 0.38 m/s, stays below it: dem check passes the points); those
@@ -142,6 +144,7 @@ def test_a_point_that_fails_does_not_end_its_batch_mates(tmp_path):
     10 Hz one and gives the lone run's analysis (sliding: ds amplification pi)."""
     case = case_file(tmp_path, SLIDER)
     out = tmp_path / "sweep"
+    monkeypatch.setattr(dem.batch, "run_batch", in_process_run_batch())
     r = CliRunner().invoke(app, ["sweep", str(case), "--out", str(out), "--frequencies",
                                  "3,10,12", "--margin", "0", "--workers", "1", "--batch", "2"])
     assert r.exit_code == ExitCode.RUN_FAILED, r.output
@@ -209,6 +212,106 @@ def test_a_sigterm_stops_every_point_and_a_rerun_resumes_each_from_its_own(tmp_p
     for d, n in zip(cut, names):
         assert_same_run(tmp_path / "whole" / n, d)
         assert not (d / RESTART_FILE).exists()
+
+
+def test_a_batch_is_k_to_an_engine_on_a_gpu_and_one_on_the_cpu():
+    """engine_groups: on a GPU the runs in order, K to an engine, the last smaller; on the CPU
+    one run to an engine whatever K (an engine of K on one core is slower per scene-step than
+    K lone engines); every run in exactly one group, in order."""
+    for n in range(0, 14):
+        for k in range(1, 7):
+            gpu, cpu = engine_groups(n, k, "cuda"), engine_groups(n, k, "cpu")
+            for groups in (gpu, cpu):
+                assert [i for g in groups for i in g] == list(range(n))
+            assert [len(g) for g in gpu] == [k] * (n // k) + ([n % k] if n % k else [])
+            assert [len(g) for g in cpu] == [1] * n
+            # the CPU proxy of a GPU batch (DEM_DEVICE_ARRAYS=1) is grouped as on a GPU
+            assert engine_groups(n, k, "cpu", device_arrays=True) == gpu
+    with pytest.raises(BatchInputError, match="--batch"):
+        engine_groups(3, 0, "cuda")
+    with pytest.raises(BatchInputError, match="--arch"):
+        engine_groups(3, 2, "tpu")
+
+
+def test_run_batch_hands_the_workers_the_engine_groups(tmp_path, monkeypatch):
+    """dem.batch.run_batch with ``batch`` submits one task per group of engine_groups: on the
+    CPU each run alone (the task of a run without --batch), on a single-threaded worker; on a
+    GPU, or with DEM_DEVICE_ARRAYS=1, K to a group task; the records come back one per case, in
+    order (the cluster replaced by one that runs each task at once)."""
+    import dask.distributed
+
+    submitted = []
+
+    class Future:
+        def __init__(self, value):
+            self.value = value
+
+        def result(self):
+            return self.value
+
+    class Client:
+        def __init__(self, *args, **kwargs):
+            pass
+
+        def submit(self, fn, *args, key=None, pure=None):
+            return Future(fn(*args))
+
+        def close(self):
+            pass
+
+    class Cluster:
+        def __init__(self, n_workers, **kwargs):
+            self.n_workers = n_workers
+
+        def close(self):
+            pass
+
+    def run_group(names, case_jsons, out_dirs, threads, max_steps, post, analyses, arch):
+        submitted.append((list(names), threads, arch))
+        return [{"name": n, "status": "ok", "out_dir": d} for n, d in zip(names, out_dirs)]
+
+    def run_one(name, case_json, out_dir, threads, max_steps, post, analyses):
+        submitted.append((name, threads, "cpu, alone"))
+        return {"name": name, "status": "ok", "out_dir": out_dir}
+
+    monkeypatch.setattr(dask.distributed, "Client", Client)
+    monkeypatch.setattr(dask.distributed, "LocalCluster", Cluster)
+    monkeypatch.setattr(dask.distributed, "as_completed", lambda: _Completed())
+    monkeypatch.setattr(dem.batch, "_run_group", run_group)
+    monkeypatch.setattr(dem.batch, "_run_one", run_one)
+    case = Case.model_validate(BLOCK)
+    cases = [(f"p{i}", case) for i in range(5)]
+    names = [n for n, _ in cases]
+    recs = dem.batch.run_batch(cases, tmp_path, n_workers=2, batch=5)
+    assert [r["name"] for r in recs] == names
+    # on the CPU each run alone, as without --batch, on a single-threaded worker: the lone
+    # serial kernel (one thread, auto mode)
+    assert submitted == [(n, 1, "cpu, alone") for n in names]
+    submitted.clear()
+    monkeypatch.setenv("DEM_DEVICE_ARRAYS", "1")
+    dem.batch.run_batch(cases, tmp_path, n_workers=2, batch=2)
+    assert [s[0] for s in submitted] == [names[0:2], names[2:4], names[4:5]]
+    monkeypatch.delenv("DEM_DEVICE_ARRAYS")
+    submitted.clear()
+    recs = dem.batch.run_batch(cases, tmp_path, n_workers=1, batch=2, arch="cuda")
+    assert [r["name"] for r in recs] == names
+    assert [s[0] for s in submitted] == [names[0:2], names[2:4], names[4:5]]
+    assert {s[2] for s in submitted} == {"cuda"}
+
+
+class _Completed:
+    """dask.distributed.as_completed for futures that are already done: each in turn, and
+    those added while iterating."""
+
+    def __init__(self):
+        self.items = []
+
+    def add(self, fut):
+        self.items.append(fut)
+
+    def __iter__(self):
+        while self.items:
+            yield self.items.pop(0)
 
 
 def test_cases_with_different_solver_options_are_refused_naming_the_field(tmp_path):

@@ -34,6 +34,8 @@ RUNS = [
     (["rocking_speed.py", "--repeat", "1"], "50-cycle rocking run"),
     (["checkpoint_cost.py", "--duration", "0.3", "--repeats", "1"], "restart.npz"),
     (["engine_branches.py"], "device or not:"),
+    (["cpu_batch.py", "--engine", "--ks", "2", "--steps", "50", "--repeats", "1"],
+     '"batch_over_lone"'),
 ]
 
 

@@ -161,6 +161,35 @@ def solver_difference(cases: Sequence[Case]) -> str | None:
 
 
 # ---------------------------------------------------------------------------------------------
+# which runs share an engine
+# ---------------------------------------------------------------------------------------------
+def engine_groups(n_cases: int, batch: int, arch: str = "cpu",
+                  device_arrays: bool = False) -> list[list[int]]:
+    """The cases' indices 0..n_cases-1 by engine, for ``--batch`` ``batch`` (K, >= 1) on
+    ``arch``; each group is one task, one engine.  ``device_arrays``: the CPU runs as a proxy
+    of a GPU batch (``DEM_DEVICE_ARRAYS`` = 1: the engines keep their arrays as on a device),
+    grouped as on a GPU.
+
+    On a GPU: K to an engine in order, the last group smaller (the GPU's throughput grows with
+    K: one launch steps every scene).  On the CPU: one run to an engine, whatever K.  A worker
+    is one thread, and an engine of K scenes on one thread steps them one after the other with
+    the serial kernel's batched variant (each scene's slice of the engine's arrays, its pair
+    slots, the frozen-scene tests), which costs more per scene-step than K lone engines
+    stepping the same scenes: x 1.10, 1.13 and 1.24 at K = 2, 4 and 8 (the shaken 142-block
+    wall; benchmarks/RESULTS.md "Batching on the CPU"); and one engine for K runs leaves the
+    other workers idle where there are fewer engines than workers.  A run alone is also the
+    run that does not depend on its batch-mates (the shared step, the smallest of theirs).
+    The batched engine on the CPU stays for a library user (run_cases_in_one_engine) and as
+    the CPU check of the GPU's batch path (tests, benchmarks/batch_speed.py ``run``)."""
+    if batch < 1:
+        raise BatchInputError(f"--batch must be >= 1, got {batch}")
+    if arch not in ARCHS:
+        raise BatchInputError(f"--arch must be one of {', '.join(ARCHS)}, got '{arch}'")
+    size = batch if arch != "cpu" or device_arrays else 1
+    return [list(range(k, min(k + size, n_cases))) for k in range(0, n_cases, size)]
+
+
+# ---------------------------------------------------------------------------------------------
 # one loop over the points' generators
 # ---------------------------------------------------------------------------------------------
 def drive_together(engine, bodies: Sequence) -> list:

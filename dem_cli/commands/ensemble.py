@@ -16,8 +16,8 @@ runs N realisations of a case with imperfections (docs/imperfections.md), seeds 
 * a failed realisation is reported and loses none of the others; a realisation whose worker
   dies is computed again by dask on another worker (a task lost with its worker is
   rescheduled), and failing that it is reported failed and a rerun computes it;
-* ``--batch K``: the realisations run K to an engine (dem.run.batched, as ``dem sweep
-  --batch``), ``--arch cuda`` on a CUDA GPU.
+* ``--batch K``: on a GPU (``--arch cuda``) the realisations run K to an engine
+  (dem.run.batched, as ``dem sweep --batch``); on the CPU one to an engine, as without it.
 
 Exit code: 0 all realisations ok, 1 one failed, 2 bad input (dem_cli.commands.exit_codes).
 """

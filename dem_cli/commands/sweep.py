@@ -17,10 +17,12 @@ Taichi capped at one thread per worker, or an existing cluster with ``--schedule
   point case (summary.json status "ok", case.json equal): it is read back (its analysis.json, or
   analysed again if that is missing), not recomputed; the others (killed, failed, changed) run
   again into their cleared directories.  SIGTERM / SIGHUP stop a sweep like Ctrl-C;
-* ``--batch K``: the points run K to an engine (dem.run.batched: K scenes in one Taichi engine,
-  one kernel launch for all, each point written as a lone run; dask spreads the engines over
-  the workers); ``--arch cuda`` runs the engines on a CUDA GPU (an error, before anything runs,
-  where Taichi finds none).
+* ``--batch K``: with ``--arch cuda`` the points run K to an engine (dem.run.batched: K scenes
+  in one Taichi engine, one kernel launch for all, each point written as a lone run; dask
+  spreads the engines over the workers); on the CPU one point to an engine, as without it
+  (dem.run.batched.engine_groups: an engine of K on one core is slower per scene-step);
+  ``--arch cuda`` runs the engines on a CUDA GPU (an error, before anything runs, where Taichi
+  finds none).
 
 The exit code: dem_cli.commands.exit_codes.
 """
@@ -314,7 +316,8 @@ def workers_text(scheduler: str | None, workers: int | None, batch: int | None,
         n = workers or (1 if arch == "cuda" else os.cpu_count())
         where = f"local cluster, {n} worker{'s' if n != 1 else ''}"
     if batch is not None:
-        where += f", {batch} to an engine"
+        where += (f", {batch} to an engine" if arch != "cpu" else
+                  f", --batch {batch} ignored on the CPU: one run to an engine")
     return where + (f", on {arch}" if arch != "cpu" else "")
 
 
