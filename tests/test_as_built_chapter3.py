@@ -104,7 +104,7 @@ def test_a_case_another_set_finished_is_copied_not_run(tmp_path):
     c = tmp_path / "loose-0.5mm"
     assert ch.SharedEnsembles(1, [b]).todo(
         study.point(c, tmp_path / "runs", CANDIDATE, params, WALL, SPECS[WALL]))
-    assert ch._own_cpu(b, CANDIDATE, [WALL]) == 0.0 and ch._own_cpu(a, CANDIDATE, [WALL]) == 30.0
+    assert ch.own_cpu(b, CANDIDATE, [WALL]) == 0.0 and ch.own_cpu(a, CANDIDATE, [WALL]) == 30.0
 
 
 def _check(status):

@@ -221,7 +221,7 @@ def large_rows(out: Path, calibration: Path, seeds: list[int], pat: dict) -> dic
     return rows
 
 
-def _own_cpu(out: Path, candidate: str, names) -> float:
+def own_cpu(out: Path, candidate: str, names) -> float:
     """CPU seconds of the points run for this set (copies of another set's excluded)."""
     total = 0.0
     for s in names:
@@ -255,8 +255,8 @@ def compare_set(name: str, candidate: str, params: dict, seeds: list[int], out_r
                  "criterion_i": criterion_i(data, score),
                  "large_brick": large_rows(out, calibration, seeds, patches(
                      name, cal_specimens.held_out_specimens(), params)),
-                 "cpu_seconds_own": _own_cpu(out, candidate, specs)
-                 + _own_cpu(out, HELD_OUT, cal_specimens.held_out_specimens())})
+                 "cpu_seconds_own": own_cpu(out, candidate, specs)
+                 + own_cpu(out, HELD_OUT, cal_specimens.held_out_specimens())})
     return data
 
 
