@@ -28,8 +28,8 @@ import json
 from pathlib import Path
 
 from dem_cli.commands.exit_codes import ExitCode, exit_code_for
-from dem_cli.commands.sweep import (batching, finished_run, mark_stopped_runs, points_ok,
-                                resume_notes, say, workers_text)
+from dem_cli.commands.sweep import (batching, check_counts, finished_run, mark_stopped_runs,
+                                points_ok, resume_notes, say, workers_text)
 from dem.run.sweep import EnsembleInputError, realisation_cases
 from postprocess.ensemble import aggregate, plot_lambda, realisation_scalars
 
@@ -116,10 +116,7 @@ def run_ensemble(case_path, out, realisations: int, seed: int | None = None,
     try:
         case = load_case(case_path)
         cases = realisation_cases(case, realisations, seed)
-        if workers is not None and workers < 1:
-            raise EnsembleInputError(f"--workers must be >= 1, got {workers}")
-        if max_steps is not None and max_steps < 1:
-            raise EnsembleInputError(f"--max-steps must be >= 1, got {max_steps}")
+        check_counts(workers, max_steps, EnsembleInputError)
         batch_options = batching(batch, arch, scheduler)
     except CaseError as err:
         say(f"error: {err}")

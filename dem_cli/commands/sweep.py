@@ -111,10 +111,7 @@ def run_sweep(case_path, out, frequencies: str | None = None, rng: str | None = 
             own = parse_frequencies(None, rng, max_points)
             say(f"--range {rng}: {len(own)} frequencies, {own[0]:g} - {own[-1]:g} Hz")
         cases = sweep_cases(case, freqs, cycles, margin)
-        if workers is not None and workers < 1:
-            raise SweepInputError(f"--workers must be >= 1, got {workers}")
-        if max_steps is not None and max_steps < 1:
-            raise SweepInputError(f"--max-steps must be >= 1, got {max_steps}")
+        check_counts(workers, max_steps, SweepInputError)
         batch_options = batching(batch, arch, scheduler)
     except CaseError as err:
         say(f"error: {err}")
@@ -288,6 +285,14 @@ def points_ok(cases, case_path, what: str) -> bool:
         bad = len({line.split(":", 1)[0] for line in errors})
         say(f"error: {bad} of {len(cases)} {what}s cannot run as given; nothing was run")
     return not errors
+
+
+def check_counts(workers: int | None, max_steps: int | None, error: type[ValueError]) -> None:
+    """Raise ``error`` (a ValueError: exit code 2) naming the option when --workers or
+    --max-steps is given and below 1 (dem sweep and dem ensemble alike)."""
+    for option, value in (("--workers", workers), ("--max-steps", max_steps)):
+        if value is not None and value < 1:
+            raise error(f"{option} must be >= 1, got {value}")
 
 
 def batching(batch: int | None, arch: str, scheduler: str | None = None) -> dict:
