@@ -54,6 +54,7 @@ from pathlib import Path
 
 import numpy as np
 import yaml
+from batch_speed import emit  # benchmarks/ is the script's directory, first on sys.path
 
 ROOT = Path(__file__).resolve().parents[1]
 FIRST_HZ, STEP_HZ, CYCLES, MARGIN_S = 6.0, 0.5, 1, 0.05
@@ -157,14 +158,6 @@ def engine_side_by_side(ks: list[int], steps: int, repeats: int, path: str | Non
               "median_lone": float(np.median(lone)), "median_batch": float(np.median(batch)),
               "batch_over_lone": float(np.median(batch) / np.median(lone)),
               "load_1min": round(os.getloadavg()[0], 1)}, path)
-
-
-def emit(rec: dict, path: str | None) -> None:
-    line = json.dumps(rec)
-    print(line, flush=True)
-    if path:
-        with open(path, "a") as f:
-            f.write(line + "\n")
 
 
 def main() -> int:
