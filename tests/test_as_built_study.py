@@ -15,8 +15,10 @@ def frozen():
 def test_identification_points_are_each_model_joint_and_level_once_model_ii_y_first(frozen):
     from studies.as_built import identification as ident
 
+    from studies.as_built.grids import LOOSE
+
     pts = list(ident.points(frozen))
-    assert len(pts) == len(ident.MODELS) * len(ident.JOINTS) * len(ident.LEVELS)
+    assert len(pts) == len(ident.MODELS) * len(ident.JOINTS) * len(ident.LEVELS) + len(LOOSE)
     assert len({p.name for p in pts}) == len(pts)
     assert len({p.fingerprint for p in pts}) == len(pts)
     assert {p.owner[0] for p in pts[:6]} == {"model-ii-y"}
@@ -34,6 +36,13 @@ def test_identification_points_are_each_model_joint_and_level_once_model_ii_y_fi
         assert (corners == "unbonded") == (joint.name == "unbonded")
         direction = [0.0, 1.0, 0.0] if sweep.endswith("-y") else [1.0, 0.0, 0.0]
         assert list(ld.direction) == direction
+        gap = p.case.imperfections.corner_gap
+        assert (gap is not None and gap.mean > 0) == joint.name.startswith("loose-")
+    # the loose sets (criterion (iii)) come last, on Model II y at the target's level
+    tail = pts[-len(LOOSE):]
+    assert [p.owner[1].name for p in tail] == [v.name for v in LOOSE]
+    assert {(p.owner[0], p.owner[2]) for p in tail} == {(ident.SETS_MODEL, ident.SETS_LEVEL)}
+    assert all(p.case.imperfections.head_gap.mean == pytest.approx(2.5e-4) for p in tail)
 
 
 def test_loose_corner_sets_differ_only_by_the_corner_gaps(frozen):

@@ -48,7 +48,8 @@ def identification(model: list[str] = typer.Option(None, help="only these models
                    stop_at: str = typer.Option(None, help="UTC HH:MM after which no new run "
                                                "starts")) -> None:
     """Each model's own frequency response: band-limited noise at two levels below uplift, three
-    joints (frozen, E1's softest, unbonded corners), f_n and zeta identified (resumable: a
+    joints (frozen, E1's softest, unbonded corners), then Model II y with each loose-corner set
+    at 0.8 m/s2 RMS (criterion (iii)), f_n and zeta identified (resumable: a
     recorded point never runs again; touch runs/as-built/identification/DRAIN to end softly).
     studies/as_built/identification.py."""
     from studies.as_built import identification as exp
