@@ -1,6 +1,6 @@
 """The engine's device path (dem.engine.device), run on the CPU: Taichi's own
-arrays (ti.ndarray) instead of numpy's, data moved only where the host needs it, neighbour-list
-rebuilds installed by a kernel with the shear history carried on the device.  The kernels'
+arrays (ti.ndarray) instead of numpy's, data moved only where the host needs it, neighbour
+lists rebuilt on the device with the shear history carried there.  The kernels'
 arithmetic is the same as the numpy path's, so a scene must follow the same trajectory to
 round-off (tests/engine_helpers.py's bounds), lone and batched, with both kernels, through
 rebuilds; a GPU runs this same code (the benchmark: benchmarks/batch_speed.py)."""
@@ -36,7 +36,7 @@ def test_device_arrays_follow_the_numpy_path(mode):
         assert_same(a, b)
         assert np.array_equal(a.contacts.npts, b.contacts.npts)
         assert np.abs(a.contacts.shear - b.contacts.shear).max() <= 1e-15
-    assert max(s.n_rebuilds for s in dev.simulations) > 2  # rebuilds installed by the kernel
+    assert max(s.n_rebuilds for s in dev.simulations) > 2  # rebuilds on the device
 
 
 def test_host_writes_reach_the_device():
