@@ -203,7 +203,8 @@ class DeviceResidency:
         it).  ``fields``: only these fields of it (names of the container's FIELDS; None: all).
 
         Per field: a field is *stale* where the kernels wrote it since the host last copied it
-        (every field but :attr:`HOST_KEPT` after a launch; :attr:`INSTALLED` after a rebuild's
+        (every field but :attr:`HOST_KEPT` after a launch, :attr:`LISTS` too after a launch in
+        which the device's broad phase rebuilt a list; :attr:`INSTALLED` after a host rebuild's
         install): only the stale fields asked for are copied back (one copy per field, of every
         scene of the engine), once.  ``write`` marks the fields asked for *dirty* (whether the
         host then writes them or not, and whether they were stale or not: a field the host
