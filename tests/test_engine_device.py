@@ -1,6 +1,6 @@
 """The engine's device path (dem.engine.device), run on the CPU: Taichi's own
-arrays (ti.ndarray) instead of numpy's, data moved only where the host needs it, neighbour-list
-rebuilds installed by a kernel with the shear history carried on the device.  The kernels'
+arrays (ti.ndarray) instead of numpy's, data moved only where the host needs it, neighbour
+lists rebuilt on the device with the shear history carried there.  The kernels'
 arithmetic is the same as the numpy path's, so a scene must follow the same trajectory to
 round-off (tests/engine_helpers.py's bounds), lone and batched, with both kernels, through
 rebuilds; a GPU runs this same code (the benchmark: benchmarks/batch_speed.py)."""
@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from dem.engine.containers import State
+from dem.engine.device import DIAGNOSTIC_COLUMNS
 from dem.engine.residency import DEVICE_CHUNK, DeviceResidency
 from dem.engine.simulation import Engine
 from tests.engine_helpers import ROUND_OFF_POS_M, ROUND_OFF_QUAT
@@ -35,7 +36,7 @@ def test_device_arrays_follow_the_numpy_path(mode):
         assert_same(a, b)
         assert np.array_equal(a.contacts.npts, b.contacts.npts)
         assert np.abs(a.contacts.shear - b.contacts.shear).max() <= 1e-15
-    assert max(s.n_rebuilds for s in dev.simulations) > 2  # rebuilds installed by the kernel
+    assert max(s.n_rebuilds for s in dev.simulations) > 2  # rebuilds on the device
 
 
 def test_host_writes_reach_the_device():
@@ -60,8 +61,9 @@ def _copies(engine) -> tuple[int, int, int, int]:
 
 def test_read_only_accessors_copy_only_the_stale_fields_asked_for_and_nothing_back():
     """read_state / read_contacts copy the fields asked for (of every scene, once), none that
-    the host keeps itself (the broad phase's pairs), mark nothing to go back, and give views
-    that cannot be written; sim.state still copies all and sends all back (a writer)."""
+    the host holds current (the pair lists, where no list was rebuilt on the device since the
+    host last had them), mark nothing to go back, and give views that cannot be written;
+    sim.state still copies all and sends all back (a writer)."""
     loads = [shake(4.0, 7.0), shake(6.0, 8.0, axis=1)]
     e = Engine([wall() for _ in loads], JOINTS, options(), device_arrays=True)
     a, b = e.simulations
@@ -81,7 +83,8 @@ def test_read_only_accessors_copy_only_the_stale_fields_asked_for_and_nothing_ba
         st.pos[0, 0] = 1.0  # read only
     b.read_state("pos")  # the batch-mate's: copied already
     a.read_state("vel", "pos")
-    c = a.read_contacts("pairs", "wrench")  # the pairs are the host's: only wrench is copied
+    assert [s.n_rebuilds for s in e.simulations] == [1, 1]  # the first lists only, the host's
+    c = a.read_contacts("pairs", "wrench")  # so only wrench is copied
     p2, pb2, _, _ = _copies(e)
     assert p2 - p1 == 1 and pb2 - pb1 == e.contacts.wrench.nbytes
     assert c.n_pairs == a._contacts.n_pairs > 0
@@ -159,8 +162,8 @@ def test_the_device_counts_the_patches_over_their_caps_as_the_host_would():
 
 def test_the_control_goes_as_the_rows_of_a_chunk_and_what_the_host_changed():
     """A chunk sends the loads of its steps that the device does not hold yet and its probe
-    slots in one copy (dem.engine.device.ChunkCopies) and brings the diagnostics and sums back
-    in one; a Control field the host writes between chunks (a scene's local damping, the energy
+    slots in one copy (dem.engine.device.ChunkCopies) and brings the diagnostics and sums (and
+    the pair counts and rebuilds of the device's broad phase) back in one; a Control field the host writes between chunks (a scene's local damping, the energy
     sums of a restored point) reaches the kernels, copied once, not every chunk."""
     loads = [shake(4.0, 7.0), shake(6.0, 8.0, axis=1)]
     opts = options()
@@ -196,7 +199,7 @@ def test_the_control_goes_as_the_rows_of_a_chunk_and_what_the_host_changed():
     for name in ("loads", "probe_slot", "status", "steps_done", "active", "step_parameters"):
         assert push1.get(name, 0) == push0.get(name, 0), name
     back = pull1["diagnostics"] - pull0["diagnostics"]
-    assert back == chunks * (G + 1) * (4 + 6) * dev.control.energy_sums.itemsize
+    assert back == chunks * (G + 1) * DIAGNOSTIC_COLUMNS * dev.control.energy_sums.itemsize
     for name in set(pull1) - {"diagnostics"}:  # no Control field back one by one
         assert pull1[name] == pull0.get(name, 0), name
     for a, b in zip(dev.simulations, host.simulations):

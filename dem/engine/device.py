@@ -18,12 +18,14 @@ hands the kernels the device arrays, and moves data only where the host needs it
   (``stale``), copied to the device only after the host may have written it (``dirty``:
   ``sim.state``, the writers' access; the read-only ``sim.read_state(...)`` marks nothing).
   Engine.host keeps the two sets.
-* Contacts: the same, lazily and per field; the broad phase's index arrays (pairs, adj_ptr,
-  adj, scene_pairs) are never copied back (only the host writes them).  A neighbour-list
-  rebuild does not copy the contacts at all: the host computes the new index arrays of the
-  rebuilt scene (it wrote the old ones, so it still has them) and :func:`install_pairs`
-  installs them on the device and carries the shear history there (the same arithmetic as
-  Contacts.write_pairs: the same results).
+* Contacts: the same, lazily and per field.  A neighbour-list rebuild happens on the device
+  between two steps of a chunk (dem.engine.broadphase_device: the index arrays pairs, adj_ptr,
+  adj are then copied back only when the host reads them; the pair counts come back with the
+  diagnostics, :class:`ChunkCopies`).  Where the host's broad phase runs instead (the first
+  lists, a list over the capacity, ``device_broad_phase=False``) the host computes the new
+  index arrays of the rebuilt scene and :func:`install_pairs` installs them on the device and
+  carries the shear history there (the same arithmetic as Contacts.write_pairs: the same
+  results).
 
 Each copy is counted (``DeviceArrays.counts``, Engine.transfer_stats): benchmarks/batch_speed.py
 ``run`` measures a real batched run's traffic on the CPU.
@@ -189,9 +191,12 @@ def patches_over_caps(n_slots: ti.i32, cap: ti.types.ndarray(ndim=1), margin: fl
 # base acceleration (3, m/s^2), control.loads' two vectors
 LOAD_COLUMNS = 6
 # the diagnostics and sums brought back in one copy (ChunkCopies.pull_diagnostics), per scene:
-# status, bad_body, deepest (m), deepest_step, then the energy sums (J) in ENERGY_TERMS' order;
+# status, bad_body, deepest (m), deepest_step, then the energy sums (J) in ENERGY_TERMS' order,
+# then the pair count (contacts.scene_pairs: the device's broad phase may have changed it) and
+# the neighbour-list rebuilds of the chunk on the device (dem.engine.broadphase_device);
 # a last row: steps_done[0], steps_done[1] (the integers held exactly by reals)
-DIAGNOSTIC_COLUMNS = 4 + len(ENERGY_TERMS)
+N_ENERGY = len(ENERGY_TERMS)
+DIAGNOSTIC_COLUMNS = 4 + N_ENERGY + 2
 
 
 class ChunkCopies:
@@ -211,15 +216,19 @@ class ChunkCopies:
     A row is compared for the scenes that step only (a frozen scene's loads are not read).
     The kernels read exactly the loads the host computed: a row not sent holds the same bytes.
 
-    After it (:meth:`pull_diagnostics`): the diagnostics and energy sums, packed on the device
-    by :func:`pack_diagnostics` into one array of G + 1 rows, unpacked into the host's fields.
+    After it (:meth:`pull_diagnostics`): the diagnostics and energy sums, each scene's pair
+    count (contacts.scene_pairs) and its rebuilds on the device in the chunk (``rebuilds``,
+    dem.engine.broadphase_device), packed on the device by :func:`pack_diagnostics` into one
+    array of G + 1 rows, unpacked into the host's fields.
 
     Both copies are counted with the Control's (DeviceArrays.count, as the fields
     "chunk_rows" and "diagnostics").  The reals are copied as they are and the integers are
     exactly representable as reals: the same values as a copy per field."""
 
-    def __init__(self, control, control_dev: "DeviceArrays", real):
+    def __init__(self, control, control_dev: "DeviceArrays", contacts,
+                 contacts_dev: "DeviceArrays", real):
         self.control, self.dev = control, control_dev
+        self.contacts, self.contacts_dev = contacts, contacts_dev
         self.real = real
         self.np_real = np.float64 if real == ti.f64 else np.float32
         self.G = control.status.shape[0]
@@ -236,6 +245,11 @@ class ChunkCopies:
         self._rows = {}  # R -> (host array [1 + R, G, LOAD_COLUMNS], device array)
         self._diag_host = np.zeros((self.G + 1, DIAGNOSTIC_COLUMNS), dtype=self.np_real)
         self._diag_dev = ti.ndarray(real, shape=self._diag_host.shape)
+        # each scene's neighbour-list rebuilds on the device since the chunk began (written by
+        # dem.engine.broadphase_device.rebuild_flagged), and the host's copy of the last chunk's
+        self.rebuilds = ti.ndarray(ti.i32, shape=(self.G,))
+        self.rebuilds.from_numpy(np.zeros(self.G, dtype=np.int32))
+        self.rebuilds_host = np.zeros(self.G, dtype=np.int64)
 
     def rows(self, n: int) -> int:
         """R: the rows of the array that carries n rows of loads (a power of two, at most
@@ -270,7 +284,8 @@ class ChunkCopies:
         self.dev.count("push", "chunk_rows", host.nbytes)
         d = self.dev.dev
         unpack_chunk(k, self.first, j, n, dev, self._ring_dev, d["loads"], d["probe_slot"],
-                     d["status"], d["bad_body"], d["deepest_step"], d["steps_done"])
+                     d["status"], d["bad_body"], d["deepest_step"], d["steps_done"],
+                     self.rebuilds)
         self.dev.counts["push"]["seconds"] += time.perf_counter() - t0
 
     def advance(self, done: int) -> None:
@@ -278,12 +293,14 @@ class ChunkCopies:
         self.first = (self.first + int(done)) % self.W
 
     def pull_diagnostics(self) -> tuple:
-        """The diagnostics and energy sums of the last chunk to the host's fields (one copy);
-        returns the names of the fields written."""
+        """The diagnostics and energy sums of the last chunk to the host's fields (one copy),
+        with each scene's pair count (into contacts.scene_pairs) and rebuilds on the device
+        (into :attr:`rebuilds_host`); returns the names of the Control fields written."""
         t0 = time.perf_counter()
         d = self.dev.dev
         pack_diagnostics(self._diag_dev, d["status"], d["bad_body"], d["deepest"],
-                         d["deepest_step"], d["steps_done"], d["energy_sums"])
+                         d["deepest_step"], d["steps_done"], d["energy_sums"],
+                         self.contacts_dev.dev["scene_pairs"], self.rebuilds)
         out = self._diag_dev.to_numpy()
         self.dev.count("pull", "diagnostics", out.nbytes)
         ctl, G = self.control, self.G
@@ -291,7 +308,10 @@ class ChunkCopies:
         ctl.bad_body[...] = out[:G, 1]
         ctl.deepest[...] = out[:G, 2]
         ctl.deepest_step[...] = out[:G, 3]
-        ctl.energy_sums[...] = out[:G, 4:]
+        E = 4 + len(ENERGY_TERMS)
+        ctl.energy_sums[...] = out[:G, 4:E]
+        self.contacts.scene_pairs[...] = out[:G, E]
+        self.rebuilds_host[...] = out[:G, E + 1]
         ctl.steps_done[...] = out[G, :2]
         self.dev.counts["pull"]["seconds"] += time.perf_counter() - t0
         self.advance(int(ctl.steps_done[0]))
@@ -303,14 +323,15 @@ def unpack_chunk(k: ti.i32, first: ti.i32, j: ti.i32, n: ti.i32,
                  rows: ti.types.ndarray(ndim=3), ring: ti.types.ndarray(ndim=3),
                  loads: ti.types.ndarray(ndim=3), probe_slot: ti.types.ndarray(ndim=2),
                  status: ti.types.ndarray(ndim=1), bad_body: ti.types.ndarray(ndim=1),
-                 deepest_step: ti.types.ndarray(ndim=1), steps_done: ti.types.ndarray(ndim=1)):
+                 deepest_step: ti.types.ndarray(ndim=1), steps_done: ti.types.ndarray(ndim=1),
+                 rebuilds: ti.types.ndarray(ndim=1)):
     """A chunk of k steps from ChunkCopies.push_chunk's array ``rows`` ([1 + R, G,
     LOAD_COLUMNS]: a header row, each scene's probed step of each probe slot, -1 none; then
     the loads of the chunk's steps j .. j + n - 1): those loads into the ring (step s of the
     chunk in row (first + s) mod W), the ring's rows of steps 0 .. k - 1 into control.loads, the
     probe slots into control.probe_slot, and the diagnostics reset as Launcher.launch resets
-    the host's: status 0, bad_body 0, deepest_step -1, steps_done 0.  (Top-level loops run one
-    after the other.)"""
+    the host's: status 0, bad_body 0, deepest_step -1, steps_done 0, and each scene's count of
+    rebuilds on the device 0.  (Top-level loops run one after the other.)"""
     W = ring.shape[0]
     G = status.shape[0]
     for i, g in ti.ndrange(n, G):
@@ -329,6 +350,7 @@ def unpack_chunk(k: ti.i32, first: ti.i32, j: ti.i32, n: ti.i32,
         status[g] = 0
         bad_body[g] = 0
         deepest_step[g] = -1
+        rebuilds[g] = 0
     for i in range(2):
         steps_done[i] = 0
 
@@ -337,9 +359,10 @@ def unpack_chunk(k: ti.i32, first: ti.i32, j: ti.i32, n: ti.i32,
 def pack_diagnostics(out: ti.types.ndarray(ndim=2), status: ti.types.ndarray(ndim=1),
                      bad_body: ti.types.ndarray(ndim=1), deepest: ti.types.ndarray(ndim=1),
                      deepest_step: ti.types.ndarray(ndim=1), steps_done: ti.types.ndarray(ndim=1),
-                     energy_sums: ti.types.ndarray(ndim=2)):
-    """The diagnostics and energy sums into one array (ChunkCopies.pull_diagnostics: its
-    columns, DIAGNOSTIC_COLUMNS)."""
+                     energy_sums: ti.types.ndarray(ndim=2), scene_pairs: ti.types.ndarray(ndim=1),
+                     rebuilds: ti.types.ndarray(ndim=1)):
+    """The diagnostics and energy sums, the pair counts and the rebuilds into one array
+    (ChunkCopies.pull_diagnostics: its columns, DIAGNOSTIC_COLUMNS)."""
     G = status.shape[0]
     for g in range(G):
         out[g, 0] = ti.cast(status[g], ti.f64)
@@ -348,6 +371,8 @@ def pack_diagnostics(out: ti.types.ndarray(ndim=2), status: ti.types.ndarray(ndi
         out[g, 3] = ti.cast(deepest_step[g], ti.f64)
         for e in ti.static(range(len(ENERGY_TERMS))):
             out[g, 4 + e] = energy_sums[g, e]
+        out[g, 4 + N_ENERGY] = ti.cast(scene_pairs[g], ti.f64)
+        out[g, 5 + N_ENERGY] = ti.cast(rebuilds[g], ti.f64)
     for i in range(2):
         out[G, i] = ti.cast(steps_done[i], ti.f64)
 

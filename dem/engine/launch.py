@@ -112,8 +112,9 @@ class CachedLaunch:
 
 
 def _device_array_slots(scalars: tuple, arrays: tuple) -> list:
-    """The launch-context slots of the Taichi ndarrays (device arrays, dem.engine.device) among
-    the members of the argpack arguments, with their C++ arrays: Taichi 1.7.4 sets an argpack's
+    """The launch-context slots of the Taichi ndarrays (device arrays, dem.engine.device), the
+    kernel's own array arguments and the members of its argpack arguments, with their C++
+    arrays: Taichi 1.7.4 sets an array argument in the slot of its position and an argpack's
     array members as extra arguments after the kernel's own (in the order of the argpacks and
     their members), and a launch replaces each ndarray's device allocation in the context by a
     raw pointer, so the context is only valid for another launch once they are set again
@@ -124,7 +125,9 @@ def _device_array_slots(scalars: tuple, arrays: tuple) -> list:
     positional = [v for v in (*scalars, *arrays) if not isinstance(v, bool)]
     slot = len(positional)
     out = []
-    for v in positional:
+    for k, v in enumerate(positional):
+        if isinstance(v, Ndarray):  # an array argument of its own: its slot is its position
+            out.append(((k,), v.arr))
         if not isinstance(v, ArgPack):
             continue
         names = getattr(v, "_ArgPack__annotations", None)  # Taichi's member order

@@ -6,8 +6,11 @@ residency's ``CHUNK_STEPS``, dem.engine.residency): the loads of its steps are w
 into control.loads (one row a step and scene), the serial kernel runs them in one launch (the
 parallel kernel in one launch a step, with no read-back between them), and the chunk ends early
 after a step that raised a status bit of any scene (STOP: a scene failed; REBUILD: a scene's
-neighbour list must be rebuilt).  Between chunks the host rebuilds the neighbour lists asked for,
-freezes failed scenes, checks the hyperbolic closures and the area caps (dem.engine.stepsize).
+neighbour list must be rebuilt).  On a device (the residency's ``broad_phase_launch``) a
+rebuild is done there after the step that asked for it (dem.engine.broadphase_device) and ends
+the chunk only where the new list does not fit.  Between chunks the host rebuilds the neighbour
+lists asked for, freezes failed scenes, checks the hyperbolic closures and the area caps
+(dem.engine.stepsize).
 
 The kernels' compile-time variants are one value, :class:`KernelVariants`, chosen in one place
 (:meth:`KernelVariants.of`); docs/engine.md lists the reachable ones.
@@ -64,7 +67,9 @@ class KernelVariants:
     warped       the imperfect faces' narrow phase (a scene with imperfect faces)
     hyperbolic   each pair's normal law (a scene with a hyperbolic pair); else the linear law
     overlap      the overlap reuse of warped faces (coherence.set_overlap_reuse > 0; warped only)
-    batched      several scenes in the arrays (their pair slots and bodies by scene)
+    batched      several scenes in the arrays (their pair slots and bodies by scene); on a
+                 device always (one scene too): its pair slots' test reads the pair counts
+                 there, which the device's broad phase changes within a chunk
     pair_damping the pair's no-tension rule of the normal dashpots (material.normal_damping:
                  pair or stiffness)
     atomic_sums  the parallel kernel's sums as atomics (on a device); the serial kernel has none
@@ -87,7 +92,7 @@ class KernelVariants:
         return cls(warped=warped,
                    hyperbolic=any(m.closure_limit() is not None for m in models),
                    overlap=overlap_wanted(warped, contacts),
-                   batched=len(models) > 1,
+                   batched=len(models) > 1 or on_device,
                    pair_damping=any(m.pair_damping() for m in models),
                    atomic_sums=mode == "parallel" and on_device)
 
@@ -113,6 +118,9 @@ class Launcher:
         self.n_chunks = 0  # chunks launched (one launch, or k of the parallel kernel)
         self.variants: KernelVariants | None = None
         self.kernel = None  # the stepping kernel's launch: kernel(step, n_slots, dt)
+        # the device's broad phase after each step of a chunk, rebuild(step); None: the host's
+        # between chunks (dem.engine.residency)
+        self.rebuild = None
 
     # ------------------------------------------------------------------------------------
     def warm_up(self) -> None:
@@ -124,6 +132,7 @@ class Launcher:
                                           [s.contacts_on_host for s in e.simulations], e.mode,
                                           e.on_device)
         self.record_launch()
+        self.rebuild = e.residency.broad_phase_launch()
         v = self.variants
         m, st, c, _ = e.containers()
         depth = np.zeros(1, dtype=ti_runtime.real_dtype())
@@ -183,10 +192,13 @@ class Launcher:
 
     def n_pair_slots(self) -> int:
         """The pair slots the kernels loop over: up to the last slot in use (one scene: its
-        pairs)."""
+        pairs); where the lists are the device's, every slot (a list may grow within a chunk:
+        the kernels' slot test reads the counts there)."""
         e = self.engine
         sp = e.contacts.scene_pairs
         P = e.contacts.capacity
+        if e.residency.lists_on_device:
+            return len(sp) * P
         used = [g * P + int(n) for g, n in enumerate(sp) if n > 0]
         return max(used, default=0)
 
@@ -219,9 +231,13 @@ class Launcher:
         dt = e.dt
         if e.mode == "serial":
             self.kernel(k, n_slots, dt)
-        else:
+        elif self.rebuild is None:
             for s in range(k):  # no read-back between steps: a stopped chunk's launches idle
                 self.kernel(s, n_slots, dt)
+        else:
+            for s in range(k):  # each step, then the lists of the scenes that must rebuild
+                self.kernel(s, n_slots, dt)
+                self.rebuild(s)
         e.residency.from_device()
         done = int(ctl.steps_done[0])
         if probes:
@@ -229,6 +245,10 @@ class Launcher:
         for g, sim in enumerate(e.simulations):
             if ctl.active[g]:
                 sim.count_steps(done, int(ctl.deepest_step[g]), dt)
+        rebuilt = e.residency.rebuilds()
+        if rebuilt is not None:
+            for g in np.flatnonzero(rebuilt):
+                e.simulations[g].n_rebuilds += int(rebuilt[g])
         return done
 
     def plan_probes(self, k: int) -> tuple[int, dict]:

@@ -17,10 +17,13 @@ What moves and when (dem.engine.device has the device arrays and the kernels tha
   the area caps likewise.
 * State and Contacts: per field, copied back only when the host reads it and only where the
   kernels wrote it since (``stale``); copied to the device only after the host may have written
-  it (``dirty``); a rebuild's poses only for the rebuilding scenes' rows (``host_scenes``).
-  The broad phase's index arrays (pairs, adj_ptr, adj, scene_pairs) are only
-  ever written by the host and never copied back; a rebuild installs them on the device with
-  the shear history carried there (:meth:`DeviceResidency.install_pairs`).
+  it (``dirty``); a host rebuild's poses only for the rebuilding scenes' rows (``host_scenes``).
+  The neighbour lists are rebuilt on the device between two steps of a chunk
+  (dem.engine.broadphase_device): their index arrays (pairs, adj_ptr, adj) are stale on the
+  host after a chunk that rebuilt one (``LISTS``) and copied when read, the pair counts come
+  back with the diagnostics.  The host's broad phase (the first lists, a list over the
+  capacity, or ``device_broad_phase=False``) writes them on both sides, the shear history
+  carried on the device (:meth:`DeviceResidency.install_pairs`).
 
 Picture (one chunk of a device engine)::
 
@@ -29,10 +32,12 @@ Picture (one chunk of a device engine)::
     new loads rows, probe plan   --push-->  ring of loads -> Control   (one copy; unpack_chunk)
     changed Control fields       --push-->  Control           (seldom)
     dirty State/Contacts fields  --push-->  State, Contacts
-                                             stepping kernel x k steps
-    Control (status, sums)       <--pull--  Control           (one copy; pack_diagnostics)
+                                             stepping kernel, then rebuild_flagged (the
+                                             lists of the scenes that asked), x k steps
+    Control (status, sums, pair  <--pull--  Control           (one copy; pack_diagnostics)
+      counts, rebuilds)
     State/Contacts fields        <--pull--  only the stale ones a reader asks for
-    a rebuild's index arrays     --install_pairs--> Contacts (history moved on the device)
+    a host rebuild's index arrays --install_pairs--> Contacts (history moved on the device)
 """
 
 from __future__ import annotations
@@ -67,8 +72,10 @@ class HostResidency:
     on_device = False
     CHUNK_STEPS = SERIAL_CHUNK  # the most steps of a chunk (control.loads' rows)
     PROBE_SLOTS = PROBE_SLOTS   # probed steps of a scene in a chunk (control.probe_buf's)
+    lists_on_device = False     # the neighbour lists are the host's (dem.engine.broadphase)
 
-    def __init__(self, model, state, contacts, control):
+    def __init__(self, model, state, contacts, control, device_broad_phase: bool = True):
+        """``device_broad_phase``: no device here, the host's broad phase always."""
         self.model, self.state, self.contacts, self.control = model, state, contacts, control
         self._args = (model.args, state.args, contacts.args, control.args)
 
@@ -87,6 +94,15 @@ class HostResidency:
 
     def from_device(self) -> None:
         """Nothing to copy after a launch."""
+
+    def broad_phase_launch(self):
+        """No broad phase between the steps of a chunk: a rebuild ends the chunk
+        (:meth:`DeviceResidency.broad_phase_launch`)."""
+        return None
+
+    def rebuilds(self) -> None:
+        """No rebuilds but the host's (:meth:`DeviceResidency.rebuilds`)."""
+        return None
 
     def pull_probes(self) -> None:
         """The probes' buffer is the host's already."""
@@ -119,11 +135,15 @@ class DeviceResidency:
     CHUNK_STEPS = DEVICE_CHUNK
     PROBE_SLOTS = DEVICE_PROBE_SLOTS
 
-    # Contacts fields that only the host writes between launches (the broad phase's index
-    # arrays: the stepping kernels read them, install_pairs writes on the device the values the
-    # host wrote on its own copy): current on the host after any launch, never copied back
+    # Contacts fields current on the host after any launch, never copied back by Engine.host:
+    # the broad phase's index arrays, which the stepping kernels only read (the host's broad
+    # phase writes them on both sides: install_pairs), and the pair counts, brought back with
+    # the diagnostics (ChunkCopies) where the device's broad phase may change them
     HOST_KEPT = {"state": frozenset(),
                  "contacts": frozenset({"pairs", "adj_ptr", "adj", "scene_pairs"})}
+    # the index arrays the device's broad phase rewrites (dem.engine.broadphase_device): stale
+    # on the host after a chunk in which a scene's list was rebuilt on the device, until read
+    LISTS = ("pairs", "adj_ptr", "adj")
     # Contacts fields that install_pairs writes on the device from the device's history (a
     # rebuild): stale on the host after it
     INSTALLED = ("code", "npts", "loc", "shear", "patch_shape")
@@ -134,10 +154,16 @@ class DeviceResidency:
     # Control fields whose rows of a chunk go to the device in one copy (ChunkCopies)
     CONTROL_CHUNK_ROWS = ("loads", "probe_slot")
 
-    def __init__(self, model, state, contacts, control):
+    def __init__(self, model, state, contacts, control, device_broad_phase: bool = True):
+        """``device_broad_phase``: a scene's neighbour list is rebuilt on the device between
+        two steps of a chunk (dem.engine.broadphase_device; the lists are then kernel-written:
+        :attr:`LISTS`); False: by the host between chunks, a rebuild ending the chunk (the
+        broad phase of the CPU path, dem.engine.broadphase, installed by :meth:`write_pairs`)."""
         from dem.engine.device import ChunkCopies, DeviceArrays, HistoryScratch
 
         self.model, self.state, self.contacts, self.control = model, state, contacts, control
+        self.lists_on_device = bool(device_broad_phase)
+        self._broad_phase = None  # dem.engine.broadphase_device.DeviceBroadPhase, when asked
         self.dev = {name: DeviceArrays(box) for name, box in (
             ("model", model), ("state", state), ("contacts", contacts), ("control", control))}
         for d in self.dev.values():
@@ -146,7 +172,8 @@ class DeviceResidency:
         self._scratch = HistoryScratch(contacts.capacity, real)
         self._cap_dev = None  # the area caps, for patches_over_caps
         self._cap_sent = None  # the caps the device holds
-        self._chunk = ChunkCopies(control, self.dev["control"], real)
+        self._chunk = ChunkCopies(control, self.dev["control"], contacts, self.dev["contacts"],
+                                  real)
         # the Control fields copied per field only when changed (to_device): what the device
         # holds, as the host last sent or received it
         self._sent = {}
@@ -176,7 +203,8 @@ class DeviceResidency:
         it).  ``fields``: only these fields of it (names of the container's FIELDS; None: all).
 
         Per field: a field is *stale* where the kernels wrote it since the host last copied it
-        (every field but :attr:`HOST_KEPT` after a launch; :attr:`INSTALLED` after a rebuild's
+        (every field but :attr:`HOST_KEPT` after a launch, :attr:`LISTS` too after a launch in
+        which the device's broad phase rebuilt a list; :attr:`INSTALLED` after a host rebuild's
         install): only the stale fields asked for are copied back (one copy per field, of every
         scene of the engine), once.  ``write`` marks the fields asked for *dirty* (whether the
         host then writes them or not, and whether they were stale or not: a field the host
@@ -269,12 +297,37 @@ class DeviceResidency:
 
     def from_device(self) -> None:
         """After a launch: the control's kernel-written fields back in one copy
-        (dem.engine.device.ChunkCopies); every State / Contacts field the kernels write marked
-        stale (nothing is dirty: to_device pushed it)."""
+        (dem.engine.device.ChunkCopies, with the pair counts); every State / Contacts field the
+        kernels write marked stale (nothing is dirty: to_device pushed it), the index arrays
+        (:attr:`LISTS`) where the device's broad phase rebuilt a list in the launch or in an
+        earlier one whose lists the host has not read yet."""
         self._remember(self._chunk.pull_diagnostics())
+        lists = self.stale["contacts"] & set(self.LISTS)
         for name in ("state", "contacts"):
             self.stale[name] = set(self.fields[name]) - self.HOST_KEPT[name]
+        self.stale["contacts"] |= lists
+        if self._chunk.rebuilds_host.any():
+            self.stale["contacts"].update(self.LISTS)
         self._current.clear()
+
+    def broad_phase_launch(self):
+        """The launch of the device's broad phase after step s of a chunk, ``launch(s)``
+        (dem.engine.broadphase_device.rebuild_flagged: compiled here on the first call), or
+        None where the host's broad phase is used (``device_broad_phase`` False)."""
+        if not self.lists_on_device:
+            return None
+        if self._broad_phase is None:
+            from dem.engine.broadphase_device import DeviceBroadPhase
+
+            real = ti.f32 if ti_runtime.real_dtype() == np.float32 else ti.f64
+            self._broad_phase = DeviceBroadPhase(self.model, self.contacts, self.dev, real,
+                                                 self._chunk.rebuilds)
+        return self._broad_phase.launch
+
+    def rebuilds(self) -> np.ndarray:
+        """Each scene's neighbour-list rebuilds on the device in the last launch (brought back
+        with the diagnostics)."""
+        return self._chunk.rebuilds_host
 
     def _remember(self, names) -> None:
         """The host's ``names`` of the Control are what the device holds now."""
@@ -306,9 +359,10 @@ class DeviceResidency:
                                  batched) > 0
 
     def write_pairs(self, g: int, c, pairs: np.ndarray, n_bodies: int) -> None:
-        """Scene g's new neighbour list ``pairs`` into its Contacts ``c``: the host keeps the
-        index arrays (only it writes them); the history stays on the device
-        (:meth:`install_pairs`)."""
+        """Scene g's new neighbour list ``pairs`` into its Contacts ``c``: the host writes the
+        index arrays on its copy (made current first where the device's broad phase rewrote
+        them) and the device's (:meth:`install_pairs`); the history stays on the device."""
+        self.host("contacts", write=False, fields=self.LISTS)
         n_old = c.n_pairs
         old_pairs = c.pairs[:n_old].copy() if n_old else None
         lists = pair_lists(pairs, n_bodies, c.capacity, old_pairs)
@@ -340,6 +394,7 @@ class DeviceResidency:
         self.stale["contacts"].update(self.INSTALLED)  # the history, moved on the device
         for f in self.INSTALLED:  # stale for every scene again
             self._current.pop(("contacts", f), None)
+        self.stale["contacts"].difference_update(self.LISTS)  # the host's are the device's
 
     def transfer_counts(self) -> dict:
         """Per container, the copies each way since construction (DeviceArrays.counts)."""

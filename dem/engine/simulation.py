@@ -70,6 +70,10 @@ class Engine:
     device_arrays : keep the arrays on the device (dem.engine.residency); None: where Taichi
                runs on a GPU (dem.ti_runtime.init(arch="cuda")); True on the CPU runs the device
                path in host memory (its tests)
+    device_broad_phase : with device arrays, rebuild a scene's neighbour list on the device
+               between two steps of a chunk (dem.engine.broadphase_device; default); False: on
+               the host between chunks, as the CPU path does (dem.engine.broadphase; the same
+               lists: tests/test_broadphase_device.py).  Ignored without device arrays.
 
     Its parts: ``residency`` (where the arrays live), ``launcher`` (kernel, variants, chunks),
     ``step_size`` (the time step); the containers ``model``, ``state``, ``contacts``,
@@ -78,7 +82,7 @@ class Engine:
 
     def __init__(self, scenes: list[Scene], joints, options: StepOptions, gravity=None,
                  fast_launch: bool = True, views: "list[Simulation] | None" = None,
-                 device_arrays: bool | None = None):
+                 device_arrays: bool | None = None, device_broad_phase: bool = True):
         # Taichi is started by the process's entry point (dem.run.build, dem.batch,
         # dem.run.batched: arch, threads, precision); for a library user who did not, this
         # starts it with the options' settings, and otherwise checks that they agree
@@ -102,7 +106,8 @@ class Engine:
             sim._bind(self, g, box.scenes[g], box.models[g], box.joints[g], box.gravity[g])
             sims.append(sim)
         self.simulations = sims
-        self.residency = kind(self.model, self.state, self.contacts, self.control)
+        self.residency = kind(self.model, self.state, self.contacts, self.control,
+                              device_broad_phase)
         self.launcher = Launcher(self, fast_launch)
         t0 = time.perf_counter()
         self.launcher.warm_up()
@@ -340,9 +345,9 @@ class Simulation:
 
     def read_contacts(self, *fields: str) -> FieldView:
         """This scene's Contacts fields ``fields`` (none given: all) to read only, as
-        :meth:`read_state`; the view also has ``n_pairs``.  The broad phase's index arrays
-        (pairs, adj_ptr, adj, scene_pairs: DeviceResidency.HOST_KEPT) are current on the host
-        and never copied."""
+        :meth:`read_state`; the view also has ``n_pairs``.  The pair counts are current on the
+        host after every launch; the index arrays (pairs, adj_ptr, adj) are copied only where
+        the device's broad phase rewrote them (DeviceResidency.LISTS)."""
         names = fields or Contacts.field_names()
         self.engine.host("contacts", write=False, fields=names)
         view = FieldView(self._contacts, names)
@@ -458,7 +463,8 @@ class Simulation:
     def check_initial_overlaps(self, tolerance: float) -> np.ndarray:
         """Raise if two bodies overlap by more than ``tolerance`` at the start; returns each
         body's largest contact patch area (m^2) at the start."""
-        c = self._contacts  # its pairs (written by the host)
+        self.engine.host("contacts", write=False, fields=("pairs",))
+        c = self._contacts
         patch = np.zeros(self.model.n_bodies)
         n = c.n_pairs
         if n == 0:

@@ -22,8 +22,9 @@
         probe_stage      at the steps the host asked for, copies the probed bodies' state
                          to Control.probe_buf (Simulation.set_probe: instrument samples)
 
-The broad phase (neighbour list) runs on the host between kernel launches, when a body has moved
-more than half the skin (see :mod:`dem.engine.broadphase`).
+The broad phase (neighbour list) runs when a body has moved more than half the skin: on the host
+between kernel launches (:mod:`dem.engine.broadphase`), or on a device between two steps of a
+chunk (:mod:`dem.engine.broadphase_device`).
 
 Every stage is a function of the containers (Model, State, Contacts, Control: see
 :mod:`dem.engine.containers`), which the kernels take as one argpack each.  One kernel per job,

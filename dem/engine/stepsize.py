@@ -107,7 +107,8 @@ class StepSize:
         if not engine.residency.patches_over_caps(engine.n_pair_slots(), area_cap,
                                                   engine.variants.batched):
             return  # no patch near its cap: the areas need not come to the host
-        engine.host("contacts", write=False, fields=("area", "npts"))  # the patches' areas
+        # the patches' areas, and the pairs (the device's broad phase may have rewritten them)
+        engine.host("contacts", write=False, fields=("area", "npts", "pairs"))
         patch = np.zeros(self.model.n_bodies)
         over_any = False
         for g, sim in enumerate(engine.simulations):
