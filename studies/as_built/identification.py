@@ -28,7 +28,7 @@ at 0.1 m/s2 RMS (docs/identification.md) found 38 Hz and zeta 0.04: far above th
 
 Records (committed, resumable): results/as-built/identification/points.json (one record per
 point: the identified f_n and zeta of every instrument, the largest ds, the run's CPU),
-cpu.json.  Raw runs in runs/as-built/identification/ (git-ignored).
+cpu.json, and each point's transfer functions and fit (<point>.png, dem post's plot).  Raw runs in runs/as-built/identification/ (git-ignored).
 """
 
 from __future__ import annotations
@@ -134,6 +134,7 @@ class Identification(kit.Study):
 
     def record(self, p, result, log=print):
         import json
+        import shutil
 
         from postprocess.identification import analyze_identification_run
 
@@ -147,6 +148,9 @@ class Identification(kit.Study):
         if status == "ok":
             ana = analyze_identification_run(p.run_dir)
             entry.update(summarise(ana, p.run_dir))
+            plot = p.run_dir / "identification.png"      # the transfer functions, committed
+            if plot.is_file():
+                shutil.copyfile(plot, p.out / f"{p.name}.png")
             log(f"    f_n {entry['f_n_hz']} Hz, zeta {entry['zeta']} ({entry['method']})")
 
         def change(data):
