@@ -3,6 +3,7 @@ wait for between its kernels.
 
     python benchmarks/host_share.py --ks 16,64 --steps 600 --repeats 3
     python benchmarks/host_share.py --ks 16 --steps 300 --repeats 1 --phases shaking
+    python benchmarks/host_share.py --summarise runs.jsonl    # the medians of saved runs
 
 The runs: K realisations of Model II shaken along y (benchmarks/batch_speed.py ``run``: the same
 cases, ``case_of``) through dem.run.batched.run_cases_in_one_engine, as ``dem ensemble --batch``
@@ -19,12 +20,15 @@ GPU run executes, dem.engine.device and dem.engine.residency), on one Taichi thr
 
 How the host's time is measured.  The host functions of a run are wrapped (in this process
 only: the library is not changed) with a clock that charges each call's wall time to its stage,
-less the time of the wrapped calls inside it (exclusive times; a stack).  Every kernel launch
+less the time of the wrapped calls inside it (exclusive times; a stack); the run loop
+(drive_together) is one, so every moment of the run between the engine's construction and the
+loop's end is some stage's.  Every kernel launch
 in Taichi's C++ (``launch_kernel`` of Taichi's program object: the stepping kernel's, the other
 kernels', the copies' from_numpy / to_numpy) is the stage ``device work``: here the kernel runs
 inside it, on a GPU it queues the kernel (a copy waits for the device).  The host's time is
-the run's wall time less ``device work``, less the clock's own cost (measured: a wrapped empty
-call, times the wrapped calls).  So the Python of every launch stays the host's: the stepping
+the sum of the other stages (the run loop's wall time less ``device work``, less a run's start
+and end, below), less the clock's own cost (measured: a wrapped empty call, times the wrapped
+calls).  So the Python of every launch stays the host's: the stepping
 kernel's cached launch (dem/engine/launch.py: a fresh launch context filled with its ~60
 argument slots a step, on a device) is ``step launch``, the other kernels' argument handling
 is each ``kernel NAME``.  What this leaves out of the host's time, and a GPU would add: the
@@ -53,11 +57,11 @@ Stages (a stage is the wall time of these calls, less the wrapped calls inside t
   settling looks   dem.run.settle.settle_steps between its advances (speeds, the
                    unbalanced-force ratio, the energy report)
   run loop         dem.run.batched.drive_together (requests, resumes), Engine.advance
-  run_case_steps   dem.run.loop.run_case_steps between its advances (progress, checkpoints,
-                   stop rule); a run's start (up to its first request: building, the first
+  run_case_steps   each point's run (dem.run.loop.run_case_steps, in dem.run.batched's body)
+                   between its advances (progress, checkpoints, stop rule); a run's start (up to its first request: building, the first
                    frame, settling's set-up) and end (its summary and files) are once a run,
-                   not a chunk's work: "run start" / "run end", printed apart, not in the
-                   host's time
+                   not a chunk's work: "run start" / "run end" (the point's record and its
+                   summary.json's batch stamp included), printed apart, not in the host's time
   step launch      the stepping kernel's launches (dem.engine.launch.CachedLaunch), their Python
   kernel NAME      the other kernels the host launches, their Python, each apart (AUX_KERNELS:
                    unpack_chunk, pack_diagnostics, install_pairs, gather_scene_rows,
@@ -74,6 +78,7 @@ Prints one JSON line per run and per (phase, K) (``--json FILE`` appends them).
 """
 
 import argparse
+import json
 import shutil
 import sys
 import tempfile
@@ -151,33 +156,34 @@ class StageClock:
         its last) are charged to ONE_OFF's stages with everything inside them, apart from the
         per-chunk and per-frame work between (the end is known once it has come: that
         segment's times are moved there)."""
-        clock = self
-
         def wrapped(*args, **kwargs):
-            it = gen_fn(*args, **kwargs)
-            err = None
-            first = True
-            while True:
-                mark = dict(clock.seconds) if ends and not first else None
-                clock.enter("run start" if ends and first else stage)
-                try:
-                    req = it.send(None) if err is None else it.throw(err)
-                except BaseException as exc:  # noqa: BLE001 - the run's end, passed on
-                    clock.leave()
-                    if mark is not None:
-                        clock.to_end(mark)
-                    if isinstance(exc, StopIteration):
-                        return exc.value
-                    raise
-                clock.leave()
-                first = False
-                try:
-                    yield req
-                except BaseException as exc:  # noqa: BLE001 - thrown on into the run
-                    err = exc
-                else:
-                    err = None
+            return (yield from self.timed_generator(gen_fn(*args, **kwargs), stage, ends))
         return wrapped
+
+    def timed_generator(self, it, stage: str, ends: bool = False):
+        """The generator ``it`` as :meth:`timed_steps` times a generator function's."""
+        err = None
+        first = True
+        while True:
+            mark = dict(self.seconds) if ends and not first else None
+            self.enter("run start" if ends and first else stage)
+            try:
+                req = it.send(None) if err is None else it.throw(err)
+            except BaseException as exc:  # noqa: BLE001 - the run's end, passed on
+                self.leave()
+                if mark is not None:
+                    self.to_end(mark)
+                if isinstance(exc, StopIteration):
+                    return exc.value
+                raise
+            self.leave()
+            first = False
+            try:
+                yield req
+            except BaseException as exc:  # noqa: BLE001 - thrown on into the run
+                err = exc
+            else:
+                err = None
 
     def to_end(self, mark: dict) -> None:
         """Every stage's time since ``mark`` (a copy of :attr:`seconds`) moved to "run end"."""
@@ -253,7 +259,7 @@ def instrument(clock: StageClock) -> Patches:
         (Simulation, "rebuild", "rebuild"), (Simulation, "count_steps", "clocks"),
         (Clock, "times", "clocks"), (StepSize, "check_caps", "caps check"),
         (Recording, "start", "frames"), (Recording, "after_advance", "frames"),
-        (Recording, "frame_at_stop", "frames"), (batched, "drive_together", "run loop"),
+        (Recording, "frame_at_stop", "frames"),
     ]
     for owner, name, stage in methods:
         p.set(owner, name, clock.timed(getattr(owner, name), stage))
@@ -263,8 +269,12 @@ def instrument(clock: StageClock) -> Patches:
     for name in AUX_KERNELS[5:]:
         p.set(stepk, name, clock.timed(getattr(stepk, name), f"kernel {name}"))
     p.set(loop, "settle_steps", clock.timed_steps(loop.settle_steps, "settling looks"))
-    p.set(loop, "run_case_steps", clock.timed_steps(loop.run_case_steps, "run_case_steps",
-                                                        ends=True))
+    drive_together = batched.drive_together
+
+    def drive_timed(engine, bodies):  # each point's whole run, its start and end apart
+        bodies = [clock.timed_generator(b, "run_case_steps", ends=True) for b in bodies]
+        return clock.timed(drive_together, "run loop")(engine, bodies)
+    p.set(batched, "drive_together", drive_timed)
 
     # every kernel's launch in Taichi's C++ (the stepping kernel's, the others', the copies'
     # from_numpy / to_numpy): the stage "device work", apart from the Python around it
@@ -366,8 +376,10 @@ def summarise(runs: list[dict], clock_cost_s: float) -> dict:
     def med(values):
         return float(np.median(values))
 
-    host = [r["wall_s"] - r["device_s"] - sum(r["stage_s"].get(s, 0.0) for s in ONE_OFF)
+    host = [sum(v for s, v in r["stage_s"].items() if s not in ONE_OFF)
             - r["wrapped_calls"] * clock_cost_s for r in runs]
+    # after the run loop: the points' records, their directories' locks released (once a run)
+    after = [r["wall_s"] - r["device_s"] - sum(r["stage_s"].values()) for r in runs]
     stages = {s: med([r["stage_s"].get(s, 0.0) for r in runs]) for s in STAGE_ORDER}
     other = sorted(set().union(*(r["stage_s"] for r in runs)) - set(STAGE_ORDER) - set(ONE_OFF))
     stages.update({s: med([r["stage_s"].get(s, 0.0) for r in runs]) for s in other})
@@ -382,8 +394,8 @@ def summarise(runs: list[dict], clock_cost_s: float) -> dict:
            "device_ms_per_step_here": 1e3 * med([r["device_s"] for r in runs]) / steps,
            "device_launches_per_step": med([r["device_launches"] for r in runs]) / steps,
            "device_launches_per_chunk": med([r["device_launches"] for r in runs]) / chunks,
-           "one_off_s_per_run": {s: med([r["stage_s"].get(s, 0.0) for r in runs])
-                                 for s in ONE_OFF},
+           "one_off_s_per_run": {**{s: med([r["stage_s"].get(s, 0.0) for r in runs])
+                                    for s in ONE_OFF}, "after the run loop": med(after)},
            "stage_ms_per_step": {s: 1e3 * v / steps for s, v in stages.items()},
            "stage_ms_per_chunk": {s: 1e3 * v / chunks for s, v in stages.items()},
            "stage_calls_per_chunk": {s: med([r["stage_calls"].get(s, 0) for r in runs]) / chunks
@@ -429,7 +441,20 @@ def main() -> int:
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--phases", default="settling,shaking")
     ap.add_argument("--json", default=None)
+    ap.add_argument("--summarise", default=None, metavar="FILE",
+                    help="no runs: the medians of the runs' JSON lines in FILE (an earlier "
+                         "--json), by phase and K")
     args = ap.parse_args()
+    if args.summarise:
+        runs = [json.loads(line) for line in Path(args.summarise).read_text().splitlines()
+                if line.strip()]
+        runs = [r for r in runs if not r.get("summary")]
+        clock_cost = StageClock().overhead_s()
+        for key in dict.fromkeys((r["phase"], r["K"]) for r in runs):
+            rec = summarise([r for r in runs if (r["phase"], r["K"]) == key], clock_cost)
+            emit(rec, args.json)
+            print_table(rec)
+        return 0
     phases = args.phases.split(",")
     bad = set(phases) - {"settling", "shaking"}
     if bad:
