@@ -10,6 +10,7 @@ import pytest
 from dem.engine.timestep import Clock
 from dem.loading import Record, Shake, Tilt
 from dem.run.batched import SharedLoads, shared_loads
+from dem.run.settle import RestLoads
 
 
 def _clocks(n, dt=1.4447534739140497e-05, seed=0):
@@ -43,6 +44,7 @@ LOADINGS = [
     Shake([0, 0, -9.81], [1, 1, 0], 3.0, 0.01, 5, "lab"),
     Tilt([0, 0, -9.81], "y", 2.0, 30.0),
     Record([0, 0, -9.81], np.linspace(0.0, 2.0, 41), np.random.default_rng(3).normal(size=(41, 3))),
+    RestLoads([0.0, 0.0, -9.81]),
 ]
 
 
@@ -78,3 +80,7 @@ def test_equal_loadings_are_shared_and_others_kept():
     t = clocks[1].times(steps[1], 64)
     for x, y in zip(out[1](t), b(t)):
         assert x.tobytes() == y.tobytes()
+    # two settling scenes with the same gravity share, with another gravity not
+    rest = [RestLoads([0, 0, -9.81]), RestLoads([0, 0, -9.81]), RestLoads([0, -1.0, -9.7])]
+    out = shared_loads(engine, rest, {})
+    assert out[0] is not rest[0] and out[1] is not rest[1] and out[2] is rest[2]
