@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from dem.engine.timestep import Clock
-from dem.loading import Record, Shake, Tilt
+from dem.loading import HeldTilt, Record, Shake, Tilt
 from dem.run.batched import SharedLoads, shared_loads
 from dem.run.settle import RestLoads
 
@@ -84,3 +84,19 @@ def test_equal_loadings_are_shared_and_others_kept():
     rest = [RestLoads([0, 0, -9.81]), RestLoads([0, 0, -9.81]), RestLoads([0, -1.0, -9.7])]
     out = shared_loads(engine, rest, {})
     assert out[0] is not rest[0] and out[1] is not rest[1] and out[2] is rest[2]
+
+
+def test_a_loading_turned_between_advances_is_shared_only_while_equal():
+    """A quasi-static tilt's loading changes between advances (HeldTilt.turn): two scenes whose
+    tilts were equal at one advance and differ at the next get each its own loads then."""
+    clocks, steps = _clocks(2, seed=5)
+    engine = _engine(clocks, steps, [1, 1])
+    a, b = (HeldTilt([0, 0, -9.81], "y", 40.0) for _ in range(2))
+    memo = {}
+    out = shared_loads(engine, [a, b], memo)
+    assert out[0] is not a and out[1] is not b  # equal: shared
+    b.turn(0.0, 12.0, 0.0)  # b is turned, a is not
+    out = shared_loads(engine, [a, b], memo)
+    assert out[0] is a and out[1] is b
+    t = clocks[1].times(steps[1], 16)
+    assert not np.array_equal(out[1](t)[0], a(t)[0])

@@ -344,7 +344,9 @@ def shared_loads(engine, loads: list, signatures: dict) -> list:
     functions that are equal (the same object, or objects of one class whose pickled states
     are equal: the loadings of an ensemble's realisations) replaced by one
     :class:`SharedLoads` of their scenes.  ``signatures``: a memo of each function's signature
-    (id -> (function, signature)), kept by the caller across advances."""
+    (id -> (function, signature)), kept by the caller across advances, used for the functions
+    that say they never change (``immutable``: dem.loading.Loading); any other's state is read
+    at every advance (a quasi-static tilt's loading is turned between advances)."""
     import pickle
 
     groups: dict = {}
@@ -352,7 +354,7 @@ def shared_loads(engine, loads: list, signatures: dict) -> list:
         if fn is None:
             continue
         known = signatures.get(id(fn))
-        if known is None or known[0] is not fn:
+        if known is None or known[0] is not fn or not getattr(fn, "immutable", False):
             try:
                 sig = (type(fn), pickle.dumps(fn))
             except Exception:  # noqa: BLE001 - a closure, a lambda: only itself

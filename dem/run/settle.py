@@ -44,6 +44,8 @@ class RestLoads:
     with equal gravity share one evaluation a chunk (dem.run.batched.shared_loads compares the
     load functions' pickled states)."""
 
+    immutable = True
+
     def __init__(self, g0):
         self.g0 = np.asarray(g0, dtype=float)
 
