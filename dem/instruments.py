@@ -111,7 +111,7 @@ class InstrumentRecorder:
     """Samples instruments from the engine state (see module docstring for the arrays).
 
     A sample is queued as it is taken (the blocks' states and the table's motion) and its
-    arrays are computed when :attr:`rows` (or the last sample's velocities) are read, for all
+    arrays are computed when :attr:`rows` (or :attr:`last`) are read, for all
     the samples queued, in one pass of numpy calls: an engine of K scenes takes a sample of each
     every ~140 steps, and one sample's dozen small numpy calls (~0.1 ms of the host's time)
     cost more than a GPU's step of every scene.  The arithmetic is the per-sample arithmetic,
@@ -142,15 +142,15 @@ class InstrumentRecorder:
         return self._rows
 
     @property
-    def _last(self):
+    def last(self):
         """(t, absolute velocity [n,3], table velocity [3]) of the last sample, None before the
         first: the acceleration of the next one is the difference with it (a restart point
         keeps it: dem.run.resume)."""
         self._compute()
         return self._prev
 
-    @_last.setter
-    def _last(self, value) -> None:
+    @last.setter
+    def last(self, value) -> None:
         self._compute()
         self._prev = value
 
@@ -179,7 +179,7 @@ class InstrumentRecorder:
         R = quaternion.matrices(quat)                       # [m, n, 3, 3]
         r = np.einsum("mnij,nj->mni", R, self.points)
         x = pos + r
-        v = vel + _cross(omega, r)
+        v = vel + cross(omega, r)
         v_abs = v + table_vel[:, None, :]
         rows, prev = self._rows, self._prev
         for k in range(len(queued)):
@@ -234,7 +234,7 @@ class InstrumentRecorder:
         return out
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """a x b over the last axis (3): numpy.cross's products and differences, in its order
     (a1 b2 - a2 b1, a2 b0 - a0 b2, a0 b1 - a1 b0: the same numbers), without its generic
     set-up (~30 us a call on small arrays)."""

@@ -5,7 +5,7 @@ are grouped, with the table's motion given as values or as the loading's functio
 import numpy as np
 
 from dem import quaternion
-from dem.instruments import Instrument, InstrumentRecorder, _cross
+from dem.instruments import Instrument, InstrumentRecorder, cross
 from dem.loading import Shake
 from dem.scene import blocks_to_scene
 from dem.case import BlockSpec
@@ -96,7 +96,7 @@ def test_the_last_sample_is_kept_across_a_restart_point():
         if j == 2:  # b takes a's state here, as apply_restart does from restart.npz
             for key in a.rows:
                 b.rows[key] = list(np.asarray(a.rows[key]))
-            b._last = tuple(np.copy(x) for x in a._last)
+            b.last = tuple(np.copy(x) for x in a.last)
         elif j > 2:
             b.sample_blocks(t[j], pos[j], quat[j], vel[j], omega[j], loading.base_disp,
                             loading.base_vel)
@@ -108,4 +108,4 @@ def test_cross_is_numpys_bit_for_bit():
     rng = np.random.default_rng(4)
     a, b = rng.normal(size=(50, 7, 3)) * 10.0 ** rng.integers(-8, 8, (50, 7, 1)), \
         rng.normal(size=(50, 7, 3))
-    assert np.array_equal(_cross(a, b), np.cross(a, b))
+    assert np.array_equal(cross(a, b), np.cross(a, b))
