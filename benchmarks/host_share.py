@@ -4,6 +4,7 @@ wait for between its kernels.
     python benchmarks/host_share.py --ks 16,64 --steps 600 --repeats 3
     python benchmarks/host_share.py --ks 16 --steps 300 --repeats 1 --phases shaking
     python benchmarks/host_share.py --summarise runs.jsonl    # the medians of saved runs
+    python benchmarks/host_share.py --launch --ks 16,64       # one stepping launch's Python
 
 The runs: K realisations of Model II shaken along y (benchmarks/batch_speed.py ``run``: the same
 cases, ``case_of``) through dem.run.batched.run_cases_in_one_engine, as ``dem ensemble --batch``
@@ -317,6 +318,52 @@ class DeviceWork:
         return self._launch(compiled, ctx)
 
 
+def launch_parts(k: int, n: int = 3000) -> dict:
+    """The Python of one cached launch of the stepping kernel (dem.engine.launch.CachedLaunch)
+    of an engine of k Model II scenes on the device path, its C++ launch stubbed (us, medians
+    of 5 x ``n`` calls): the whole, and its parts: a fresh launch context, the argpacks, the
+    ndarray slots (the counts with them)."""
+    from batch_speed import build
+
+    engine, _ = build(k, "parallel", True)
+    launch = engine.launcher.kernel
+    if not launch.device_arrays:
+        raise SystemExit("the stepping kernel's launch is not cached with device arrays here")
+
+    def per_call_us(f) -> float:
+        times = []
+        for _ in range(5):
+            t0 = time.perf_counter()
+            for _ in range(n):
+                f()
+            times.append((time.perf_counter() - t0) / n)
+        return 1e6 * float(np.median(times))
+
+    class NoLaunch:
+        def launch_kernel(self, compiled, ctx):
+            pass
+
+    real, launch.prog = launch.prog, NoLaunch()
+    try:
+        whole = per_call_us(lambda: launch(-2, 0, 1e-5))
+    finally:
+        launch.prog = real
+    ctx = launch.t_kernel.make_launch_context()
+
+    def packs():
+        for slot, pack in launch.argpacks:
+            ctx.set_arg_argpack(slot, pack)
+
+    def arrays():
+        for slot, arr in launch.device_arrays:
+            ctx.set_arg_ndarray(slot, arr)
+
+    return {"launch": True, "K": k, "python_per_launch_us": whole,
+            "make_launch_context_us": per_call_us(launch.t_kernel.make_launch_context),
+            "argpacks": len(launch.argpacks), "argpacks_us": per_call_us(packs),
+            "ndarray_slots": len(launch.device_arrays), "ndarray_slots_us": per_call_us(arrays)}
+
+
 def one_run(k: int, steps: int, phase: str, out_root: Path) -> dict:
     """One batched run of realisations 0..k-1 in ``phase`` (module docstring); its stages."""
     import dem.run.settle
@@ -441,6 +488,9 @@ def main() -> int:
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--phases", default="settling,shaking")
     ap.add_argument("--json", default=None)
+    ap.add_argument("--launch", action="store_true",
+                    help="no runs: the Python of one cached launch of the stepping kernel and "
+                         "its parts, for each K (launch_parts)")
     ap.add_argument("--summarise", default=None, metavar="FILE",
                     help="no runs: the medians of the runs' JSON lines in FILE (an earlier "
                          "--json), by phase and K")
@@ -462,6 +512,10 @@ def main() -> int:
     from dem import ti_runtime
 
     ti_runtime.init(threads=1, arch="cpu")  # before the runs: instrument() wraps its program
+    if args.launch:
+        for k in [int(x) for x in args.ks.split(",")]:
+            emit(launch_parts(k), args.json)
+        return 0
     root = Path(tempfile.mkdtemp(prefix="host-share-"))
     clock_cost = StageClock().overhead_s()
     try:
