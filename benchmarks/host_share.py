@@ -5,6 +5,7 @@ wait for between its kernels.
     python benchmarks/host_share.py --ks 16 --steps 300 --repeats 1 --phases shaking
     python benchmarks/host_share.py --summarise runs.jsonl    # the medians of saved runs
     python benchmarks/host_share.py --launch --ks 16,64       # one stepping launch's Python
+    python benchmarks/host_share.py --clock cpu ...           # the thread's CPU time, not wall
 
 The runs: K realisations of Model II shaken along y (benchmarks/batch_speed.py ``run``: the same
 cases, ``case_of``) through dem.run.batched.run_cases_in_one_engine, as ``dem ensemble --batch``
@@ -23,20 +24,23 @@ How the host's time is measured.  The host functions of a run are wrapped (in th
 only: the library is not changed) with a clock that charges each call's wall time to its stage,
 less the time of the wrapped calls inside it (exclusive times; a stack); the run loop
 (drive_together) is one, so every moment of the run between the engine's construction and the
-loop's end is some stage's.  Every kernel launch
-in Taichi's C++ (``launch_kernel`` of Taichi's program object: the stepping kernel's, the other
-kernels', the copies' from_numpy / to_numpy) is the stage ``device work``: here the kernel runs
-inside it, on a GPU it queues the kernel (a copy waits for the device).  The host's time is
-the sum of the other stages (the run loop's wall time less ``device work``, less a run's start
-and end, below), less the clock's own cost (measured: a wrapped empty call, times the wrapped
-calls).  So the Python of every launch stays the host's: the stepping
-kernel's cached launch (dem/engine/launch.py: a fresh launch context filled with its ~60
-argument slots a step, on a device) is ``step launch``, the other kernels' argument handling
-is each ``kernel NAME``.  What this leaves out of the host's time, and a GPU would add: the
-launches' own C++ and driver time (``device_launches_per_step`` / ``_per_chunk`` count them)
-and the waits of the copies for the device.
+loop's end is some stage's.  Every kernel launch in Taichi's C++ (``launch_kernel`` of Taichi's
+program object: the stepping kernel's, the other kernels', the copies' from_numpy / to_numpy)
+is the stage ``device work``: here the kernel runs inside it, on a GPU it queues the kernel (a
+copy waits for the device).  The host's time is the sum of the other stages (the run loop's
+time less ``device work``, less a run's start and end, below), less the clock's own cost
+(measured: a wrapped empty call, times the wrapped calls).  So the Python of every launch stays
+the host's: the stepping kernel's cached launch (dem/engine/launch.py: on a device a fresh
+launch context a step, its 4 argpacks and 56 ndarray slots set) is ``step launch``, the other
+kernels' argument handling is each ``kernel NAME``.  What this leaves out of the host's time,
+and a GPU would add: the launches' own C++ and driver time (``device_launches_per_step`` /
+``_per_chunk`` count them) and the waits of the copies for the device.  ``--clock cpu``: the
+stages read the CPU time of the process's thread instead of the wall (the kernels run on
+Taichi's worker thread, so ``device work`` is then ~0, and the host's stages no longer count
+the waits of a machine shared with other processes: the figure to compare two versions on such
+a machine).  ``--launch``: the Python of one stepping launch, and its parts, apart from a run.
 
-Stages (a stage is the wall time of these calls, less the wrapped calls inside them):
+Stages (a stage is the time of these calls, less the wrapped calls inside them):
 
   loads            the scenes' load functions (each scene's loading at the chunk's step times)
   clocks           Clock.times, Simulation.count_steps
@@ -113,17 +117,23 @@ STAGE_ORDER = ("step launch", "loads", "clocks", "launch", "chunk loop", "probes
                "run_case_steps") + tuple(f"kernel {k}" for k in AUX_KERNELS)
 
 
-class StageClock:
-    """Exclusive wall time per stage: a call's time less that of the wrapped calls inside it
-    (a stack of [stage, start])."""
+# the clocks a StageClock reads: the wall (what a GPU waits for), or the CPU time of the
+# calling thread (what the host's Python costs, less the waits of a machine shared with others)
+CLOCKS = {"wall": time.perf_counter, "cpu": time.thread_time}
 
-    def __init__(self):
+
+class StageClock:
+    """Exclusive time per stage: a call's time less that of the wrapped calls inside it (a
+    stack of [stage, start]); ``now``: the clock read (CLOCKS)."""
+
+    def __init__(self, now=time.perf_counter):
+        self.now = now
         self.stack: list[list] = []
         self.seconds: dict[str, float] = defaultdict(float)
         self.calls: dict[str, int] = defaultdict(int)
 
     def enter(self, stage: str) -> None:
-        t = time.perf_counter()
+        t = self.now()
         if self.stack:
             top = self.stack[-1]
             self.seconds[top[0]] += t - top[1]
@@ -133,7 +143,7 @@ class StageClock:
         self.calls[stage] += 1
 
     def leave(self) -> None:
-        t = time.perf_counter()
+        t = self.now()
         stage, t0 = self.stack.pop()
         self.seconds[stage] += t - t0
         if self.stack:
@@ -196,18 +206,18 @@ class StageClock:
 
     def overhead_s(self, n: int = 20000) -> float:
         """The clock's own cost of one wrapped call (s), measured on an empty function."""
-        probe = StageClock()
+        probe = StageClock(self.now)
         f = probe.timed(lambda: None, "x")
         probe.enter("outer")
-        t0 = time.perf_counter()
+        t0 = self.now()
         for _ in range(n):
             f()
-        dt = time.perf_counter() - t0
+        dt = self.now() - t0
         probe.leave()
-        t0 = time.perf_counter()
+        t0 = self.now()
         for _ in range(n):
             (lambda: None)()
-        return max(0.0, (dt - (time.perf_counter() - t0)) / n)
+        return max(0.0, (dt - (self.now() - t0)) / n)
 
 
 class Patches:
@@ -364,7 +374,7 @@ def launch_parts(k: int, n: int = 3000) -> dict:
             "ndarray_slots": len(launch.device_arrays), "ndarray_slots_us": per_call_us(arrays)}
 
 
-def one_run(k: int, steps: int, phase: str, out_root: Path) -> dict:
+def one_run(k: int, steps: int, phase: str, out_root: Path, clock_name: str = "wall") -> dict:
     """One batched run of realisations 0..k-1 in ``phase`` (module docstring); its stages."""
     import dem.run.settle
     import dem.run.write
@@ -376,7 +386,7 @@ def one_run(k: int, steps: int, phase: str, out_root: Path) -> dict:
         dem.run.settle.MAX_TIME = 0.0  # the load phase from step 0 (module docstring)
     cases = [(f"seed{s}", case_of(s)) for s in range(k)]
     dirs = [out_root / f"{phase}-K{k}" / name for name, _ in cases]
-    clock = StageClock()
+    clock = StageClock(CLOCKS[clock_name])
     held: dict = {}
 
     def on_engine(engine) -> None:  # the construction is left out
@@ -384,13 +394,13 @@ def one_run(k: int, steps: int, phase: str, out_root: Path) -> dict:
         held["chunks0"] = engine.n_chunks
         clock.seconds.clear()
         clock.calls.clear()
-        held["t"] = time.perf_counter()
+        held["t"] = clock.now()
 
     patches = instrument(clock)
     try:
         records = run_cases_in_one_engine(cases, dirs, max_steps=steps, resume=False,
                                           threads=1, device_arrays=True, on_engine=on_engine)
-        t1 = time.perf_counter()
+        t1 = clock.now()
     finally:
         patches.undo()
         dem.run.settle.MAX_TIME = max_time
@@ -406,7 +416,8 @@ def one_run(k: int, steps: int, phase: str, out_root: Path) -> dict:
     kernel = seconds.pop("device work", 0.0)
     kernel_calls = calls.pop("device work", 0)
     wrapped = sum(calls.values()) + kernel_calls
-    return {"phase": phase, "K": k, "steps": steps, "chunks": chunks, "wall_s": wall,
+    return {"phase": phase, "K": k, "steps": steps, "clock": clock_name, "chunks": chunks,
+            "wall_s": wall,
             "device_s": kernel, "device_launches": kernel_calls, "wrapped_calls": wrapped,
             "stage_s": seconds, "stage_calls": calls,
             "rebuilds": sum(s.n_rebuilds for s in engine.simulations),
@@ -434,6 +445,7 @@ def summarise(runs: list[dict], clock_cost_s: float) -> dict:
     host_s = med(host)
     step_ms = 1e3 * host_s / steps
     rec = {"summary": True, "phase": first["phase"], "K": k, "steps": steps,
+           "clock": first.get("clock", "wall"),
            "repeats": len(runs), "chunks": chunks, "rebuilds": med([r["rebuilds"] for r in runs]),
            "wall_s": med([r["wall_s"] for r in runs]), "device_s": med([r["device_s"] for r in runs]),
            "host_s": host_s, "host_s_each": host, "clock_cost_us": 1e6 * clock_cost_s,
@@ -462,7 +474,8 @@ def summarise(runs: list[dict], clock_cost_s: float) -> dict:
 
 
 def print_table(rec: dict) -> None:
-    print(f"\n{rec['phase']}, K = {rec['K']}: {rec['steps']} steps, {rec['chunks']:.0f} chunks, "
+    print(f"\n{rec['phase']}, K = {rec['K']} ({rec['clock']} clock): {rec['steps']} steps, "
+          f"{rec['chunks']:.0f} chunks, "
           f"{rec['rebuilds']:.0f} rebuilds; median of {rec['repeats']}: wall {rec['wall_s']:.2f}"
           f" s, device work {rec['device_s']:.2f} s, host {rec['host_s']:.3f} s = "
           f"{rec['host_ms_per_chunk']:.3f} ms/chunk, {rec['host_ms_per_step']:.4f} ms/step "
@@ -488,6 +501,10 @@ def main() -> int:
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--phases", default="settling,shaking")
     ap.add_argument("--json", default=None)
+    ap.add_argument("--clock", choices=sorted(CLOCKS), default="wall",
+                    help="the stages' clock: wall (default), or cpu: the CPU time of the "
+                         "process's thread (less the machine's other load; wall_s is then that "
+                         "clock's too)")
     ap.add_argument("--launch", action="store_true",
                     help="no runs: the Python of one cached launch of the stepping kernel and "
                          "its parts, for each K (launch_parts)")
@@ -499,8 +516,10 @@ def main() -> int:
         runs = [json.loads(line) for line in Path(args.summarise).read_text().splitlines()
                 if line.strip()]
         runs = [r for r in runs if not r.get("summary")]
-        clock_cost = StageClock().overhead_s()
+        costs = {name: StageClock(now).overhead_s() for name, now in CLOCKS.items()}
         for key in dict.fromkeys((r["phase"], r["K"]) for r in runs):
+            clock_cost = costs[next(r.get("clock", "wall") for r in runs
+                                    if (r["phase"], r["K"]) == key)]
             rec = summarise([r for r in runs if (r["phase"], r["K"]) == key], clock_cost)
             emit(rec, args.json)
             print_table(rec)
@@ -517,15 +536,15 @@ def main() -> int:
             emit(launch_parts(k), args.json)
         return 0
     root = Path(tempfile.mkdtemp(prefix="host-share-"))
-    clock_cost = StageClock().overhead_s()
+    clock_cost = StageClock(CLOCKS[args.clock]).overhead_s()
     try:
         for phase in phases:  # Taichi's kernels loaded (offline cache) before any timing
-            one_run(WARM_K, WARM_STEPS, phase, root)
+            one_run(WARM_K, WARM_STEPS, phase, root, args.clock)
         for k in [int(x) for x in args.ks.split(",")]:
             for phase in phases:
                 runs = []
                 for _ in range(args.repeats):
-                    run = one_run(k, args.steps, phase, root)
+                    run = one_run(k, args.steps, phase, root, args.clock)
                     emit(run, args.json)
                     runs.append(run)
                 rec = summarise(runs, clock_cost)
