@@ -44,6 +44,9 @@ AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "-x": (-1.0, 0.0, 0.0), "-y"
 
 class Loading:
     kind = "none"
+    # a loading does not change once made (its value decides its loads); HeldTilt, turned by a
+    # controller between advances, says otherwise (dem.run.batched.shared_loads reads this)
+    immutable = True
 
     def __init__(self, g0):
         self.g0 = np.asarray(g0, dtype=float)
@@ -132,6 +135,8 @@ class HeldTilt(Tilt):
     """A tilt whose angle is set by a controller (the quasi-static tilt, dem.run.quasi_static):
     ``turn(t0, a1, ramp)`` turns the table from its angle at t0 to a1 over ``ramp`` s
     (smoothstep), then holds it."""
+
+    immutable = False  # turned between advances
 
     def __init__(self, g0, axis, max_angle_deg: float, start_angle_deg: float = 0.0):
         super().__init__(g0, axis, 0.0, max_angle_deg, start_angle_deg)

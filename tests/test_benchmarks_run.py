@@ -36,6 +36,8 @@ RUNS = [
     (["engine_branches.py"], "device or not:"),
     (["cpu_batch.py", "--engine", "--ks", "2", "--steps", "50", "--repeats", "1"],
      '"batch_over_lone"'),
+    (["host_share.py", "--ks", "2", "--steps", "300", "--repeats", "1", "--phases", "shaking"],
+     '"host_ms_per_chunk"'),
 ]
 
 

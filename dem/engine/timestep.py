@@ -166,6 +166,15 @@ class Clock:
         """t (s) at the start of steps step, ..., step + k - 1 (the loads of one launch)."""
         return self.t_anchor + (step - self.step_anchor + np.arange(k)) * self.dt
 
+    @staticmethod
+    def times_of(clocks: list["Clock"], steps: list[int], k: int) -> np.ndarray:
+        """[len(clocks), k]: ``clocks[i].times(steps[i], k)`` for every i, in one pass (the same
+        numbers: the same integer offsets, product and sum, element by element)."""
+        t_anchor = np.array([c.t_anchor for c in clocks], dtype=float)
+        dt = np.array([c.dt for c in clocks], dtype=float)
+        offset = np.array([s - c.step_anchor for c, s in zip(clocks, steps)], dtype=np.int64)
+        return t_anchor[:, None] + (offset[:, None] + np.arange(k)) * dt[:, None]
+
     def anchor(self, t: float, step: int) -> None:
         """Count time from t at step ``step`` on (before a change of dt, or to restart t)."""
         self.t_anchor, self.step_anchor = t, step

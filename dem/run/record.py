@@ -138,11 +138,11 @@ class InstrumentProbe:
         omega."""
         rec = self.recording
         r = rows[self.rows]
-        tt = np.array([t])
         with deferred():  # one sample, whole (see Recording.frame)
+            # the table's motion at the samples' times, computed with their rows, for the
+            # samples of many launches at once (dem.instruments.InstrumentRecorder)
             rec.instruments.sample_blocks(t, r[:, 0:3], r[:, 3:7], r[:, 7:10], r[:, 10:13],
-                                          rec.loading.base_disp(tt)[0],
-                                          rec.loading.base_vel(tt)[0])
+                                          rec.loading.base_disp, rec.loading.base_vel)
             rec.next_sample = next_multiple(t, rec.run.instrument_interval)
 
 

@@ -80,10 +80,10 @@ def restart_arrays(case, sim, recording, summary: dict) -> dict[str, np.ndarray]
     ins = recording.instruments
     if ins is not None:
         out.update({f"rec.instruments.{k}": np.asarray(v) for k, v in ins.rows.items()})
-        if ins._last is not None:
-            out["rec.last.t"] = np.array(ins._last[0])
-            out["rec.last.v_abs"] = np.asarray(ins._last[1])
-            out["rec.last.table_vel"] = np.asarray(ins._last[2])
+        if ins.last is not None:
+            out["rec.last.t"] = np.array(ins.last[0])
+            out["rec.last.v_abs"] = np.asarray(ins.last[1])
+            out["rec.last.table_vel"] = np.asarray(ins.last[2])
     return out
 
 
@@ -152,7 +152,7 @@ def apply_restart(arrays: dict, sim, recording) -> tuple[dict | None, str]:
     if ins is not None:
         for k in ins.rows:
             ins.rows[k] = list(arrays[f"rec.instruments.{k}"])
-        ins._last = (float(arrays["rec.last.t"]), arrays["rec.last.v_abs"].copy(),
+        ins.last = (float(arrays["rec.last.t"]), arrays["rec.last.v_abs"].copy(),
                      arrays["rec.last.table_vel"].copy()) if "rec.last.t" in arrays else None
     recording.next_frame = float(arrays["rec.next_frame"])
     recording.next_sample = float(arrays["rec.next_sample"])

@@ -38,6 +38,21 @@ CALM_CHECKS = 3      # looks in a row at rest
 MAX_TIME = 5.0       # s: give up (reported) after this
 
 
+class RestLoads:
+    """The settling's loads (dem.run.steps.LoadFn): gravity ``g0`` (m/s^2, table frame) and no
+    base acceleration at every time.  A value, not a closure: the settling scenes of an engine
+    with equal gravity share one evaluation a chunk (dem.run.batched.shared_loads compares the
+    load functions' pickled states)."""
+
+    immutable = True
+
+    def __init__(self, g0):
+        self.g0 = np.asarray(g0, dtype=float)
+
+    def __call__(self, t):
+        return np.tile(self.g0, (len(t), 1)), np.tile(np.zeros(3), (len(t), 1))
+
+
 def settle(sim, loading, local_damping: float, max_steps: int | None = None,
            on_look=None) -> dict:
     """Bring the scene to rest (module docstring); returns summary.json's ``settling``.
@@ -51,11 +66,7 @@ def settle_steps(sim, loading, local_damping: float, max_steps: int | None = Non
     """:func:`settle` as a steppable phase (dem.run.steps): yields its advances, returns
     summary.json's ``settling``."""
     g0 = loading.gravity(np.array([0.0]))[0]
-    zero = np.zeros(3)
-
-    def loads(t):
-        return np.tile(g0, (len(t), 1)), np.tile(zero, (len(t), 1))
-
+    loads = RestLoads(g0)
     n = sim.n_blocks
     movable = ~sim.model.fixed_np[:n]
     pos0 = sim.read_state("pos").pos[:n].copy()
