@@ -100,7 +100,7 @@ sys.path.insert(0, str(ROOT))
 # the H100's kernels of one step of 64 Model II scenes (results/batched-engine/README.md, "Where
 # a GPU step goes": Taichi's kernel profiler, the pair loop, body loop and serial tasks)
 H100_KERNEL_STEP_MS = 0.135
-# the issue's target: the host's share of a step at K = 64 below this fraction of the GPU step
+# the target: the host's share of a step at K = 64 below this fraction of the GPU step
 TARGET_SHARE = 0.10
 
 # a run's start (build, first frame, settling's set-up) and end (its summary and files written):
