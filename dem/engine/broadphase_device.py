@@ -129,6 +129,28 @@ def listed(b0, i, j, table, skin, half: ti.template(), radius: ti.template(),
     return out
 
 
+@ti.func
+def no_kept_patch(slot, patch_shape: ti.template()):
+    """No kept contact patch survives a rebuild (patch_shape[slot, 0][3] = 0)."""
+    shape = patch_shape[slot, 0]
+    shape[3] = 0.0
+    patch_shape[slot, 0] = shape
+
+
+@ti.func
+def no_history(slot, n_old, code: ti.template(), npts: ti.template(), loc: ti.template(),
+               shear: ti.template(), patch_shape: ti.template()):
+    """Pair slot ``slot`` without history: no contact code, no points, no kept patch; its
+    locations and shear zeroed where the old list had any pair (n_old > 0) to leave them."""
+    code[slot] = -1
+    npts[slot] = 0
+    if n_old > 0:
+        for q in range(MAXP):
+            loc[slot, q] = vec3(0.0)
+            shear[slot, q] = vec3(0.0)
+    no_kept_patch(slot, patch_shape)
+
+
 @ti.kernel
 def rebuild_flagged(s: ti.i32, R: ti.i32,
                     half: ti.types.ndarray(ndim=1), radius: ti.types.ndarray(ndim=1),
@@ -249,15 +271,7 @@ def rebuild_flagged(s: ti.i32, R: ti.i32,
                     old_shear[slot, q] = shear[slot, q]
             if p >= info[f, 1]:
                 pairs[slot] = ivec2(0, 0)
-                code[slot] = -1
-                npts[slot] = 0
-                if n_old > 0:
-                    for q in range(MAXP):
-                        loc[slot, q] = vec3(0.0)
-                        shear[slot, q] = vec3(0.0)
-                shape = patch_shape[slot, 0]
-                shape[3] = 0.0
-                patch_shape[slot, 0] = shape
+                no_history(slot, n_old, code, npts, loc, shear, patch_shape)
                 adj[2 * g * P + 2 * p] = 0
                 adj[2 * g * P + 2 * p + 1] = 0
     # 6. per row: its pairs in order of j, each with the history of its old slot (binary
@@ -298,16 +312,9 @@ def rebuild_flagged(s: ti.i32, R: ti.i32,
                         for q in range(MAXP):
                             loc[slot, q] = old_loc[src, q]
                             shear[slot, q] = old_shear[src, q]
+                        no_kept_patch(slot, patch_shape)
                     else:
-                        code[slot] = -1
-                        npts[slot] = 0
-                        if n_old > 0:
-                            for q in range(MAXP):
-                                loc[slot, q] = vec3(0.0)
-                                shear[slot, q] = vec3(0.0)
-                    shape = patch_shape[slot, 0]
-                    shape[3] = 0.0
-                    patch_shape[slot, 0] = shape
+                        no_history(slot, n_old, code, npts, loc, shear, patch_shape)
                     k += 1
             ref_pos[b0 + i] = pos[b0 + i]
             ref_quat[b0 + i] = quat[b0 + i]
