@@ -84,6 +84,7 @@ Prints one JSON line per run and per (phase, K) (``--json FILE`` appends them).
 
 import argparse
 import json
+import os
 import shutil
 import sys
 import tempfile
@@ -392,6 +393,7 @@ def one_run(k: int, steps: int, phase: str, out_root: Path, clock_name: str = "w
     def on_engine(engine) -> None:  # the construction is left out
         held["engine"] = engine
         held["chunks0"] = engine.n_chunks
+        held["launches0"] = engine.launcher.n_launches
         clock.seconds.clear()
         clock.calls.clear()
         held["t"] = clock.now()
@@ -421,6 +423,8 @@ def one_run(k: int, steps: int, phase: str, out_root: Path, clock_name: str = "w
             "device_s": kernel, "device_launches": kernel_calls, "wrapped_calls": wrapped,
             "stage_s": seconds, "stage_calls": calls,
             "rebuilds": sum(s.n_rebuilds for s in engine.simulations),
+            "steps_per_launch": engine.launcher.variants.device_steps,
+            "stepping_launches": engine.launcher.n_launches - held["launches0"],
             "status": sorted({r["status"] for r in records}),
             "steps_done": sorted({s.get("steps") for s in summaries}, key=str),
             "digests": [digest(d) for d in dirs]}
@@ -453,6 +457,9 @@ def summarise(runs: list[dict], clock_cost_s: float) -> dict:
            "device_ms_per_step_here": 1e3 * med([r["device_s"] for r in runs]) / steps,
            "device_launches_per_step": med([r["device_launches"] for r in runs]) / steps,
            "device_launches_per_chunk": med([r["device_launches"] for r in runs]) / chunks,
+           "steps_per_launch": first.get("steps_per_launch"),
+           "stepping_launches_per_step": med([r.get("stepping_launches", 0) for r in runs])
+           / steps,
            "one_off_s_per_run": {**{s: med([r["stage_s"].get(s, 0.0) for r in runs])
                                     for s in ONE_OFF}, "after the run loop": med(after)},
            "stage_ms_per_step": {s: 1e3 * v / steps for s, v in stages.items()},
@@ -475,7 +482,8 @@ def summarise(runs: list[dict], clock_cost_s: float) -> dict:
 
 def print_table(rec: dict) -> None:
     print(f"\n{rec['phase']}, K = {rec['K']} ({rec['clock']} clock): {rec['steps']} steps, "
-          f"{rec['chunks']:.0f} chunks, "
+          f"{rec['chunks']:.0f} chunks, {rec.get('steps_per_launch')} steps a launch "
+          f"({rec.get('stepping_launches_per_step', 0):.3f} stepping launches a step), "
           f"{rec['rebuilds']:.0f} rebuilds; median of {rec['repeats']}: wall {rec['wall_s']:.2f}"
           f" s, device work {rec['device_s']:.2f} s, host {rec['host_s']:.3f} s = "
           f"{rec['host_ms_per_chunk']:.3f} ms/chunk, {rec['host_ms_per_step']:.4f} ms/step "
@@ -505,6 +513,9 @@ def main() -> int:
                     help="the stages' clock: wall (default), or cpu: the CPU time of the "
                          "process's thread (less the machine's other load; wall_s is then that "
                          "clock's too)")
+    ap.add_argument("--steps-per-launch", type=int, default=None,
+                    help="the device's stepping kernel's steps a launch (DEM_STEPS_PER_LAUNCH; "
+                         "default: dem.engine.step_device's, 1 on the CPU)")
     ap.add_argument("--launch", action="store_true",
                     help="no runs: the Python of one cached launch of the stepping kernel and "
                          "its parts, for each K (launch_parts)")
@@ -524,6 +535,8 @@ def main() -> int:
             emit(rec, args.json)
             print_table(rec)
         return 0
+    if args.steps_per_launch is not None:
+        os.environ["DEM_STEPS_PER_LAUNCH"] = str(args.steps_per_launch)
     phases = args.phases.split(",")
     bad = set(phases) - {"settling", "shaking"}
     if bad:

@@ -8,14 +8,16 @@ second tier, fixed blocks, blocks near the table), and poses exactly on the thre
 inflated boxes touching, the lowest corner exactly one skin above the table: numbers exact in
 binary, so that both sides decide them alike whatever their round-off).  Then a batched run
 through rebuilds, the device's broad phase against the host's on the same device path: the
-lists, the shear history and the trajectories equal bit for bit, in fewer chunks.  One engine
-construction each compiles nothing the device tests do not (tests/warm_kernels.py's device
-variant compiles the rebuild kernel too).
+lists, the shear history and the trajectories equal bit for bit, in fewer chunks (the
+reference, ``device_broad_phase=False``, compiles the parallel kernel of one step a launch on
+device arrays: this file's worker only).  Several steps a launch (dem.engine.step_device)
+against one: under the ``slow`` marker (its compile).
 """
 
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from dem.engine.broadphase import candidate_pairs
 from dem.engine.containers import pair_lists
@@ -182,3 +184,38 @@ def test_a_lone_scene_on_the_device_rebuilds_there():
     assert a.n_rebuilds == b.n_rebuilds > 2
     assert np.array_equal(a.read_state("pos").pos, b.read_state("pos").pos)
     assert dev.n_chunks == -(-400 // DEVICE_CHUNK) < ref.n_chunks
+
+
+@pytest.mark.slow  # compiles the device kernel for 3 steps a launch (~3 min of CPU on the
+# test VM); the default tests run it at one step a launch, the same code once a step
+def test_several_steps_a_launch_give_the_run_of_one_step_a_launch():
+    """The device's kernel at 3 steps a launch (a chunk of 256 steps is not a multiple of 3:
+    its last launch runs past the chunk's end) against one step a launch: the same lists,
+    history, trajectories, rebuilds and chunks bit for bit, a third of the launches; and a
+    scene that fails inside a launch stops it where one step a launch stops."""
+    loads = [shake(4.0, 7.0), shake(6.0, 8.0, axis=1), shake(5.0, 9.0)]
+    opts = options(skin=2e-4)
+    runs = {u: Engine([wall() for _ in loads], JOINTS, opts, device_arrays=True,
+                      steps_per_launch=u) for u in (1, 3)}
+    for e in runs.values():
+        for g, sim in enumerate(e.simulations):
+            sim.state.vel[g:-1, g % 2] += 0.2
+        e.advance(300, loads)
+        e.simulations[1].state.vel[0, 2] = np.nan  # scene 1 fails at its next step
+        e.advance(300, loads)
+    one, three = runs[1], runs[3]
+    assert three.launcher.variants.device_steps == 3
+    for a, b in zip(three.simulations, one.simulations):
+        for name in ("pos", "quat", "vel", "angmom"):
+            assert np.array_equal(getattr(a.read_state(name), name),
+                                  getattr(b.read_state(name), name)), name
+        fields = ("pairs", "adj_ptr", "adj", "code", "npts", "loc", "shear")
+        ca, cb = a.read_contacts(*fields), b.read_contacts(*fields)
+        for name in fields:
+            assert np.array_equal(getattr(ca, name), getattr(cb, name)), name
+        assert (a.n_rebuilds, a.step_count, a.t) == (b.n_rebuilds, b.step_count, b.t)
+    assert min(s.n_rebuilds - 1 for s in three.simulations) >= 5
+    assert isinstance(three.simulations[1].failure, type(one.simulations[1].failure))
+    assert three.simulations[1].failure is not None
+    assert three.n_chunks == one.n_chunks
+    assert three.launcher.n_launches < one.launcher.n_launches / 2.5

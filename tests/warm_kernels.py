@@ -60,8 +60,8 @@ ROOT = Path(__file__).resolve().parent.parent
 # overlap variant's build compiles it, before overlap reuse is switched on), parallel with
 # two scenes on device arrays (the serial one with device arrays is that kernel), and one
 # scene on device arrays (on a device the kernels are the batched ones for one scene too:
-# dem.engine.launcher.KernelVariants; the two scenes' variant also compiles the device's
-# broad phase, dem.engine.broadphase_device).  Not here
+# dem.engine.launcher.KernelVariants; on device arrays the stepping kernel is the device's,
+# with its broad phase, one step a launch: dem.engine.step_device).  Not here
 # either: the parallel kernel on warped faces (lone, batched, batched on device arrays), which
 # one default test each reaches (test_resume's parallel kernel, test_batched_runs' device
 # arrays): compiled once by that test's worker either way.

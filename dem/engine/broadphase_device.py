@@ -1,11 +1,11 @@
 """Broad phase on the device: a scene's neighbour list rebuilt between two steps of a chunk.
 
-On the device path (dem.engine.residency.DeviceResidency) :func:`rebuild_flagged` is launched
-after every step of a chunk (Launcher.launch).  For every scene whose skin criterion fired at
-that step (``integrate_stage`` raised its REBUILD bit: a body moved by more than skin/2 since
-the last rebuild), it rebuilds the scene's pair list on the device, so that the chunk goes on
-for every scene and the host is not involved; a scene without the bit costs nothing but the
-test of its bit.
+On the device path (dem.engine.residency.DeviceResidency) :func:`rebuild_stage` runs after
+every step of a chunk, in the same launch (dem.engine.step_device.advance_device).  For every
+scene whose skin criterion fired at that step (``integrate_stage`` raised its REBUILD bit: a
+body moved by more than skin/2 since the last rebuild), it rebuilds the scene's pair list on
+the device, so that the chunk goes on for every scene and the host is not involved; a scene
+without the bit costs nothing but the test of its bit.
 
 The list is the one the host's broad phase makes (dem.engine.broadphase.candidate_pairs, the
 same formulas in the same order):
@@ -39,13 +39,15 @@ A list longer than the scene's capacity is not written: the scene keeps its REBU
 stops the chunk (control.steps_done[1]); the host then runs its own broad phase for that scene
 (Simulation.rebuild), which raises today's CapacityError with its message.
 
-Each scene's rebuilds of a chunk are counted in :class:`DeviceBroadPhase`'s ``rebuilds``
-(reset by dem.engine.device.unpack_chunk, brought back with the diagnostics by
-dem.engine.device.pack_diagnostics: summary.json's ``neighbour_rebuilds``).
+Each scene's rebuilds of a chunk are counted in the ``rebuilds`` of
+dem.engine.step_device.DeviceStepper (reset by dem.engine.device.unpack_chunk, brought back
+with the diagnostics by dem.engine.device.pack_diagnostics: summary.json's
+``neighbour_rebuilds``).
 
-Memory (the scratch arrays of :class:`DeviceBroadPhase`): a G x R x R table of the pair tests
-(R the largest scene's bodies, 4 bytes a cell: 19 MB for 100 scenes of 217 bodies) and a copy
-of the history of every pair slot (the old list's, read while the new one is written).
+Memory (the scratch arrays of dem.engine.step_device.DeviceStepper): a G x R x R table of the
+pair tests (R the largest scene's bodies, 4 bytes a cell: 19 MB for 100 scenes of 217 bodies)
+and a copy of the history of every pair slot (the old list's, read while the new one is
+written).
 """
 
 
@@ -151,28 +153,22 @@ def no_history(slot, n_old, code: ti.template(), npts: ti.template(), loc: ti.te
     no_kept_patch(slot, patch_shape)
 
 
-@ti.kernel
-def rebuild_flagged(s: ti.i32, R: ti.i32,
-                    half: ti.types.ndarray(ndim=1), radius: ti.types.ndarray(ndim=1),
-                    inv_mass: ti.types.ndarray(ndim=1), scene_bodies: ti.types.ndarray(ndim=1),
-                    pos: ti.types.ndarray(ndim=1), quat: ti.types.ndarray(ndim=1),
-                    rot: ti.types.ndarray(ndim=1),
-                    pairs: ti.types.ndarray(ndim=1), adj_ptr: ti.types.ndarray(ndim=1),
-                    adj: ti.types.ndarray(ndim=1), scene_pairs: ti.types.ndarray(ndim=1),
-                    ref_pos: ti.types.ndarray(ndim=1), ref_quat: ti.types.ndarray(ndim=1),
-                    code: ti.types.ndarray(ndim=1), npts: ti.types.ndarray(ndim=1),
-                    loc: ti.types.ndarray(ndim=2), shear: ti.types.ndarray(ndim=2),
-                    patch_shape: ti.types.ndarray(ndim=2),
-                    status: ti.types.ndarray(ndim=1), steps_done: ti.types.ndarray(ndim=1),
-                    active: ti.types.ndarray(ndim=1), step_parameters: ti.types.ndarray(ndim=1),
-                    flagged: ti.types.ndarray(ndim=1), info: ti.types.ndarray(ndim=2),
-                    hit: ti.types.ndarray(ndim=1), rows: ti.types.ndarray(ndim=2),
-                    old_pairs: ti.types.ndarray(ndim=1), old_code: ti.types.ndarray(ndim=1),
-                    old_npts: ti.types.ndarray(ndim=1), old_loc: ti.types.ndarray(ndim=2),
-                    old_shear: ti.types.ndarray(ndim=2), rebuilds: ti.types.ndarray(ndim=1)):
-    """After step s of a chunk (the parallel kernel's launch s): the neighbour list of every
-    scene whose REBUILD bit is set, rebuilt on the device (module docstring).  Nothing happens
-    where step s did not run (the chunk stopped earlier: control.steps_done[0] != s + 1).
+@ti.func
+def rebuild_stage(s, R, half: ti.template(), radius: ti.template(),
+                  inv_mass: ti.template(), scene_bodies: ti.template(), pos: ti.template(),
+                  quat: ti.template(), rot: ti.template(), pairs: ti.template(),
+                  adj_ptr: ti.template(), adj: ti.template(), scene_pairs: ti.template(),
+                  ref_pos: ti.template(), ref_quat: ti.template(), code: ti.template(),
+                  npts: ti.template(), loc: ti.template(), shear: ti.template(),
+                  patch_shape: ti.template(), status: ti.template(), steps_done: ti.template(),
+                  active: ti.template(), step_parameters: ti.template(), flagged: ti.template(),
+                  info: ti.template(), hit: ti.template(), rows: ti.template(),
+                  old_pairs: ti.template(), old_code: ti.template(), old_npts: ti.template(),
+                  old_loc: ti.template(), old_shear: ti.template(), rebuilds: ti.template()):
+    """After step s of a chunk (inlined after each step of dem.engine.step_device.advance_device):
+    the neighbour list of every scene whose REBUILD bit is set, rebuilt on the device (module
+    docstring).  Nothing happens where step s did not run (the chunk stopped earlier or ended:
+    control.steps_done[0] != s + 1).
 
     R: the bodies of the largest scene (the rows of ``hit`` and ``rows``).  Scratch:
     ``flagged`` [G + 1] (the count of scenes to rebuild, then their indices), ``info`` [G, 3]
@@ -337,45 +333,3 @@ def rebuild_flagged(s: ti.i32, R: ti.i32,
                 if p != 0:
                     adj[e] = 2 * (p - 1)
                     e += 1
-
-
-class DeviceBroadPhase:
-    """The scratch arrays of :func:`rebuild_flagged` for an engine's containers on the device
-    (``dev``: dem.engine.device.DeviceArrays by container name) and the kernel's launch
-    (:meth:`launch`, cached: dem.engine.launch).  ``rebuilds``: the device array [G] of each
-    scene's rebuilds since the chunk began (dem.engine.device.ChunkCopies: reset by
-    unpack_chunk, packed with the diagnostics)."""
-
-    def __init__(self, model, contacts, dev, real, rebuilds):
-        from dem.engine.launch import CachedLaunch
-
-        G = len(model.scene_bodies)
-        P = contacts.capacity
-        sb = model.scene_bodies
-        self.R = int((sb[:, 1] - sb[:, 0]).max())
-        v3 = ti.types.vector(3, real)
-        self.flagged = ti.ndarray(ti.i32, shape=(G + 1,))
-        self.info = ti.ndarray(ti.i32, shape=(G, 3))
-        self.hit = ti.ndarray(ti.i32, shape=(G * self.R * self.R,))
-        self.rows = ti.ndarray(ti.i32, shape=(G * self.R, 2))
-        self.old_pairs = ti.ndarray(ti.types.vector(2, ti.i32), shape=(G * P,))
-        self.old_code = ti.ndarray(ti.i32, shape=(G * P,))
-        self.old_npts = ti.ndarray(ti.i32, shape=(G * P,))
-        self.old_loc = ti.ndarray(v3, shape=(G * P, MAXP))
-        self.old_shear = ti.ndarray(v3, shape=(G * P, MAXP))
-        self.rebuilds = rebuilds
-        m, st, c, ctl = (dev[k].dev for k in ("model", "state", "contacts", "control"))
-        # the recording launch at s = -2 does nothing (steps_done[0] is never -1)
-        self._launch = CachedLaunch(
-            rebuild_flagged, (-2, self.R),
-            m["half"], m["radius"], m["inv_mass"], m["scene_bodies"],
-            st["pos"], st["quat"], st["rot"],
-            c["pairs"], c["adj_ptr"], c["adj"], c["scene_pairs"], c["ref_pos"], c["ref_quat"],
-            c["code"], c["npts"], c["loc"], c["shear"], c["patch_shape"],
-            ctl["status"], ctl["steps_done"], ctl["active"], ctl["step_parameters"],
-            self.flagged, self.info, self.hit, self.rows, self.old_pairs, self.old_code,
-            self.old_npts, self.old_loc, self.old_shear, self.rebuilds)
-
-    def launch(self, s: int) -> None:
-        """After step s of a chunk: the flagged scenes' lists rebuilt (:func:`rebuild_flagged`)."""
-        self._launch(s, self.R)

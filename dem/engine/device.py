@@ -246,7 +246,7 @@ class ChunkCopies:
         self._diag_host = np.zeros((self.G + 1, DIAGNOSTIC_COLUMNS), dtype=self.np_real)
         self._diag_dev = ti.ndarray(real, shape=self._diag_host.shape)
         # each scene's neighbour-list rebuilds on the device since the chunk began (written by
-        # dem.engine.broadphase_device.rebuild_flagged), and the host's copy of the last chunk's
+        # dem.engine.broadphase_device.rebuild_stage), and the host's copy of the last chunk's
         self.rebuilds = ti.ndarray(ti.i32, shape=(self.G,))
         self.rebuilds.from_numpy(np.zeros(self.G, dtype=np.int32))
         self.rebuilds_host = np.zeros(self.G, dtype=np.int64)

@@ -74,15 +74,15 @@ class CachedLaunch:
         if rec.ctx is not None and hasattr(rec.ctx, "set_arg_int") and \
                 hasattr(rec.ctx, "set_arg_float"):
             self.ctx, self.compiled, self.prog = rec.ctx, rec.compiled, prog
-            self.device_arrays = _device_array_slots(scalars, arrays)
+            args = _launch_args(kernel, scalars, arrays)
+            self.device_arrays = _device_array_slots(args)
             if self.device_arrays:
                 # device arrays: a fresh context per launch (reusing one after a CUDA launch
                 # crashed Taichi 1.7.4 in set_arg_int), filled with the scalars, the argpacks
                 # and their arrays as Taichi's own call does, without its Python-side checks
                 self.t_kernel = spied.get("t_kernel")
-                self.argpacks = [((k,), v._ArgPack__argpack) for k, v in enumerate(
-                    v for v in (*scalars, *arrays) if not isinstance(v, bool))
-                    if hasattr(v, "_ArgPack__argpack")]
+                self.argpacks = [((k,), v._ArgPack__argpack) for k, v in enumerate(args)
+                                 if hasattr(v, "_ArgPack__argpack")]
                 if (self.t_kernel is None or self.device_arrays[0][1] is None
                         or not hasattr(rec.ctx, "set_arg_ndarray")
                         or not hasattr(rec.ctx, "set_arg_argpack")):
@@ -111,7 +111,21 @@ class CachedLaunch:
         self.prog.launch_kernel(self.compiled, ctx)
 
 
-def _device_array_slots(scalars: tuple, arrays: tuple) -> list:
+def _launch_args(kernel, scalars: tuple, arrays: tuple) -> list:
+    """The arguments Taichi puts in the launch context, in order: all but the compile-time
+    (``ti.template()``) ones, read from the kernel's annotations (a template may be an int: the
+    steps a launch of dem.engine.step_device.advance_device); without them (not the Taichi this
+    was written for), all but the bools."""
+    from taichi.types.annotations import template
+
+    values = (*scalars, *arrays)
+    params = getattr(getattr(kernel, "_primal", None), "arguments", None)
+    if params is None or len(params) != len(values):
+        return [v for v in values if not isinstance(v, bool)]
+    return [v for v, p in zip(values, params) if not isinstance(p.annotation, template)]
+
+
+def _device_array_slots(positional: list) -> list:
     """The launch-context slots of the Taichi ndarrays (device arrays, dem.engine.device), the
     kernel's own array arguments and the members of its argpack arguments, with their C++
     arrays: Taichi 1.7.4 sets an array argument in the slot of its position and an argpack's
@@ -122,7 +136,6 @@ def _device_array_slots(scalars: tuple, arrays: tuple) -> list:
     from taichi.lang._ndarray import Ndarray
     from taichi.lang.argpack import ArgPack
 
-    positional = [v for v in (*scalars, *arrays) if not isinstance(v, bool)]
     slot = len(positional)
     out = []
     for k, v in enumerate(positional):

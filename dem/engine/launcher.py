@@ -6,9 +6,10 @@ residency's ``CHUNK_STEPS``, dem.engine.residency): the loads of its steps are w
 into control.loads (one row a step and scene), the serial kernel runs them in one launch (the
 parallel kernel in one launch a step, with no read-back between them), and the chunk ends early
 after a step that raised a status bit of any scene (STOP: a scene failed; REBUILD: a scene's
-neighbour list must be rebuilt).  On a device (the residency's ``broad_phase_launch``) a
-rebuild is done there after the step that asked for it (dem.engine.broadphase_device) and ends
-the chunk only where the new list does not fit.  Between chunks the host rebuilds the neighbour
+neighbour list must be rebuilt).  On a device (the residency's ``device_stepper``) the
+stepping kernel runs several steps a launch (dem.engine.step_device), each followed by the
+rebuild of the lists that asked for one (dem.engine.broadphase_device): a rebuild ends the
+chunk only where the new list does not fit.  Between chunks the host rebuilds the neighbour
 lists asked for, freezes failed scenes, checks the hyperbolic closures and the area caps
 (dem.engine.stepsize).
 
@@ -73,6 +74,9 @@ class KernelVariants:
     pair_damping the pair's no-tension rule of the normal dashpots (material.normal_damping:
                  pair or stiffness)
     atomic_sums  the parallel kernel's sums as atomics (on a device); the serial kernel has none
+    device_steps an engine on a device with its broad phase there: the steps a launch of
+                 dem.engine.step_device.advance_device (batched, atomic sums); 0: the kernels
+                 of dem.engine.step (the host's broad phase between chunks)
 
     A perfect, linear, lone scene runs the perfect model's code (bit for bit, at its speed)."""
 
@@ -82,22 +86,30 @@ class KernelVariants:
     batched: bool
     pair_damping: bool
     atomic_sums: bool
+    device_steps: int = 0
 
     @classmethod
-    def of(cls, model, models, contacts, mode: str, on_device: bool) -> "KernelVariants":
+    def of(cls, model, models, contacts, mode: str, on_device: bool,
+           device_steps: int = 0) -> "KernelVariants":
         """The variants of an engine of the scenes of ``models`` (one Model each; ``model``:
         the engine's, all of them), their Contacts ``contacts`` (one region each: the overlap
-        reuse tolerance is kept there), the kernel ``mode`` and whether it runs on a device."""
+        reuse tolerance is kept there), the kernel ``mode``, whether it runs on a device and
+        the steps a launch of the device's kernel (0: none)."""
         warped = bool(model.imperfect.any())
         return cls(warped=warped,
                    hyperbolic=any(m.closure_limit() is not None for m in models),
                    overlap=overlap_wanted(warped, contacts),
                    batched=len(models) > 1 or on_device,
                    pair_damping=any(m.pair_damping() for m in models),
-                   atomic_sums=mode == "parallel" and on_device)
+                   atomic_sums=mode == "parallel" and on_device,
+                   device_steps=device_steps if on_device else 0)
 
     def stepping(self, mode: str) -> tuple:
-        """The flags the stepping kernel of ``mode`` takes, in its order."""
+        """The flags the stepping kernel of ``mode`` takes, in its order (the device's:
+        dem.engine.step_device.DeviceStepper.launch's)."""
+        if self.device_steps:
+            return (self.device_steps, self.warped, self.hyperbolic, self.overlap,
+                    self.pair_damping)
         flags = (self.warped, self.hyperbolic, self.overlap, self.batched, self.pair_damping)
         return flags + (self.atomic_sums,) if mode == "parallel" else flags
 
@@ -112,27 +124,34 @@ class Launcher:
     """The chunks of one engine (``engine``: dem.engine.simulation.Engine, read for its
     containers, residency, step size, scenes and control)."""
 
-    def __init__(self, engine, fast_launch: bool = True):
+    def __init__(self, engine, fast_launch: bool = True, steps_per_launch: int | None = None):
         self.engine = engine
         self.fast_launch = fast_launch
+        self.steps_per_launch = steps_per_launch  # the device's kernel (Engine)
         self.n_chunks = 0  # chunks launched (one launch, or k of the parallel kernel)
+        self.n_launches = 0  # stepping kernel launches
         self.variants: KernelVariants | None = None
-        self.kernel = None  # the stepping kernel's launch: kernel(step, n_slots, dt)
-        # the device's broad phase after each step of a chunk, rebuild(step); None: the host's
-        # between chunks (dem.engine.residency)
-        self.rebuild = None
+        # the stepping kernel's launch: kernel(step, n_slots, dt); the device's,
+        # kernel(first step, chunk's steps, dt)
+        self.kernel = None
+        # the device's stepping kernel and broad phase (dem.engine.step_device.DeviceStepper);
+        # None: the host's broad phase between chunks (dem.engine.residency)
+        self.stepper = None
 
     # ------------------------------------------------------------------------------------
     def warm_up(self) -> None:
         """Compile every kernel (or load it from Taichi's offline cache) with zero work, and
         record the stepping kernel's launch (dem.engine.launch: later launches skip Taichi's
         per-call argument handling unless ``fast_launch`` is False)."""
+        from dem.engine.step_device import steps_per_launch
+
         e = self.engine
+        self.stepper = e.residency.device_stepper()
+        steps = steps_per_launch(self.steps_per_launch) if self.stepper is not None else 0
         self.variants = KernelVariants.of(e.model, [s.model for s in e.simulations],
                                           [s.contacts_on_host for s in e.simulations], e.mode,
-                                          e.on_device)
+                                          e.on_device, steps)
         self.record_launch()
-        self.rebuild = e.residency.broad_phase_launch()
         v = self.variants
         m, st, c, _ = e.containers()
         depth = np.zeros(1, dtype=ti_runtime.real_dtype())
@@ -141,8 +160,12 @@ class Launcher:
 
     def record_launch(self) -> None:
         """Record the stepping kernel's launch for :attr:`variants`
-        (dem.engine.step.advance_serial / advance_parallel)."""
+        (dem.engine.step.advance_serial / advance_parallel, or the device's
+        dem.engine.step_device.advance_device)."""
         e = self.engine
+        if self.variants.device_steps:
+            self.kernel = self.stepper.launch(*self.variants.stepping(e.mode))
+            return
         if e.mode == "serial":
             kernel, scalars = stepk.advance_serial, (0, 0, float(e.dt))
         else:  # "step -2": the recording launch does nothing (steps_done is 0, not -2 or -1)
@@ -231,13 +254,18 @@ class Launcher:
         dt = e.dt
         if e.mode == "serial":
             self.kernel(k, n_slots, dt)
-        elif self.rebuild is None:
+            self.n_launches += 1
+        elif self.variants.device_steps:
+            # U steps a launch, each then the lists of the scenes that must rebuild; no
+            # read-back between launches (a stopped chunk's launches idle)
+            U = self.variants.device_steps
+            for s in range(0, k, U):
+                self.kernel(s, k, dt)
+            self.n_launches += -(-k // U)
+        else:
             for s in range(k):  # no read-back between steps: a stopped chunk's launches idle
                 self.kernel(s, n_slots, dt)
-        else:
-            for s in range(k):  # each step, then the lists of the scenes that must rebuild
-                self.kernel(s, n_slots, dt)
-                self.rebuild(s)
+            self.n_launches += k
         e.residency.from_device()
         done = int(ctl.steps_done[0])
         if probes:

@@ -32,8 +32,9 @@ Picture (one chunk of a device engine)::
     new loads rows, probe plan   --push-->  ring of loads -> Control   (one copy; unpack_chunk)
     changed Control fields       --push-->  Control           (seldom)
     dirty State/Contacts fields  --push-->  State, Contacts
-                                             stepping kernel, then rebuild_flagged (the
-                                             lists of the scenes that asked), x k steps
+                                             advance_device: each step, then the lists
+                                             of the scenes that asked, U steps a launch,
+                                             k/U launches (dem.engine.step_device)
     Control (status, sums, pair  <--pull--  Control           (one copy; pack_diagnostics)
       counts, rebuilds)
     State/Contacts fields        <--pull--  only the stale ones a reader asks for
@@ -95,9 +96,9 @@ class HostResidency:
     def from_device(self) -> None:
         """Nothing to copy after a launch."""
 
-    def broad_phase_launch(self):
+    def device_stepper(self):
         """No broad phase between the steps of a chunk: a rebuild ends the chunk
-        (:meth:`DeviceResidency.broad_phase_launch`)."""
+        (:meth:`DeviceResidency.device_stepper`)."""
         return None
 
     def rebuilds(self) -> None:
@@ -163,7 +164,7 @@ class DeviceResidency:
 
         self.model, self.state, self.contacts, self.control = model, state, contacts, control
         self.lists_on_device = bool(device_broad_phase)
-        self._broad_phase = None  # dem.engine.broadphase_device.DeviceBroadPhase, when asked
+        self._broad_phase = None  # dem.engine.step_device.DeviceStepper, when asked
         self.dev = {name: DeviceArrays(box) for name, box in (
             ("model", model), ("state", state), ("contacts", contacts), ("control", control))}
         for d in self.dev.values():
@@ -310,19 +311,18 @@ class DeviceResidency:
             self.stale["contacts"].update(self.LISTS)
         self._current.clear()
 
-    def broad_phase_launch(self):
-        """The launch of the device's broad phase after step s of a chunk, ``launch(s)``
-        (dem.engine.broadphase_device.rebuild_flagged: compiled here on the first call), or
-        None where the host's broad phase is used (``device_broad_phase`` False)."""
+    def device_stepper(self):
+        """The device's stepping kernel with its broad phase (dem.engine.step_device: its
+        scratch made on the first call), or None where the host's broad phase is used
+        (``device_broad_phase`` False: one step a launch of dem.engine.step.advance_parallel)."""
         if not self.lists_on_device:
             return None
         if self._broad_phase is None:
-            from dem.engine.broadphase_device import DeviceBroadPhase
+            from dem.engine.step_device import DeviceStepper
 
-            real = ti.f32 if ti_runtime.real_dtype() == np.float32 else ti.f64
-            self._broad_phase = DeviceBroadPhase(self.model, self.contacts, self.dev, real,
-                                                 self._chunk.rebuilds)
-        return self._broad_phase.launch
+            self._broad_phase = DeviceStepper(self.model, self.contacts, self.dev,
+                                              self._chunk.rebuilds)
+        return self._broad_phase
 
     def rebuilds(self) -> np.ndarray:
         """Each scene's neighbour-list rebuilds on the device in the last launch (brought back

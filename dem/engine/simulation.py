@@ -74,6 +74,9 @@ class Engine:
                between two steps of a chunk (dem.engine.broadphase_device; default); False: on
                the host between chunks, as the CPU path does (dem.engine.broadphase; the same
                lists: tests/test_broadphase_device.py).  Ignored without device arrays.
+    steps_per_launch : with the device's broad phase, the steps a launch of its stepping
+               kernel (dem.engine.step_device.steps_per_launch: None, DEM_STEPS_PER_LAUNCH or
+               by arch); the same trajectories for every value.
 
     Its parts: ``residency`` (where the arrays live), ``launcher`` (kernel, variants, chunks),
     ``step_size`` (the time step); the containers ``model``, ``state``, ``contacts``,
@@ -82,7 +85,8 @@ class Engine:
 
     def __init__(self, scenes: list[Scene], joints, options: StepOptions, gravity=None,
                  fast_launch: bool = True, views: "list[Simulation] | None" = None,
-                 device_arrays: bool | None = None, device_broad_phase: bool = True):
+                 device_arrays: bool | None = None, device_broad_phase: bool = True,
+                 steps_per_launch: int | None = None):
         # Taichi is started by the process's entry point (dem.run.build, dem.batch,
         # dem.run.batched: arch, threads, precision); for a library user who did not, this
         # starts it with the options' settings, and otherwise checks that they agree
@@ -108,7 +112,7 @@ class Engine:
         self.simulations = sims
         self.residency = kind(self.model, self.state, self.contacts, self.control,
                               device_broad_phase)
-        self.launcher = Launcher(self, fast_launch)
+        self.launcher = Launcher(self, fast_launch, steps_per_launch)
         t0 = time.perf_counter()
         self.launcher.warm_up()
         self.compile_seconds = time.perf_counter() - t0

@@ -720,7 +720,20 @@ def advance_parallel(s: ti.i32, n_slots: ti.i32, dt: float, model: ModelArgs,
     by each pair and body with atomics (scene_sums_atomic) instead of one thread per scene
     summing its pairs in order, which on a GPU costs more than the step (latency-bound loops
     of ~1000 loads): the trajectories are the same, the sums' last bits vary."""
-    if control.steps_done[0] == s and no_stop(control) == 1:
+    parallel_step(s, s + 1, n_slots, dt, model, state, contacts, control, warped, hyperbolic,
+                  overlap, batched, pair_damping, atomic_sums)
+
+
+@ti.func
+def parallel_step(s, chunk_steps, n_slots, dt, model: ti.template(), state: ti.template(),
+                  contacts: ti.template(), control: ti.template(), warped: ti.template(),
+                  hyperbolic: ti.template(), overlap: ti.template(), batched: ti.template(),
+                  pair_damping: ti.template(), atomic_sums: ti.template()):
+    """Step s of a chunk of ``chunk_steps`` steps as top-level parallel loops (inlined at a
+    kernel's top level: :func:`advance_parallel`, one step a launch, and
+    dem.engine.step_device.advance_device, several); the step runs where s < chunk_steps, the
+    steps before it ran (control.steps_done[0] == s) and no scene raised a status bit."""
+    if s < chunk_steps and control.steps_done[0] == s and no_stop(control) == 1:
         control.steps_done[0] = s + 1  # this step runs
     for p in range(n_slots):
         if control.steps_done[0] == s + 1 and slot_live(p, contacts, control, batched) == 1:
