@@ -186,7 +186,7 @@ def rebuild_stage(s, R, half: ti.template(), radius: ti.template(),
     ti.loop_config(serialize=True)
     for _ in range(1):
         n = 0
-        if steps_done[0] == s + 1:
+        if s >= 0 and steps_done[0] == s + 1:
             bits = 0
             for g in range(G):
                 st = status[g]

@@ -731,12 +731,15 @@ def parallel_step(s, chunk_steps, n_slots, dt, model: ti.template(), state: ti.t
                   pair_damping: ti.template(), atomic_sums: ti.template()):
     """Step s of a chunk of ``chunk_steps`` steps as top-level parallel loops (inlined at a
     kernel's top level: :func:`advance_parallel`, one step a launch, and
-    dem.engine.step_device.advance_device, several); the step runs where s < chunk_steps, the
-    steps before it ran (control.steps_done[0] == s) and no scene raised a status bit."""
+    dem.engine.step_device.advance_device, several); the step runs where 0 <= s < chunk_steps,
+    the steps before it ran (control.steps_done[0] == s) and no scene raised a status bit.  Its
+    loops test "step s ran" as control.steps_done[0] == s + 1 and s >= 0: at s = -1 that count
+    is also "no step yet" (a launch at a negative s runs nothing: the recording launches)."""
     if s < chunk_steps and control.steps_done[0] == s and no_stop(control) == 1:
         control.steps_done[0] = s + 1  # this step runs
     for p in range(n_slots):
-        if control.steps_done[0] == s + 1 and slot_live(p, contacts, control, batched) == 1:
+        if s >= 0 and control.steps_done[0] == s + 1 and \
+                slot_live(p, contacts, control, batched) == 1:
             contact_stage(p, dt, model, state, contacts, control, warped, hyperbolic, overlap,
                           batched, pair_damping)
             if ti.static(atomic_sums):
@@ -745,7 +748,7 @@ def parallel_step(s, chunk_steps, n_slots, dt, model: ti.template(), state: ti.t
                     k = p // slots_per_scene(contacts)
                 scene_sums_atomic(p, k, s, contacts, control)
     for b in range(state.pos.shape[0]):
-        if control.steps_done[0] == s + 1:
+        if s >= 0 and control.steps_done[0] == s + 1:
             integrate_stage(b, s, dt, model, state, contacts, control, batched)
             k = 0
             if ti.static(batched):
@@ -759,7 +762,7 @@ def parallel_step(s, chunk_steps, n_slots, dt, model: ti.template(), state: ti.t
                         probe_stage(k, j, s, state, control)
     if ti.static(not atomic_sums):
         for k in range(control.status.shape[0]):
-            if control.steps_done[0] == s + 1 and control.active[k] != 0:
+            if s >= 0 and control.steps_done[0] == s + 1 and control.active[k] != 0:
                 energy_stage(k, n_slots, model, state, contacts, control, batched)
                 deepest_stage(k, s, n_slots, model, state, contacts, control, batched)
 

@@ -9,11 +9,11 @@ launch a step.  :func:`advance_device` runs ``steps`` steps in one launch: each 
 :func:`dem.engine.step.parallel_step` and then :func:`dem.engine.broadphase_device.rebuild_stage`,
 inlined one after the other at the kernel's top level (``ti.static(range(steps))`` unrolls
 them: every loop stays a top-level parallel loop, and Taichi runs the top-level loops one after
-the other, as the separate launches ran them).  A step s >= the chunk's length, or after a step
-that raised a stop bit, does nothing (parallel_step's test), so the host launches
+the other, as the separate launches ran them).  A step s >= the chunk's length (or < 0), or
+after a step that raised a stop bit, does nothing (parallel_step's test), so the host launches
 s0 = 0, steps, 2 steps, ... up to the chunk's length without reading anything back, and the
 trajectories are those of one step a launch, bit for bit (tests/test_engine_device.py,
-tests/test_broadphase_device.py).
+tests/test_broadphase_device.py; two steps a launch under the ``slow`` marker).
 
 One argpack, :data:`DeviceStepArgs`: every field of the four containers (their names do not
 collide) and the broad phase's scratch, because Taichi 1.7.4 takes at most 64 argument elements
@@ -22,8 +22,8 @@ argpack instead of four, the chunk's length instead of the pair slots (on a devi
 ``pairs.shape[0]``), and the broad phase's integer scratch in one array read through views
 (:class:`Packed`: the largest scene's bodies R and each table's offset in its header).
 
-Compile time grows with ``steps`` (each step's code is its own); the reachable values:
-:func:`steps_per_launch`.
+Compile time grows faster than ``steps`` (each step's code is its own, and Taichi's
+control-flow-graph pass runs over the whole kernel): :data:`DEVICE_STEPS_PER_LAUNCH`.
 """
 
 import os
@@ -40,10 +40,12 @@ from dem.engine.step import parallel_step
 
 ti_runtime.quick_front_end()  # before this module's kernels are decorated
 
-# steps a launch where neither the engine nor DEM_STEPS_PER_LAUNCH says: on a GPU several (the
-# host's Python of a launch amortised), elsewhere one (the CPU proxy of a device runs the tests:
-# the cheapest compile)
-DEVICE_STEPS_PER_LAUNCH = {"cuda": 8}
+# steps a launch where neither the engine nor DEM_STEPS_PER_LAUNCH says: on a GPU two (the host's
+# Python of a launch halved; more is not worth its compile: the engine's warm-up took 32 / 101 /
+# 579 CPU-s at 1 / 2 / 4 steps on the test VM, Taichi's whole-kernel control-flow-graph pass
+# growing faster than the kernel), elsewhere one (the CPU proxy of a device runs the tests: the
+# cheapest compile)
+DEVICE_STEPS_PER_LAUNCH = {"cuda": 2}
 
 
 def steps_per_launch(requested: int | None = None) -> int:
@@ -202,11 +204,14 @@ class DeviceStepper:
     def launch(self, steps: int, warped: bool, hyperbolic: bool, overlap: bool,
                pair_damping: bool):
         """The launch ``launch(s0, chunk_steps, dt)`` of :func:`advance_device` for these
-        compile-time values (compiled on the first call: a recording launch at s0 = -2, which
-        does nothing)."""
+        compile-time values (compiled on the first call, by a recording launch that does
+        nothing: s0 = -(steps + 1), so that no step s of it has s + 1 == control.steps_done[0],
+        which is >= 0; at s0 = -2 with two steps a launch, step -1 ran with the loads of row
+        -1)."""
         from dem.engine.launch import CachedLaunch
 
         key = (steps, warped, hyperbolic, overlap, pair_damping)
         if key not in self._launches:
-            self._launches[key] = CachedLaunch(advance_device, (-2, 0, 0.0), self.args, *key)
+            self._launches[key] = CachedLaunch(advance_device, (-(steps + 1), 0, 0.0),
+                                               self.args, *key)
         return self._launches[key]
