@@ -164,7 +164,7 @@ class DeviceResidency:
 
         self.model, self.state, self.contacts, self.control = model, state, contacts, control
         self.lists_on_device = bool(device_broad_phase)
-        self._broad_phase = None  # dem.engine.step_device.DeviceStepper, when asked
+        self._stepper = None  # dem.engine.step_device.DeviceStepper, when asked
         self.dev = {name: DeviceArrays(box) for name, box in (
             ("model", model), ("state", state), ("contacts", contacts), ("control", control))}
         for d in self.dev.values():
@@ -317,12 +317,12 @@ class DeviceResidency:
         (``device_broad_phase`` False: one step a launch of dem.engine.step.advance_parallel)."""
         if not self.lists_on_device:
             return None
-        if self._broad_phase is None:
+        if self._stepper is None:
             from dem.engine.step_device import DeviceStepper
 
-            self._broad_phase = DeviceStepper(self.model, self.contacts, self.dev,
-                                              self._chunk.rebuilds)
-        return self._broad_phase
+            self._stepper = DeviceStepper(self.model, self.contacts, self.dev,
+                                          self._chunk.rebuilds)
+        return self._stepper
 
     def rebuilds(self) -> np.ndarray:
         """Each scene's neighbour-list rebuilds on the device in the last launch (brought back

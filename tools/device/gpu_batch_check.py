@@ -144,6 +144,7 @@ def dry_run() -> int:
     import taichi  # noqa: F401
     import dem.engine.device  # noqa: F401 - the device kernels (decorated, not compiled)
     from dem.engine.simulation import Engine  # noqa: F401
+    from dem.engine.step_device import DEVICE_STEPS_PER_LAUNCH
     from dem.run.batched import run_cases_in_one_engine  # noqa: F401
     from postprocess.sweep import analyze_point  # noqa: F401
 
@@ -152,6 +153,9 @@ def dry_run() -> int:
     case = case_of(0, cycles)
     print(f"dry run: imports fine (taichi {taichi.__version__}); realisation 0: {case.name}, "
           f"{cycles} cycles, {case.run.duration:.3f} s simulated; ARCH={ARCH}, OUT={OUT}")
+    steps = os.environ.get("DEM_STEPS_PER_LAUNCH") or DEVICE_STEPS_PER_LAUNCH.get(ARCH, 1)
+    print(f"the device's stepping kernel's steps a launch on {ARCH}: {steps} "
+          "(DEM_STEPS_PER_LAUNCH; dem/engine/step_device.py)")
     if os.environ.get("CPU_POINTS", "1") == "1":
         print(f"part 1 CPU: {R} realisations, {int(os.environ.get('CPU_PROCS', str(R)))} "
               f"single-threaded processes from the start -> points_cpu{TAG}.json")
