@@ -11,6 +11,8 @@ bad value is one line naming it (exit 2) instead of a C++ abort after Taichi's s
 ``DEM_TI_PLAIN_FRONT_END`` ``1``: Taichi's own kernel front end (dem.ti_runtime)
 ``DEM_DEVICE_ARRAYS``      ``1``: a batch keeps its arrays as on a GPU, K to an engine on the
                            CPU too (dem.run.batched)
+``DEM_STEPS_PER_LAUNCH``   the device kernel's steps a launch, an integer 1 -
+                           :data:`MAX_STEPS_PER_LAUNCH` (dem.engine.step_device)
 =========================  ==========================================================
 
 An unset or empty variable is the default.  The flags are on when set to any non-empty value
@@ -29,6 +31,14 @@ MAX_THREADS = 1024
 ARCHS = ("cpu", "cuda")
 # the scene size limit without --max-blocks or DEM_MAX_BLOCKS (dem.validate: why)
 DEFAULT_MAX_BLOCKS = 20_000
+# the device kernel's steps a launch above this would compile for hours (its compile grows
+# faster than the steps: 32 / 101 / 579 CPU-s at 1 / 2 / 4 on the test VM, benchmarks/RESULTS.md)
+MAX_STEPS_PER_LAUNCH = 8
+
+# the integer variables: name, lowest, highest (None: no bound)
+INTEGERS = (("DEM_THREADS", 1, MAX_THREADS), ("DEM_MAX_BLOCKS", 1, None),
+            ("DEM_STEPS_PER_LAUNCH", 1, MAX_STEPS_PER_LAUNCH))
+
 FLAGS = ("DEM_TRACEBACK", "DEM_TI_SOURCE_CARETS", "DEM_TI_PLAIN_FRONT_END", "DEM_DEVICE_ARRAYS")
 
 
@@ -63,7 +73,7 @@ def max_blocks_default() -> int:
 def environment_errors() -> list[str]:
     """One line per environment variable of the table above whose value dem cannot use."""
     errors = []
-    for name, lo, hi in (("DEM_THREADS", 1, MAX_THREADS), ("DEM_MAX_BLOCKS", 1, None)):
+    for name, lo, hi in INTEGERS:
         try:
             int_variable(name, lo, hi)
         except EnvironmentInputError as err:

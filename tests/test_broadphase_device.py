@@ -9,8 +9,8 @@ inflated boxes touching, the lowest corner exactly one skin above the table: num
 binary, so that both sides decide them alike whatever their round-off).  Then a batched run
 through rebuilds, the device's broad phase against the host's on the same device path: the
 lists, the shear history and the trajectories equal bit for bit, in fewer chunks (the
-reference, ``device_broad_phase=False``, compiles the parallel kernel of one step a launch on
-device arrays: this file's worker only).  Several steps a launch (dem.engine.step_device)
+reference: the CPU path by default; the device arrays with the host's broad phase,
+``device_broad_phase=False``, a kernel variant of its own, under the ``slow`` marker).  Several steps a launch (dem.engine.step_device)
 against one: under the ``slow`` marker (its compile).
 """
 
@@ -75,13 +75,13 @@ def zero_loads(t):
     return np.zeros((len(t), 3)), np.zeros((len(t), 3))
 
 
-def engine_at(poses, device_broad_phase=True):
-    """An engine of one scene per (scene, pos, quat) of ``poses`` on the device path, every
-    scene set to those poses with an empty list and its reference poses far away, so that the
-    first step (which moves nothing: no loads, no pairs) flags every scene for a rebuild."""
+def engine_at(poses, device=True):
+    """An engine of one scene per (scene, pos, quat) of ``poses`` on the device path (or the
+    CPU path: ``device`` False), every scene set to those poses with an empty list and its
+    reference poses far away, so that the first step (which moves nothing: no loads, no pairs)
+    flags every scene for a rebuild."""
     e = Engine([sc for sc, _, _ in poses], JOINTS,
-               options(skin=SKIN, max_pairs_per_block=2),
-               device_arrays=True, device_broad_phase=device_broad_phase)
+               options(skin=SKIN, max_pairs_per_block=2, mode="parallel"), device_arrays=device)
     for sim, (sc, pos, quat) in zip(e.simulations, poses):
         st, c = sim.state, sim.contacts
         n = sc.n_blocks
@@ -95,8 +95,7 @@ def test_device_lists_equal_the_host_broad_phase():
     """Every scene flagged at one step: the device's pair list of each scene equals
     candidate_pairs of the same poses exactly, its adjacency that of pair_lists; a scene whose
     list exceeds the capacity is not written, and the host's broad phase then raises today's
-    CapacityError for it, alone among the scenes (the same message with the host's broad phase
-    on the same path)."""
+    CapacityError for it, alone among the scenes (the same message as on the CPU path)."""
     rng = np.random.default_rng(7)
     poses = [random_scene(rng, 12), random_scene(rng, 12, beam=True), threshold_scene(),
              random_scene(rng, 12)]
@@ -132,21 +131,29 @@ def test_device_lists_equal_the_host_broad_phase():
     err = e.simulations[3].failure
     assert isinstance(err, CapacityError) and "neighbour list overflow at step 1" in str(err)
     assert not e.control.active[3] and e.control.active[:3].all()
-    ref = engine_at(poses, device_broad_phase=False)
+    ref = engine_at(poses, device=False)
     ref.advance(1, [zero_loads] * len(poses))
     assert str(ref.simulations[3].failure) == str(err)
 
 
-def test_a_batched_run_equals_the_host_broad_phase_bit_for_bit():
+# the reference: the CPU path (its host broad phase between chunks, the kernels' variants the
+# warm-up compiles), or the device arrays with the host's broad phase (device_broad_phase=False:
+# the parallel kernel of one step a launch on device arrays, a variant of its own: slow)
+HOST_LISTS = [pytest.param({}, id="cpu-path"),
+              pytest.param({"device_arrays": True, "device_broad_phase": False},
+                           id="device-arrays-host-lists", marks=pytest.mark.slow)]
+
+
+@pytest.mark.parametrize("ref_kind", HOST_LISTS)
+def test_a_batched_run_equals_the_host_broad_phase_bit_for_bit(ref_kind):
     """Three small walls shaken, some blocks set sliding, with a small skin (rebuilds), on the
     device path with the device's broad phase and with the host's: the same lists and shear
     history after every advance, the same trajectories bit for bit (the kernels read the same
     numbers), the same rebuild counts, and the rebuilds no longer end a chunk."""
     loads = [shake(4.0, 7.0), shake(6.0, 8.0, axis=1), shake(5.0, 9.0)]
-    opts = options(skin=2e-4)
+    opts = options(skin=2e-4, mode="parallel")
     dev = Engine([wall() for _ in loads], JOINTS, opts, device_arrays=True)
-    ref = Engine([wall() for _ in loads], JOINTS, opts, device_arrays=True,
-                 device_broad_phase=False)
+    ref = Engine([wall() for _ in loads], JOINTS, opts, **ref_kind)
     for e in (dev, ref):
         for g, sim in enumerate(e.simulations):
             sim.state.vel[g:-1, g % 2] += 0.2  # sliding blocks: rebuilds every few tens of steps
@@ -170,13 +177,14 @@ def test_a_batched_run_equals_the_host_broad_phase_bit_for_bit():
     assert dev.n_chunks == 2 * -(-300 // DEVICE_CHUNK) < ref.n_chunks  # no rebuild ends one
 
 
-def test_a_lone_scene_on_the_device_rebuilds_there():
+@pytest.mark.parametrize("ref_kind", HOST_LISTS)
+def test_a_lone_scene_on_the_device_rebuilds_there(ref_kind):
     """One scene on the device path (the batched kernels' pair counts, read on the device):
     its rebuilds happen inside the chunks and give the host broad phase's trajectory."""
     loads = [shake(6.0, 8.0, axis=1)]
-    opts = options(skin=2e-4)
+    opts = options(skin=2e-4, mode="parallel")
     dev = Engine([wall()], JOINTS, opts, device_arrays=True)
-    ref = Engine([wall()], JOINTS, opts, device_arrays=True, device_broad_phase=False)
+    ref = Engine([wall()], JOINTS, opts, **ref_kind)
     for e in (dev, ref):
         e.simulations[0].state.vel[:-1, 1] += 0.2
         e.advance(400, loads)
@@ -184,6 +192,23 @@ def test_a_lone_scene_on_the_device_rebuilds_there():
     assert a.n_rebuilds == b.n_rebuilds > 2
     assert np.array_equal(a.read_state("pos").pos, b.read_state("pos").pos)
     assert dev.n_chunks == -(-400 // DEVICE_CHUNK) < ref.n_chunks
+
+
+def test_steps_a_launch_come_from_the_engine_the_environment_or_the_arch(monkeypatch):
+    """The device kernel's steps a launch: the Engine's value over DEM_STEPS_PER_LAUNCH over
+    the arch's default (1 on the CPU); a bad value is refused with the name of its source."""
+    from dem.engine.step_device import steps_per_launch
+
+    monkeypatch.delenv("DEM_STEPS_PER_LAUNCH", raising=False)
+    assert steps_per_launch() == 1  # the tests run on the CPU
+    monkeypatch.setenv("DEM_STEPS_PER_LAUNCH", "3")
+    assert steps_per_launch() == 3
+    assert steps_per_launch(2) == 2
+    monkeypatch.setenv("DEM_STEPS_PER_LAUNCH", "two")
+    with pytest.raises(ValueError, match="DEM_STEPS_PER_LAUNCH='two'"):
+        steps_per_launch()
+    with pytest.raises(ValueError, match="steps_per_launch must be 1 - 8, got 0"):
+        steps_per_launch(0)
 
 
 def test_a_launch_at_a_negative_step_runs_nothing():

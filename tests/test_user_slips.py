@@ -87,7 +87,9 @@ def test_a_range_says_how_many_points_it_gives(tmp_path):
 @pytest.mark.parametrize("name, value", [("DEM_THREADS", "0"), ("DEM_THREADS", "-1"),
                                          ("DEM_THREADS", "abc"), ("DEM_MAX_BLOCKS", "abc"),
                                          ("DEM_MAX_BLOCKS", "0"), ("DEM_ARCH", "gpu"),
-                                         ("DEM_TRACEBACK", "0")])
+                                         ("DEM_TRACEBACK", "0"),
+                                         ("DEM_STEPS_PER_LAUNCH", "0"),
+                                         ("DEM_STEPS_PER_LAUNCH", "16")])
 def test_a_bad_environment_variable_is_one_line_naming_it(tmp_path, name, value):
     res = _invoke("check", CASES / "analytic" / "block-on-tilt.yaml", env={name: value})
     assert res.exit_code == 2, res.output
@@ -106,7 +108,8 @@ def test_every_variable_the_docs_name_is_checked():
     for f in root.rglob("*.py"):
         read |= set(re.findall(r"environ(?:\.get)?\(?\[?\"(DEM_[A-Z_]+)\"", f.read_text()))
         read |= set(re.findall(r"int_variable\(\"(DEM_[A-Z_]+)\"", f.read_text()))
-    checked = set(environment.FLAGS) | {"DEM_THREADS", "DEM_MAX_BLOCKS", "DEM_ARCH"}
+    checked = set(environment.FLAGS) | {name for name, _, _ in environment.INTEGERS} | \
+        {"DEM_ARCH"}
     assert read and read <= checked, read - checked
 
 

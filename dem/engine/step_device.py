@@ -26,8 +26,6 @@ Compile time grows faster than ``steps`` (each step's code is its own, and Taich
 control-flow-graph pass runs over the whole kernel): :data:`DEVICE_STEPS_PER_LAUNCH`.
 """
 
-import os
-
 import numpy as np
 import taichi as ti
 from taichi.lang import impl
@@ -37,6 +35,7 @@ from dem.engine.broadphase_device import rebuild_stage
 from dem.engine.containers import ContactArgs, ControlArgs, ModelArgs, StateArgs
 from dem.engine.geometry import MAXP
 from dem.engine.step import parallel_step
+from dem.environment import MAX_STEPS_PER_LAUNCH, int_variable
 
 ti_runtime.quick_front_end()  # before this module's kernels are decorated
 
@@ -50,20 +49,15 @@ DEVICE_STEPS_PER_LAUNCH = {"cuda": 2}
 
 def steps_per_launch(requested: int | None = None) -> int:
     """Steps a launch of :func:`advance_device`: ``requested`` (the Engine's
-    ``steps_per_launch``), else the environment's DEM_STEPS_PER_LAUNCH, else by arch
-    (:data:`DEVICE_STEPS_PER_LAUNCH`, 1 elsewhere)."""
+    ``steps_per_launch``), else the environment's DEM_STEPS_PER_LAUNCH (dem.environment:
+    a bad value raises its one-line error), else by arch (:data:`DEVICE_STEPS_PER_LAUNCH`, 1
+    elsewhere)."""
     if requested is None:
-        env = os.environ.get("DEM_STEPS_PER_LAUNCH")
-        if env:
-            try:
-                requested = int(env)
-            except ValueError:
-                raise ValueError(f"DEM_STEPS_PER_LAUNCH must be a whole number >= 1, got "
-                                 f"{env!r}") from None
-        else:
-            requested = DEVICE_STEPS_PER_LAUNCH.get(ti_runtime.settings()["arch"], 1)
-    if int(requested) < 1:
-        raise ValueError(f"steps_per_launch must be >= 1, got {requested}")
+        requested = int_variable("DEM_STEPS_PER_LAUNCH", 1, MAX_STEPS_PER_LAUNCH)
+    if requested is None:
+        requested = DEVICE_STEPS_PER_LAUNCH.get(ti_runtime.settings()["arch"], 1)
+    if not 1 <= int(requested) <= MAX_STEPS_PER_LAUNCH:
+        raise ValueError(f"steps_per_launch must be 1 - {MAX_STEPS_PER_LAUNCH}, got {requested}")
     return int(requested)
 
 
