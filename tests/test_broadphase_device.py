@@ -214,8 +214,8 @@ def test_steps_a_launch_come_from_the_engine_the_environment_or_the_arch(monkeyp
 def test_a_launch_at_a_negative_step_runs_nothing():
     """The launch that records a stepping kernel's launch context runs at a negative step
     (dem.engine.launch); at step -1 the count of steps done, 0, also reads "step -1 ran"
-    (steps_done == s + 1), which once ran a step with the loads of row -1 at two steps a
-    launch.  A launch of the device's kernel at s0 = -1 moves nothing and counts no step."""
+    (steps_done == s + 1), which without the stages' test s >= 0 runs a step on the loads of
+    row -1.  A launch of the device's kernel at s0 = -1 moves nothing and counts no step."""
     e = Engine([wall(), wall()], JOINTS, options(), device_arrays=True)
     sim = e.simulations[0]
     sim.state.vel[0, 0] = 0.5  # a step would move block 0 by dt x 0.5 m/s
@@ -231,9 +231,8 @@ def test_a_launch_at_a_negative_step_runs_nothing():
 # VM, 3x one step's); the default tests run it at one step a launch, the same code once a step
 def test_two_steps_a_launch_give_the_run_of_one_step_a_launch():
     """The device's kernel at 2 steps a launch against one step a launch, 8 scenes: nothing
-    moves at the engine's construction (its recording launch runs no step: at s0 = -2 the
-    second step, -1, once ran with the loads of row -1 and made NaNs at some batch sizes);
-    then chunks of 301 steps (the last launch of each runs past the chunk's end) with
+    moves at the engine's construction (its recording launch runs no step: a step -1 on the
+    loads of row -1 made NaNs at some batch sizes); then chunks of 301 steps (the last launch of each runs past the chunk's end) with
     rebuilds, and a scene that fails inside a launch: the same lists, history, trajectories,
     rebuilds and chunks bit for bit, about half the launches."""
     K = 8

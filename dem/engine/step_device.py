@@ -198,10 +198,9 @@ class DeviceStepper:
     def launch(self, steps: int, warped: bool, hyperbolic: bool, overlap: bool,
                pair_damping: bool):
         """The launch ``launch(s0, chunk_steps, dt)`` of :func:`advance_device` for these
-        compile-time values (compiled on the first call, by a recording launch that does
-        nothing: s0 = -(steps + 1), so that no step s of it has s + 1 == control.steps_done[0],
-        which is >= 0; at s0 = -2 with two steps a launch, step -1 ran with the loads of row
-        -1)."""
+        compile-time values (compiled on the first call, by a recording launch that runs no
+        step: s0 = -(steps + 1), so that no step s of it has s + 1 == control.steps_done[0],
+        which is >= 0, besides the stages' own test s >= 0)."""
         from dem.engine.launch import CachedLaunch
 
         key = (steps, warped, hyperbolic, overlap, pair_damping)
