@@ -10,7 +10,9 @@ binary, so that both sides decide them alike whatever their round-off).  Then a 
 through rebuilds, the device's broad phase against the host's on the same device path: the
 lists, the shear history and the trajectories equal bit for bit, in fewer chunks (the
 reference: the CPU path by default; the device arrays with the host's broad phase,
-``device_broad_phase=False``, a kernel variant of its own, under the ``slow`` marker).  Several steps a launch (dem.engine.step_device)
+``device_broad_phase=False``, a kernel variant of its own, under the ``slow`` marker).  Also
+under ``slow`` (their compiles): the device kernel's hyperbolic and pair-damped variants
+against the CPU path.  Several steps a launch (dem.engine.step_device)
 against one: under the ``slow`` marker (its compile).
 """
 
@@ -19,12 +21,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from dem.case import Material
 from dem.engine.broadphase import candidate_pairs
 from dem.engine.containers import pair_lists
 from dem.engine.errors import CapacityError
 from dem.engine.residency import DEVICE_CHUNK
 from dem.engine.simulation import Engine
 from dem.quaternion import matrices
+from dem.run.build import joint_law
 from dem.scene import Scene
 from tests.test_engine_batch import JOINTS, options, shake, wall
 
@@ -266,3 +270,28 @@ def test_two_steps_a_launch_give_the_run_of_one_step_a_launch():
     assert type(two.simulations[1].failure) is type(one.simulations[1].failure)
     assert two.n_chunks == one.n_chunks
     assert two.launcher.n_launches < 0.6 * one.launcher.n_launches
+
+
+@pytest.mark.slow  # two device kernel variants of their own (~25 CPU-s of compile each)
+@pytest.mark.parametrize("material", [
+    pytest.param(Material(friction=0.6, normal_law="hyperbolic", max_closure=1e-3),
+                 id="hyperbolic"),
+    pytest.param(Material(friction=0.6, normal_damping="pair"), id="pair-damping")])
+def test_the_device_kernels_variants_follow_the_cpu_path(material):
+    """The device's kernel in its hyperbolic and pair-damped variants (the default tests reach
+    the linear and the warped ones) against the CPU path, through rebuilds: the same
+    trajectories bit for bit and the same rebuilds."""
+    law = joint_law(material)
+    loads = [shake(4.0, 7.0), shake(6.0, 8.0, axis=1)]
+    opts = options(skin=2e-4, mode="parallel")
+    dev = Engine([wall() for _ in loads], law, opts, device_arrays=True)
+    ref = Engine([wall() for _ in loads], law, opts)
+    for e in (dev, ref):
+        for g, sim in enumerate(e.simulations):
+            sim.state.vel[g:-1, g % 2] += 0.2
+        e.advance(500, loads)
+    for a, b in zip(dev.simulations, ref.simulations):
+        for name in ("pos", "quat", "vel", "angmom"):
+            assert np.array_equal(getattr(a.read_state(name), name),
+                                  getattr(b.read_state(name), name)), name
+        assert a.n_rebuilds == b.n_rebuilds > 3
