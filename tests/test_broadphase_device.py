@@ -7,13 +7,12 @@ The two evaluate the same formulas, so the lists must be equal, pair for pair: r
 second tier, fixed blocks, blocks near the table), and poses exactly on the thresholds (the
 inflated boxes touching, the lowest corner exactly one skin above the table: numbers exact in
 binary, so that both sides decide them alike whatever their round-off).  Then a batched run
-through rebuilds, the device's broad phase against the host's on the same device path: the
-lists, the shear history and the trajectories equal bit for bit, in fewer chunks (the
-reference: the CPU path by default; the device arrays with the host's broad phase,
-``device_broad_phase=False``, a kernel variant of its own, under the ``slow`` marker).  Also
-under ``slow`` (their compiles): the device kernel's hyperbolic and pair-damped variants
-against the CPU path.  Several steps a launch (dem.engine.step_device)
-against one: under the ``slow`` marker (its compile).
+through rebuilds, the device's broad phase against the host's: the lists, the shear history
+and the trajectories equal bit for bit, in fewer chunks (the reference: the CPU path by
+default; the device arrays with the host's broad phase, ``device_broad_phase=False``, a kernel
+variant of its own, under the ``slow`` marker).  Also under ``slow`` (their compiles): the
+device kernel's hyperbolic and pair-damped variants against the CPU path, and two steps a
+launch (dem.engine.step_device) against one.
 """
 
 from __future__ import annotations
