@@ -132,6 +132,14 @@ def listed(b0, i, j, table, skin, half: ti.template(), radius: ti.template(),
 
 
 @ti.func
+def flagged_scene(f, flagged: ti.template(), scene_bodies: ti.template()):
+    """The f-th scene flagged for a rebuild: (its index g, its first body b0, its bodies nb)."""
+    g = flagged[1 + f]
+    b0 = scene_bodies[g][0]
+    return g, b0, scene_bodies[g][1] - b0
+
+
+@ti.func
 def no_kept_patch(slot, patch_shape: ti.template()):
     """No kept contact patch survives a rebuild (patch_shape[slot, 0][3] = 0)."""
     shape = patch_shape[slot, 0]
@@ -203,17 +211,14 @@ def rebuild_stage(s, R, half: ti.template(), radius: ti.template(),
         f = t // (R * R)
         i = (t // R) % R
         j = t % R
-        g = flagged[1 + f]
-        b0 = scene_bodies[g][0]
-        nb = scene_bodies[g][1] - b0
+        g, b0, nb = flagged_scene(f, flagged, scene_bodies)
         if i < j < nb:
             hit[t] = listed(b0, i, j, nb - 1, skin, half, radius, inv_mass, pos, rot)
     # 3. per body: its partners j > i (its row), and its pairs as either end
     for t in range(flagged[0] * R):
         f = t // R
         i = t % R
-        g = flagged[1 + f]
-        nb = scene_bodies[g][1] - scene_bodies[g][0]
+        _g, _b0, nb = flagged_scene(f, flagged, scene_bodies)
         if i < nb:
             row = 0
             for j in range(i + 1, nb):
@@ -226,9 +231,7 @@ def rebuild_stage(s, R, half: ti.template(), radius: ti.template(),
     # 4. per scene (one thread each): the rows' first pairs and the adjacency pointers by
     #    exclusive scans; a list over the capacity is not written and keeps its REBUILD bit
     for f in range(flagged[0]):
-        g = flagged[1 + f]
-        b0 = scene_bodies[g][0]
-        nb = scene_bodies[g][1] - b0
+        g, b0, nb = flagged_scene(f, flagged, scene_bodies)
         total = 0
         for i in range(nb):
             c = rows[f * R + i, 0]
@@ -275,9 +278,7 @@ def rebuild_stage(s, R, half: ti.template(), radius: ti.template(),
     for t in range(flagged[0] * R):
         f = t // R
         i = t % R
-        g = flagged[1 + f]
-        b0 = scene_bodies[g][0]
-        nb = scene_bodies[g][1] - b0
+        g, b0, nb = flagged_scene(f, flagged, scene_bodies)
         if info[f, 2] == 1 and i < nb:
             n_old = info[f, 0]
             k = rows[t, 0]
@@ -318,9 +319,7 @@ def rebuild_stage(s, R, half: ti.template(), radius: ti.template(),
     for t in range(flagged[0] * R):
         f = t // R
         k = t % R
-        g = flagged[1 + f]
-        b0 = scene_bodies[g][0]
-        nb = scene_bodies[g][1] - b0
+        g, b0, nb = flagged_scene(f, flagged, scene_bodies)
         if info[f, 2] == 1 and k < nb:
             e = 2 * g * P + adj_ptr[b0 + g + k]
             for i in range(k):
