@@ -199,8 +199,9 @@ class DeviceStepper:
                pair_damping: bool):
         """The launch ``launch(s0, chunk_steps, dt)`` of :func:`advance_device` for these
         compile-time values (compiled on the first call, by a recording launch that runs no
-        step: s0 = -(steps + 1), so that no step s of it has s + 1 == control.steps_done[0],
-        which is >= 0, besides the stages' own test s >= 0)."""
+        step: s0 = -(steps + 1) puts every step of it, s0 ... -2, below 0, which the stages
+        refuse (dem.engine.step.parallel_step); a non-negative s0 + u could meet the device's
+        steps done of the last chunk when a variant is recorded mid-run)."""
         from dem.engine.launch import CachedLaunch
 
         key = (steps, warped, hyperbolic, overlap, pair_damping)
