@@ -47,8 +47,8 @@ Stages (a stage is the time of these calls, less the wrapped calls inside them):
   launch           Launcher.launch: the loads into control.loads, the diagnostics reset, the
                    variants' check, the pair slots, the steps counted
   chunk loop       Launcher.advance: the status read, failures, rebuild and closure loops
-  probes plan      Launcher.plan_probes (the instruments' InstrumentProbe.plan)
-  probes take      Launcher.take_probes (InstrumentProbe.take: the instruments' samples)
+  probes plan      Launcher.plan_probes (LaunchProbe.plan: the samples and frames in launches)
+  probes take      Launcher.take_probes (LaunchProbe.take: the samples and frames in launches)
   to_device        DeviceResidency.to_device (ChunkCopies.push_chunk, changed Control fields,
                    dirty State / Contacts fields)
   from_device      DeviceResidency.from_device (ChunkCopies.pull_diagnostics), pull_probes

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dem.engine.containers import State
+from dem.engine.containers import PROBES_PER_SCENE, State
 from dem.engine.device import DIAGNOSTIC_COLUMNS
 from dem.engine.residency import DEVICE_CHUNK, DeviceResidency
 from dem.engine.simulation import Engine
@@ -259,3 +259,28 @@ def test_host_scenes_names_many_scenes_by_a_list_on_the_device():
         b0, b1 = (int(x) for x in sb[g])
         assert np.array_equal(got[b0:b1], e.state.pos[b0:b1])
     assert whole.pos.shape[0] == int(sb[0, 1] - sb[0, 0])
+
+
+def test_the_probes_pull_brings_back_only_the_slots_and_rows_asked_for():
+    """The probe buffer holds every body of the largest scene on a device (a frame is probed
+    there, dem.run.record.LaunchProbe), so a chunk's pull copies back only its first slots and
+    rows (DeviceResidency.pull_probes): exactly those, and no byte more."""
+    e = Engine([wall(), wall()], JOINTS, options(), device_arrays=True)
+    sim = e.simulations[0]
+    ctl = e.control
+    Q, G, J, W = ctl.probe_buf.shape
+    largest = int(np.diff(e.model.scene_bodies, axis=1).max())
+    assert J == sim.probe_capacity == max(PROBES_PER_SCENE, largest)
+    assert sim.frames_in_launches
+    values = np.arange(ctl.probe_buf.size, dtype=float).reshape(ctl.probe_buf.shape)
+    ctl.probe_buf[...] = values
+    e.residency.dev["control"].push(["probe_buf"])
+    ctl.probe_buf[...] = 0.0
+    before = _copies(e)
+    e.residency.pull_probes(2, 3)
+    after = _copies(e)
+    assert np.array_equal(ctl.probe_buf[:2, :, :3], values[:2, :, :3])
+    assert not ctl.probe_buf[2:].any() and not ctl.probe_buf[:, :, 3:].any()
+    assert (after[0] - before[0], after[1] - before[1]) == (1, 2 * G * 3 * W * 8)
+    e.residency.pull_probes(Q, J)  # the whole buffer: one copy of the field
+    assert np.array_equal(ctl.probe_buf, values)

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dem.engine.containers import Contacts, Control, Model, State
+from dem.engine.containers import PROBES_PER_SCENE, Contacts, Control, Model, State
 from dem.engine.errors import InputError
 from dem.engine.options import StepOptions
 from dem.scene import Scene
@@ -40,11 +40,12 @@ class Assembly:
 
 
 def assemble(scenes: list[Scene], joints, gravity, options: StepOptions, chunk_steps: int,
-             probe_slots: int) -> Assembly:
+             probe_slots: int, probe_bodies=None) -> Assembly:
     """The containers of ``scenes`` (in order) with ``joints`` (one JointLaw per scene, or one
     for all), ``gravity`` (per scene, or one 3-vector for all; None: -9.81 m/s^2 along z) and
     the StepOptions ``options``; the control holds the loads of ``chunk_steps`` steps and
-    ``probe_slots`` probed steps a scene (the residency's: dem.engine.residency)."""
+    ``probe_slots`` probed steps a scene and ``probe_bodies(largest scene's bodies)`` probed
+    bodies a scene (the residency's: dem.engine.residency; None: PROBES_PER_SCENE)."""
     scenes = list(scenes)
     G = len(scenes)
     if G == 0:
@@ -66,6 +67,8 @@ def assemble(scenes: list[Scene], joints, gravity, options: StepOptions, chunk_s
     contacts = Contacts(model.n_bodies, capacity, G)
     hmin = min(float(m.half_np[: m.n_blocks].min()) for m in models)
     skin = float(options.skin) if options.skin is not None else 0.1 * hmin
+    largest = max(m.n_bodies for m in models)
     control = Control(skin, options.max_speed, options.local_damping, options.patch_reuse, G,
-                      chunk_steps, probe_slots)
+                      chunk_steps, probe_slots,
+                      PROBES_PER_SCENE if probe_bodies is None else probe_bodies(largest))
     return Assembly(scenes, joints, gravity, models, model, state, contacts, control, skin)

@@ -53,7 +53,7 @@ from dem.ti_runtime import real_dtype
 
 MAT_BLOCK, MAT_TABLE = 0, 1
 SERIAL_CHUNK = 2000  # steps per launch of the serial kernel (S)
-PROBES_PER_SCENE = 16  # bodies a scene may have probed (control.probe_body)
+PROBES_PER_SCENE = 16  # bodies a scene may have probed (control.probe_body: J), on the host
 PROBE_SLOTS = 16       # probed steps of one scene in one launch (control.probe_buf: Q)
 PROBE_WIDTH = 13       # a probed body's row: pos (3), quat (4), vel (3), omega (3)
 
@@ -68,7 +68,7 @@ STOP = NONFINITE | RUNAWAY
 class FieldDef:
     name: str
     elem: str        # real, vec3, vec4, mat3, i32, ivec2
-    dims: tuple      # symbolic: "B", "P", "K", "S", "G", "Q", or an int
+    dims: tuple      # symbolic: "B", "P", "K", "S", "G", "Q", "J", or an int
     unit: str
     writer: str
     meaning: str
@@ -180,7 +180,7 @@ CONTROL_PARAMETERS = (
        "speed above which a body stops the run; the patch reuse's largest in-plane drift of a "
        "kept contact patch (dem.engine.coherence; 0 = off)"),
     _f("local_damping", "real", "G", "-", "Simulation", "Cundall local damping coefficient"),
-    _f("probe_body", "i32", ("G", PROBES_PER_SCENE), "-", "Simulation.set_probe",
+    _f("probe_body", "i32", ("G", "J"), "-", "Simulation.set_probe",
        "per scene, the bodies (engine-wide index) copied to probe_buf at a probed step; -1 none"),
 )
 # ... what the kernels report back about the launch (diagnostics) ...
@@ -198,7 +198,7 @@ CONTROL_DIAGNOSTICS = (
        "per scene, deepest penetration of any contact point at any step since t = 0"),
     _f("deepest_step", "i32", "G", "-", "deepest_stage",
        "step of the last launch (0 = its first) at which deepest grew; -1 if it did not"),
-    _f("probe_buf", "real", ("Q", "G", PROBES_PER_SCENE, PROBE_WIDTH), "m, -, m/s, rad/s",
+    _f("probe_buf", "real", ("Q", "G", "J", PROBE_WIDTH), "m, -, m/s, rad/s",
        "probe_stage",
        "per slot, scene and probed body: pos, quat, vel, omega after the step probe_slot names"),
 )
@@ -505,11 +505,12 @@ class Control(_Container):
 
     def __init__(self, skin: float, max_speed: float, local_damping: float,
                  patch_tolerance: float = 0.0, n_scenes: int = 1, steps: int = SERIAL_CHUNK,
-                 probe_slots: int = PROBE_SLOTS):
+                 probe_slots: int = PROBE_SLOTS, probe_bodies: int = PROBES_PER_SCENE):
         """``steps``: S, the most steps of one launch (or chunk of launches); ``probe_slots``:
-        Q, the most probed steps of a scene in one (Launcher.plan_probes)."""
+        Q, the most probed steps of a scene in one (Launcher.plan_probes); ``probe_bodies``: J,
+        the most probed bodies of a scene (Simulation.set_probe)."""
         _allocate(self, CONTROL_FIELDS, {"S": int(steps), "G": int(n_scenes),
-                                         "Q": int(probe_slots)})
+                                         "Q": int(probe_slots), "J": int(probe_bodies)})
         self.probe_slot[...] = -1
         self.probe_body[...] = -1
         self.step_parameters[[P_SKIN, P_MAX_SPEED, P_PATCH_TOLERANCE]] = \

@@ -403,3 +403,12 @@ def gather_scene_rows(n: ti.i32, rows: ti.i32, g0: ti.i32, g1: ti.i32, g2: ti.i3
         b0 = scene_bodies[g][0]
         if b0 + i < scene_bodies[g][1]:
             out[r * rows + i] = src[b0 + i]
+
+
+@ti.kernel
+def gather_probe_rows(src: ti.types.ndarray(ndim=4), out: ti.types.ndarray(ndim=4)):
+    """The first slots and rows of control.probe_buf [Q, G, J, 13] (``src``) into ``out``
+    [q, G, j, 13]: DeviceResidency.pull_probes copies back only the slots a chunk filled and
+    the rows its steps need (an instrument's few blocks; a frame's every block)."""
+    for q, g, j, c in ti.ndrange(out.shape[0], out.shape[1], out.shape[2], out.shape[3]):
+        out[q, g, j, c] = src[q, g, j, c]

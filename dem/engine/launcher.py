@@ -306,18 +306,27 @@ class Launcher:
 
     def take_probes(self, probes: dict, done: int) -> None:
         """After a launch that did ``done`` steps: each probed step it reached, handed to its
-        scene's ``probe.take(step, t, rows)`` in order (rows: [bodies, 13] pos, quat, vel, omega
-        of the probed bodies, as Simulation.set_probe listed them).  A scene that failed in the
-        launch gets none of its last step (the failing one: its state is not a result)."""
+        scene's ``probe.take(step, t, rows)`` in order (rows: [n, 13] pos, quat, vel, omega of
+        the first n probed bodies, as Simulation.set_probe listed them: all of them, or the
+        ``probe.rows(step)`` first where the probe says a step needs fewer).  A scene that
+        failed in the launch gets none of its last step (the failing one: its state is not a
+        result).  Only the slots and rows handed over come back from a device."""
         e = self.engine
-        e.residency.pull_probes()
-        buf = e.control.probe_buf
         status = e.control.status
+        taken = []  # (scene, slot, step, rows)
         for g, steps in probes.items():
             sim = e.simulations[g]
             reached = done - 1 if status[g] & STOP else done
-            n = len(sim.probe.bodies)
+            rows_of = getattr(sim.probe, "rows", None)
             for slot, s in enumerate(steps):
                 if s < reached:
                     step = sim.step_count + s + 1
-                    sim.probe.take(step, sim.clock.time(step), buf[slot, g, :n].copy())
+                    n = len(sim.probe.bodies) if rows_of is None else rows_of(step)
+                    taken.append((g, slot, step, n))
+        if not taken:
+            return
+        e.residency.pull_probes(max(t[1] for t in taken) + 1, max(t[3] for t in taken))
+        buf = e.control.probe_buf
+        for g, slot, step, n in taken:
+            sim = e.simulations[g]
+            sim.probe.take(step, sim.clock.time(step), buf[slot, g, :n].copy())

@@ -43,12 +43,14 @@ Picture (one chunk of a device engine)::
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 import taichi as ti
 
 from dem import ti_runtime
-from dem.engine.containers import (PROBE_SLOTS, SERIAL_CHUNK, Contacts, State, element_type,
-                                   pair_lists)
+from dem.engine.containers import (PROBE_SLOTS, PROBES_PER_SCENE, SERIAL_CHUNK, Contacts,
+                                   State, element_type, pair_lists)
 
 # an engine on a device: steps per chunk of launches (the loads of a chunk are copied to the
 # device before it; the host reads the status back after it)
@@ -74,6 +76,12 @@ class HostResidency:
     CHUNK_STEPS = SERIAL_CHUNK  # the most steps of a chunk (control.loads' rows)
     PROBE_SLOTS = PROBE_SLOTS   # probed steps of a scene in a chunk (control.probe_buf's)
     lists_on_device = False     # the neighbour lists are the host's (dem.engine.broadphase)
+
+    @staticmethod
+    def probe_bodies(largest: int) -> int:
+        """Probed bodies a scene (control.probe_body's J) for scenes of at most ``largest``
+        bodies: an instrument's blocks (a frame ends the chunk here: it costs nothing)."""
+        return PROBES_PER_SCENE
 
     def __init__(self, model, state, contacts, control, device_broad_phase: bool = True):
         """``device_broad_phase``: no device here, the host's broad phase always."""
@@ -105,7 +113,7 @@ class HostResidency:
         """No rebuilds but the host's (:meth:`DeviceResidency.rebuilds`)."""
         return None
 
-    def pull_probes(self) -> None:
+    def pull_probes(self, slots: int, rows: int) -> None:
         """The probes' buffer is the host's already."""
 
     def patches_over_caps(self, n_slots: int, area_cap: np.ndarray, batched: bool) -> bool:
@@ -135,6 +143,14 @@ class DeviceResidency:
     on_device = True
     CHUNK_STEPS = DEVICE_CHUNK
     PROBE_SLOTS = DEVICE_PROBE_SLOTS
+
+    @staticmethod
+    def probe_bodies(largest: int) -> int:
+        """Every body of the largest scene (or an instrument's blocks, if more): a frame is
+        probed inside the launches (dem.run.record), as a chunk end costs the host a
+        synchronisation and its per-chunk work; control.probe_buf is Q x G x J x 13 reals
+        (4 x 64 x 218 x 13: 5.8 MB for 64 Model II scenes), pulled after a chunk with a probe."""
+        return max(PROBES_PER_SCENE, int(largest))
 
     # Contacts fields current on the host after any launch, never copied back by Engine.host:
     # the broad phase's index arrays, which the stepping kernels only read (the host's broad
@@ -192,6 +208,7 @@ class DeviceResidency:
         self._current = {}  # (container, stale field) -> scenes whose rows the host holds
         self._scene_lists = {}  # host_scenes' device arrays: scene lists, gathered rows
         self._gathered = {}
+        self._probe_rows = {}  # pull_probes' device arrays by (slots, rows)
 
     def containers(self) -> tuple:
         """The argpacks of the device's (Model, State, Contacts, Control) arrays."""
@@ -334,9 +351,30 @@ class DeviceResidency:
         for f in names:
             self._sent[f] = getattr(self.control, f).copy()
 
-    def pull_probes(self) -> None:
-        """The probes' samples of the last launch (control.probe_buf) to the host."""
-        self.dev["control"].pull(["probe_buf"])
+    def pull_probes(self, slots: int, rows: int) -> None:
+        """The probes' samples of the last launch to the host: control.probe_buf's first
+        ``slots`` slots and, of each scene, its first ``rows`` rows (the whole buffer is Q x G x
+        J x 13 reals, J every body of the largest scene: a chunk's samples need a few of its
+        slots and, but for a frame, the instruments' few rows), gathered on the device into an
+        array of that shape (dem.engine.device.gather_probe_rows; one a shape, kept)."""
+        from dem.engine.device import gather_probe_rows
+
+        dev = self.dev["control"]
+        buf = self.control.probe_buf
+        if (slots, rows) == buf.shape[0:1] + buf.shape[2:3]:
+            dev.pull(["probe_buf"])
+            return
+        t0 = time.perf_counter()
+        key = (slots, rows)
+        if key not in self._probe_rows:
+            self._probe_rows[key] = ti.ndarray(dev.dev["probe_buf"].dtype,
+                                               shape=(slots, buf.shape[1], rows, buf.shape[3]))
+        out = self._probe_rows[key]
+        gather_probe_rows(dev.dev["probe_buf"], out)
+        a = out.to_numpy()
+        buf[:slots, :, :rows] = a
+        dev.count("pull", "probe_buf", a.nbytes)
+        dev.counts["pull"]["seconds"] += time.perf_counter() - t0
 
     def patches_over_caps(self, n_slots: int, area_cap: np.ndarray, batched: bool) -> bool:
         """Whether any live pair's patch may exceed its bodies' area cap, counted on the device
@@ -413,5 +451,6 @@ def _same_bytes(a: np.ndarray, b: np.ndarray) -> bool:
 
 def residency_kind(on_device: bool) -> type:
     """The residency of an engine's containers: on a device, or on the host only (its
-    CHUNK_STEPS and PROBE_SLOTS shape the Control; an instance holds the containers)."""
+    CHUNK_STEPS, PROBE_SLOTS and probe_bodies shape the Control; an instance holds the
+    containers)."""
     return DeviceResidency if on_device else HostResidency

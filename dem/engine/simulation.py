@@ -44,7 +44,7 @@ from dem import ti_runtime
 from dem.engine import step as stepk
 from dem.engine.assembly import assemble
 from dem.engine.broadphase import candidate_pairs
-from dem.engine.containers import NONFINITE, PROBES_PER_SCENE, Contacts, Control, Model, State
+from dem.engine.containers import NONFINITE, Contacts, Control, Model, State
 from dem.engine.launcher import Launcher, kernel_mode
 from dem.engine.options import JointLaw, StepOptions
 from dem.engine.errors import CapacityError, InputError, InstabilityError, SimulationError
@@ -95,7 +95,8 @@ class Engine:
         # context of copied arrays crashed Taichi 1.7.4); on the CPU where asked (its tests)
         self.on_device = (ti_runtime.settings()["arch"] == "cuda" or bool(device_arrays))
         kind = residency_kind(self.on_device)
-        box = assemble(scenes, joints, gravity, options, kind.CHUNK_STEPS, kind.PROBE_SLOTS)
+        box = assemble(scenes, joints, gravity, options, kind.CHUNK_STEPS, kind.PROBE_SLOTS,
+                       kind.probe_bodies)
         G = box.n_scenes
         self.n_scenes = G
         self.options = options
@@ -315,23 +316,39 @@ class Simulation:
         self.engine.host("contacts")
         return self._contacts
 
+    @property
+    def probe_capacity(self) -> int:
+        """The most bodies a probe of this scene may list (control.probe_body's J: the
+        residency's probe_bodies, dem.engine.residency)."""
+        return int(self.engine.control.probe_body.shape[1])
+
+    @property
+    def frames_in_launches(self) -> bool:
+        """Whether a run should take its frames inside the launches (a probe of every body,
+        dem.run.record) rather than end its advance at each: on a device, where a chunk end
+        costs a synchronisation and the host's per-chunk work, and the probe holds every body
+        of the scene; on the host a chunk end costs nothing."""
+        return self.engine.on_device and self.probe_capacity >= self._b1 - self._b0
+
     def set_probe(self, probe) -> None:
         """Copy some bodies' state at chosen steps inside a launch, without ending it (an
-        instrument's samples: dem.run.record).  ``probe`` (None: none) has ``bodies`` (indices
-        within this scene, at most PROBES_PER_SCENE), ``plan(clock, step, k)`` (the step counts
-        in step + 1 ... step + k after which to copy, ascending, from this scene's Clock; called
-        before each launch: it must not change the probe, as a launch may stop early) and
-        ``take(step, t, rows)`` (called after the launch for each planned step it reached, in
-        order; rows [bodies, 13]: pos, quat, vel, omega, as the state at that step count)."""
+        instrument's samples, a device's frames: dem.run.record).  ``probe`` (None: none) has
+        ``bodies`` (indices within this scene, at most :attr:`probe_capacity`), ``plan(clock,
+        step, k)`` (the step counts in step + 1 ... step + k after which to copy, ascending,
+        from this scene's Clock; called before each launch: it must not change the probe, as a
+        launch may stop early) and ``take(step, t, rows)`` (called after the launch for each
+        planned step it reached, in order; rows [bodies, 13]: pos, quat, vel, omega, as the
+        state at that step count); optionally ``rows(step)``, the number of its first bodies
+        that a planned step needs (take then gets those rows only)."""
         ctl = self.engine.control
         ctl.probe_body[self.scene_index] = -1
         self.probe = None
         if probe is None:
             return
         bodies = np.asarray(probe.bodies, dtype=int).reshape(-1)
-        if len(bodies) > PROBES_PER_SCENE or (bodies < 0).any() or \
+        if len(bodies) > self.probe_capacity or (bodies < 0).any() or \
                 (bodies >= self._b1 - self._b0).any():
-            raise InputError(f"a probe takes at most {PROBES_PER_SCENE} bodies of the scene "
+            raise InputError(f"a probe takes at most {self.probe_capacity} bodies of the scene "
                              f"(0 ... {self._b1 - self._b0 - 1}); got {bodies.tolist()}")
         ctl.probe_body[self.scene_index, :len(bodies)] = self._b0 + bodies
         self.probe = probe

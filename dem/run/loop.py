@@ -28,7 +28,7 @@ from dem.run.build import build, joint_summary
 from dem.run.progress import Progress
 from dem.run import resume as resume_mod
 from dem.run.quasi_static import QuasiStaticTilt
-from dem.run.record import FRAME_KEYS, Recording
+from dem.run.record import FRAME_KEYS, FRAMES_A_REQUEST, Recording
 from dem.run.settle import settle_steps
 from dem.run.steps import Advance, Steps, drive
 from dem.run.stop import StopRule
@@ -195,8 +195,12 @@ def run_case_steps(case: Case, out_dir: str | Path | None = None, progress: bool
                                      max_steps)
             summary["collapse"] = yield from search.run()
         else:                                                         # load: in time
+            # several frames a request where no frame listener may stop the run (the collapse
+            # detector of a tilt): the engine may then take them inside its launches
+            frames = FRAMES_A_REQUEST if stop.detector is None else 1
             while not stop.at_end(sim):
-                yield Advance(sim, stop.limit_steps(sim, recording.steps_to_next(stop.t_end)),
+                yield Advance(sim, stop.limit_steps(sim, recording.steps_to_next(stop.t_end,
+                                                                                 frames)),
                               loading)
                 if recording.after_advance(last=stop.at_end(sim)) and stop.collapse_stop:
                     break

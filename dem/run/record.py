@@ -3,9 +3,11 @@
 Frames (frames.npz) are taken at the first step at or after every multiple of
 ``run.output_interval``, instrument samples likewise for ``run.instrument_interval`` (time-based,
 so a change of dt during the run keeps the schedule; taken inside the engine's launches:
-:class:`InstrumentProbe`), a VTK frame at every ``run.vtk_every``-th frame.  Every recorded
-frame is also handed to the frame listeners (the collapse detector of a tilt run), so what a
-listener saw is exactly what frames.npz holds.
+:class:`LaunchProbe`), a VTK frame at every ``run.vtk_every``-th frame.  On an engine that
+takes them inside its launches (a device), the frames of a load phase in time are taken there
+too, up to the end of each of the run loop's requests (:meth:`Recording.steps_to_next`).
+Every recorded frame is also handed to the frame listeners (the collapse detector of a tilt
+run), so what a listener saw is exactly what frames.npz holds.
 """
 
 from __future__ import annotations
@@ -25,6 +27,12 @@ from dem.signals import deferred
 from dem.units import FRAMES_UNITS, npz_units
 
 FRAME_KEYS = ("t", "pos", "quat", "vel", "omega", "base_disp")
+# frames a request of a load phase in time, where the engine takes them inside its launches
+# (Simulation.frames_in_launches: a device): the run loop looks between requests (stop signals,
+# progress, checkpoints), so 10 frames (0.2 s of a shake at run.output_interval = 0.02 s, ~14 000
+# Model II steps) keep it looking every few seconds on a GPU while a frame no longer ends the
+# chunk of every scene of the engine
+FRAMES_A_REQUEST = 10
 # the State fields a frame and an instrument sample read (Simulation.read_state: on a device,
 # copied to the host only where stale, never back)
 RECORDED = ("pos", "quat", "vel", "omega")
@@ -105,45 +113,96 @@ def next_multiple(t: float, interval: float) -> float:
     return (math.floor(t / interval + 1e-9) + 1) * interval
 
 
-class InstrumentProbe:
-    """The instruments' samples taken inside the engine's launches (Simulation.set_probe): the
-    run loop then advances from frame to frame, and each sample is the state of the instruments'
-    blocks at the step the run loop would have stopped at for it (the first step at or after
-    the next multiple of ``run.instrument_interval``, counted from the last sample as
-    :func:`steps_to` counts it); one launch covers many samples (so that an engine of many
-    scenes does not end its launch for every scene's every sample)."""
+class LaunchProbe:
+    """What the recording takes inside the engine's launches (Simulation.set_probe), so that an
+    engine of many scenes does not end its launch for every scene's every sample and frame.
 
-    def __init__(self, recording: "Recording"):
+    * The instruments' samples (from the load phase on): each is the state of the instruments'
+      blocks at the step the run loop would have stopped at for it (the first step at or after
+      the next multiple of ``run.instrument_interval``, counted from the last sample as
+      :func:`steps_to` counts it).
+    * With ``frames`` (a load phase in time that asked for several frames a request, on an
+      engine that takes them inside its launches: Simulation.frames_in_launches), the frames
+      before the end of the run loop's request (:meth:`Recording.steps_to_next`), each at the
+      step the run loop would have stopped at for it (counted from the last frame as
+      :func:`steps_to` counts it), with every block of the scene (the instruments' first);
+      the frame at the request's end
+      is the run loop's (:meth:`Recording.after_advance`), as ever.  A frame is a copy of the
+      state at a step, so frames.npz is the same bit for bit however it was taken.
+    """
+
+    def __init__(self, recording: "Recording", frames: bool):
         self.recording = recording
-        blocks = recording.instruments.blocks
-        self.bodies = np.unique(blocks)
-        self.rows = np.searchsorted(self.bodies, blocks)  # instrument -> row of the probe
+        self.frames = frames
+        blocks = recording.instruments.blocks if recording.instruments is not None else None
+        # the instruments' blocks first, then (frames) every other block: a sample needs the
+        # first n_sampled rows only (the engine then copies back no more: Launcher.take_probes)
+        sampled = np.unique(blocks) if blocks is not None else np.zeros(0, dtype=int)
+        self.n_sampled = len(sampled)
+        self.bodies = sampled
+        if frames:
+            self.bodies = np.concatenate([sampled, np.setdiff1d(np.arange(recording.n),
+                                                                sampled)])
+        row_of = np.full(max(recording.n, int(self.bodies.max(initial=-1)) + 1), -1)
+        row_of[self.bodies] = np.arange(len(self.bodies))  # body -> its row
+        self.sample_rows = None if blocks is None else row_of[blocks]  # instrument -> row
+        self.frame_rows = row_of[:recording.n] if frames else None  # block b's row
+        # the request's frames: counted from from_step, up to (not at) end_step
+        self.from_step = self.end_step = 0
+        # the steps of the last plan, by kind (take tells a sample from a frame)
+        self.sample_steps: set[int] = set()
+        self.frame_steps: set[int] = set()
 
     def plan(self, clock, step: int, k: int) -> list[int]:
-        """The step counts in step + 1 ... step + k at which a sample falls (Simulation's
-        probe protocol), without changing the schedule: a launch may stop before them."""
-        interval = self.recording.run.instrument_interval
-        t_next, c, t_c, out = self.recording.next_sample, step, clock.time(step), []
-        while True:
-            c += max(1, int(math.ceil((t_next - t_c) / clock.dt - 1e-9)))
-            if c > step + k:
-                return out
-            t_c = clock.time(c)
-            if t_c >= t_next - 1e-9 * clock.dt:
-                out.append(c)
-                t_next = next_multiple(t_c, interval)
+        """The step counts in step + 1 ... step + k at which a sample or a frame falls
+        (Simulation's probe protocol), without changing the schedule: a launch may stop
+        before them."""
+        rec = self.recording
+        self.sample_steps = set() if self.sample_rows is None else set(
+            _schedule(clock, step, clock.time(step), rec.next_sample,
+                      rec.run.instrument_interval, step + k + 1))
+        self.frame_steps = set() if not self.frames else set(
+            c for c in _schedule(clock, self.from_step, clock.time(self.from_step),
+                                 rec.next_frame, rec.run.output_interval,
+                                 min(step + k + 1, self.end_step)) if c > step)
+        return sorted(self.sample_steps | self.frame_steps)
+
+    def rows(self, step: int) -> int:
+        """The rows of :attr:`bodies` that step count ``step`` (planned by the last plan)
+        needs: a frame's every block, a sample's instruments' blocks."""
+        return len(self.bodies) if step in self.frame_steps else self.n_sampled
 
     def take(self, step: int, t: float, rows: np.ndarray) -> None:
-        """The sample of step count ``step`` (time t, s): rows [bodies, 13] of pos, quat, vel,
-        omega."""
+        """The state of step count ``step`` (time t, s): rows [bodies, 13] of pos, quat, vel,
+        omega of :attr:`bodies`; a sample, a frame or both."""
         rec = self.recording
-        r = rows[self.rows]
-        with deferred():  # one sample, whole (see Recording.frame)
-            # the table's motion at the samples' times, computed with their rows, for the
-            # samples of many launches at once (dem.instruments.InstrumentRecorder)
-            rec.instruments.sample_blocks(t, r[:, 0:3], r[:, 3:7], r[:, 7:10], r[:, 10:13],
-                                          rec.loading.base_disp, rec.loading.base_vel)
-            rec.next_sample = next_multiple(t, rec.run.instrument_interval)
+        with deferred():  # one sample and frame, whole (see Recording.frame)
+            if step in self.sample_steps:
+                r = rows[self.sample_rows]
+                # the table's motion at the samples' times, computed with their rows, for the
+                # samples of many launches at once (dem.instruments.InstrumentRecorder)
+                rec.instruments.sample_blocks(t, r[:, 0:3], r[:, 3:7], r[:, 7:10], r[:, 10:13],
+                                              rec.loading.base_disp, rec.loading.base_vel)
+                rec.next_sample = next_multiple(t, rec.run.instrument_interval)
+            if step in self.frame_steps:
+                f = rows[self.frame_rows]  # in block order
+                rec.frame_of(t, f[:, 0:3], f[:, 3:7], f[:, 7:10], f[:, 10:13])
+                self.from_step = step
+
+
+def _schedule(clock, c: int, t_c: float, t_next: float, interval: float, before: int):
+    """The steps after step c (time t_c) at which a schedule of ``interval`` whose next time is
+    ``t_next`` takes its state, as a run loop that stops at each would find them (each the first
+    step at or after its time, :func:`steps_to` from the last), up to step ``before``
+    (excluded)."""
+    while True:
+        c += max(1, int(math.ceil((t_next - t_c) / clock.dt - 1e-9)))
+        if c >= before:
+            return
+        t_c = clock.time(c)
+        if t_c >= t_next - 1e-9 * clock.dt:
+            yield c
+            t_next = next_multiple(t_c, interval)
 
 
 class Recording:
@@ -182,20 +241,30 @@ class Recording:
             self._frame()
 
     def _frame(self) -> None:
-        sim, n, loading = self.sim, self.n, self.loading
-        st, t = sim.read_state(*RECORDED), sim.t
+        st = self.sim.read_state(*RECORDED)
+        n = self.n
+        self._record(self.sim.t, st.pos[:n], st.quat[:n], st.vel[:n], st.omega[:n])
+
+    def frame_of(self, t: float, pos, quat, vel, omega) -> None:
+        """Record the frame of time t (s) from the scene's blocks' rows (a frame taken inside a
+        launch: :class:`LaunchProbe`, which holds back a stop signal meanwhile) and schedule the
+        next one."""
+        self._record(t, pos, quat, vel, omega)
+        self.next_frame = next_multiple(t, self.run.output_interval)
+
+    def _record(self, t: float, pos, quat, vel, omega) -> None:
+        loading = self.loading
         extra = {}
         if isinstance(loading, Tilt):
             extra["tilt_angle"] = float(loading.angle(t)[0])
         base = loading.base_disp(np.array([t]))[0]
         if self.vtk is not None and self.frames.n_frames % self.run.vtk_every == 0:
-            self.vtk.add_frame(t, st.pos[:n], st.quat[:n], st.vel[:n], base,
-                               contacts=sim.active_contact_points() if self.run.contacts
+            self.vtk.add_frame(t, pos, quat, vel, base,
+                               contacts=self.sim.active_contact_points() if self.run.contacts
                                else None)
-        self.frames.add(t, st.pos[:n], st.quat[:n], st.vel[:n], st.omega[:n], base, **extra)
+        self.frames.add(t, pos, quat, vel, omega, base, **extra)
         for listen in self.listeners:
-            listen(t, extra.get("tilt_angle", 0.0), st.pos[:n], st.quat[:n], st.vel[:n],
-                   st.omega[:n])
+            listen(t, extra.get("tilt_angle", 0.0), pos, quat, vel, omega)
 
     def sample(self) -> None:
         with deferred():  # one sample, whole (see frame)
@@ -208,17 +277,38 @@ class Recording:
         self.instruments.sample(sim.t, st.pos, st.quat, st.vel, st.omega,
                                 loading.base_disp(tt)[0], loading.base_vel(tt)[0])
 
-    def steps_to_next(self, t_end: float) -> int:
+    def steps_to_next(self, t_end: float, frames: int = 1) -> int:
         """Steps to the next frame or the end, whichever comes first (the load phase's
-        requests).  The instrument samples between are taken inside the engine's launches
-        (:class:`InstrumentProbe`, installed here: from the load phase on, not while settling)."""
-        if self.instruments is not None and self.sim.probe is None:
-            self.sim.set_probe(InstrumentProbe(self))
-        return steps_to(self.sim, min(self.next_frame, t_end))
+        requests); with ``frames`` > 1, to the ``frames``-th next frame or the end, where the
+        engine takes the frames between inside its launches (Simulation.frames_in_launches,
+        and no VTK frame needs the contacts, which a probe does not copy).  The instrument
+        samples between are taken inside the engine's launches (:class:`LaunchProbe`,
+        installed here: from the load phase on, not while settling); so are those frames."""
+        sim = self.sim
+        many = frames > 1 and sim.frames_in_launches and not (self.vtk is not None
+                                                              and self.run.contacts)
+        if sim.probe is None and (self.instruments is not None or many):
+            sim.set_probe(LaunchProbe(self, frames=many))
+        if not many or not sim.probe.frames:
+            return steps_to(sim, min(self.next_frame, t_end))
+        # the request ends at the frames-th frame (or the end), each step found as the run
+        # loop would find it stopping at every frame (steps_to from the last one)
+        probe, clock, c = sim.probe, sim.clock, sim.step_count
+        t_c, t_next = clock.time(c), self.next_frame
+        for _ in range(frames):
+            c += max(1, int(math.ceil((min(t_next, t_end) - t_c) / clock.dt - 1e-9)))
+            t_c = clock.time(c)
+            if t_c >= t_end - 1e-12 * t_end:  # the run's end (dem.run.stop.StopRule.at_end)
+                break
+            if t_c >= t_next - 1e-9 * clock.dt:
+                t_next = next_multiple(t_c, self.run.output_interval)
+        probe.from_step, probe.end_step = sim.step_count, c
+        return c - sim.step_count
 
     def after_advance(self, last: bool) -> bool:
-        """Take what is due at the engine's time (the samples are taken in the launches:
-        :class:`InstrumentProbe`); True when a frame was recorded."""
+        """Take what is due at the engine's time (the samples, and the frames before the
+        request's end where the engine can, are taken in the launches: :class:`LaunchProbe`);
+        True when a frame was recorded."""
         sim = self.sim
         if sim.t >= self.next_frame - 1e-9 * sim.dt or last:
             self.next_frame = next_multiple(sim.t, self.run.output_interval)
