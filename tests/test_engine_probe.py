@@ -15,6 +15,7 @@ from dem.case import Case
 from dem.engine.containers import PROBES_PER_SCENE
 from dem.engine.errors import InputError
 from dem.engine.simulation import Engine
+from dem.engine.residency import DEVICE_CHUNK
 from dem.instruments import InstrumentRecorder, thesis_instruments
 from dem.run.loop import run_case
 from tests.test_batched_runs import SMALL_BOX
@@ -44,9 +45,10 @@ def _rows(sim, bodies) -> np.ndarray:
 BODIES = [0, 3, 7, 11]
 # single steps, two probes in consecutive steps, 41 probes in a row (more than a launch's
 # slots: the launch is cut), and probes across a launch's end (the serial kernel's 2000 steps,
-# the device path's chunks of 256: dem.engine.residency.DEVICE_CHUNK)
+# the device path's chunks: dem.engine.residency.DEVICE_CHUNK)
 STEPS = {"serial": [1, 5, 17, 18, *range(100, 141), 1999, 2000, 2001, 2600],
-         "parallel": [1, 5, 17, 18, *range(100, 141), 255, 256, 257, 600]}
+         "parallel": [1, 5, 17, 18, *range(100, 141), DEVICE_CHUNK - 1, DEVICE_CHUNK,
+                      DEVICE_CHUNK + 1, DEVICE_CHUNK + 344]}
 
 
 @pytest.mark.parametrize("mode,device", [("serial", False), ("parallel", False),

@@ -53,13 +53,17 @@ from dem.engine.containers import (PROBE_SLOTS, PROBES_PER_SCENE, SERIAL_CHUNK, 
                                    State, element_type, pair_lists)
 
 # an engine on a device: steps per chunk of launches (the loads of a chunk are copied to the
-# device before it; the host reads the status back after it)
-DEVICE_CHUNK = 256
+# device before it; the host reads the status back after it).  A chunk end idles a GPU for the
+# host's per-chunk work (~10 ms at K = 64 on the test VM, benchmarks/host_share.py: the loads,
+# the copies, the probes, the caps' check), so chunks are long: the run loop's requests
+# (ten frames), the settling looks (200 steps) and the probes' slots end most of them first
+DEVICE_CHUNK = 1024
 
-# an engine on a device: probed steps of a scene per chunk (its probe_buf, Q x G x 16 x 13
-# reals, is copied back whole after a chunk with a probe: 4 slots hold the samples of a chunk
-# of DEVICE_CHUNK steps down to 64 steps apart; more shorten the chunk)
-DEVICE_PROBE_SLOTS = 4
+# an engine on a device: probed steps of a scene per chunk (control.probe_buf's Q; the most
+# a chunk's header row carries, dem.engine.device.LOAD_COLUMNS): 6 slots hold the samples of a
+# chunk of 810 steps at Model II's 500 Hz instruments (a sample every ~135 steps); more
+# shorten the chunk
+DEVICE_PROBE_SLOTS = 6
 
 # a patch is counted as possibly over its area cap from (1 - this) x the cap
 # (DeviceResidency.patches_over_caps); the device's and the host's sums of a patch's <= 9 point
