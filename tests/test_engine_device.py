@@ -25,7 +25,7 @@ def test_device_arrays_follow_the_numpy_path(mode):
     host = Engine([wall() for _ in loads], JOINTS, opts)
     dev = Engine([wall() for _ in loads], JOINTS, opts, device_arrays=True)
     assert dev.on_device and not host.on_device
-    steps = 5 * DEVICE_CHUNK + 17  # chunks of DEVICE_CHUNK steps, and a short one
+    steps = DEVICE_CHUNK + 17  # a chunk of DEVICE_CHUNK steps and a short one, three times
     for _ in range(3):  # the host reads the states between advances (a frame), as a run does
         host.advance(steps, loads)
         dev.advance(steps, loads)
