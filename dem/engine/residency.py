@@ -151,9 +151,10 @@ class DeviceResidency:
     @staticmethod
     def probe_bodies(largest: int) -> int:
         """Every body of the largest scene (or an instrument's blocks, if more): a frame is
-        probed inside the launches (dem.run.record), as a chunk end costs the host a
-        synchronisation and its per-chunk work; control.probe_buf is Q x G x J x 13 reals
-        (4 x 64 x 218 x 13: 5.8 MB for 64 Model II scenes), pulled after a chunk with a probe."""
+        probed inside the launches (dem.run.record), as a chunk end costs a synchronisation
+        and the host's per-chunk work; control.probe_buf is Q x G x J x 13 reals (6 x 64 x
+        218 x 13: 8.7 MB for 64 Model II scenes), of which a chunk brings back the slots and
+        rows it filled (:meth:`pull_probes`)."""
         return max(PROBES_PER_SCENE, int(largest))
 
     # Contacts fields current on the host after any launch, never copied back by Engine.host:
