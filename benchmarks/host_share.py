@@ -333,7 +333,9 @@ def launch_parts(k: int, n: int = 3000) -> dict:
     """The Python of one cached launch of the stepping kernel (dem.engine.launch.CachedLaunch)
     of an engine of k Model II scenes on the device path, its C++ launch stubbed (us, medians
     of 5 x ``n`` calls): the whole, and its parts: a fresh launch context, the argpacks, the
-    ndarray slots (the counts with them)."""
+    ndarray slots (the counts with them); and the whole after a 64 MB memory sweep each (the
+    median of 300: the caches emptied, as a kernel running on the CPU between two launches
+    empties them and a kernel on a GPU does not)."""
     from batch_speed import build
 
     engine, _ = build(k, "parallel", True)
@@ -354,9 +356,23 @@ def launch_parts(k: int, n: int = 3000) -> dict:
         def launch_kernel(self, compiled, ctx):
             pass
 
+    # a kernel's memory traffic between two launches, as in a run on the CPU: a sweep of 64 MB
+    # (more than this machine's caches) before each timed launch
+    sweep = np.ones(8 * 1024 * 1024)
+
+    def after_sweep_us(m: int = 300) -> float:
+        times = []
+        for _ in range(m):
+            sweep.sum()
+            t0 = time.perf_counter()
+            launch(-2, 0, 1e-5)
+            times.append(time.perf_counter() - t0)
+        return 1e6 * float(np.median(times))
+
     real, launch.prog = launch.prog, NoLaunch()
     try:
         whole = per_call_us(lambda: launch(-2, 0, 1e-5))
+        swept = after_sweep_us()
     finally:
         launch.prog = real
     ctx = launch.t_kernel.make_launch_context()
@@ -370,6 +386,7 @@ def launch_parts(k: int, n: int = 3000) -> dict:
             ctx.set_arg_ndarray(slot, arr)
 
     return {"launch": True, "K": k, "python_per_launch_us": whole,
+            "python_per_launch_after_64MB_sweep_us": swept,
             "make_launch_context_us": per_call_us(launch.t_kernel.make_launch_context),
             "argpacks": len(launch.argpacks), "argpacks_us": per_call_us(packs),
             "ndarray_slots": len(launch.device_arrays), "ndarray_slots_us": per_call_us(arrays)}
