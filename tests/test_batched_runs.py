@@ -357,6 +357,28 @@ SMALL_BOX = {
 }
 
 
+def _device_and_numpy_runs(cases, tmp_path, **kwargs) -> dict:
+    """Run ``cases`` in one engine twice, with device arrays (into tmp_path / "True") and with
+    numpy's (tmp_path / "False"), every point ok; returns the engines by device_arrays."""
+    engines = {}
+    for dev in (True, False):
+        recs = run_cases_in_one_engine(cases, [tmp_path / str(dev) / n for n, _ in cases],
+                                       resume=False, device_arrays=dev,
+                                       on_engine=lambda e, d=dev: engines.__setitem__(d, e),
+                                       **kwargs)
+        assert [r["status"] for r in recs] == ["ok", "ok"], recs
+    return engines
+
+
+def _same_recordings(a, b, name) -> None:
+    """frames.npz and instruments.npz of run directories a and b equal, array by array."""
+    for f in ("frames.npz", "instruments.npz"):
+        fa, fb = _arrays(a / f), _arrays(b / f)
+        assert fa.keys() == fb.keys()
+        for k in fa:
+            assert np.array_equal(fa[k], fb[k]), (name, f, k)
+
+
 def test_a_batch_with_device_arrays_on_the_cpu_records_what_the_numpy_path_records(tmp_path):
     """The device path's data movement (dem.engine.device; read-only accessors that copy only
     the stale fields asked for, writers that send everything back) changes no output: two
@@ -368,22 +390,13 @@ def test_a_batch_with_device_arrays_on_the_cpu_records_what_the_numpy_path_recor
         data = json.loads(json.dumps(SMALL_BOX))
         data["name"], data["imperfections"]["seed"] = f"seed{seed}", seed
         cases.append((data["name"], Case.model_validate(data)))
-    engines = {}
-    for dev in (True, False):
-        recs = run_cases_in_one_engine(cases, [tmp_path / str(dev) / n for n, _ in cases],
-                                       max_steps=5000, resume=False, device_arrays=dev,
-                                       on_engine=lambda e, d=dev: engines.__setitem__(d, e))
-        assert [r["status"] for r in recs] == ["ok", "ok"], recs
+    engines = _device_and_numpy_runs(cases, tmp_path, max_steps=5000)
     assert engines[True].on_device and not engines[False].on_device
     stats = engines[True].transfer_stats()
     assert stats["device_to_host"]["copies"] > 0
     for name, _ in cases:
         a, b = (tmp_path / str(dev) / name for dev in (True, False))
-        for f in ("frames.npz", "instruments.npz"):
-            fa, fb = _arrays(a / f), _arrays(b / f)
-            assert fa.keys() == fb.keys()
-            for k in fa:
-                assert np.array_equal(fa[k], fb[k]), (name, f, k)
+        _same_recordings(a, b, name)
         assert len(_arrays(a / "frames.npz")["t"]) >= 5
         sa, sb = (json.loads((d / "summary.json").read_text()) for d in (a, b))
         assert sa["steps"] == sb["steps"] == 5000
@@ -412,23 +425,14 @@ def test_a_device_takes_the_frames_inside_its_launches(tmp_path):
         data["run"]["duration"] = 0.1  # two requests of FRAMES_A_REQUEST frames
         data.pop("imperfections")
         cases.append((data["name"], Case.model_validate(data)))
-    engines = {}
-    for dev in (True, False):
-        recs = run_cases_in_one_engine(cases, [tmp_path / str(dev) / n for n, _ in cases],
-                                       resume=False, device_arrays=dev,
-                                       on_engine=lambda e, d=dev: engines.__setitem__(d, e))
-        assert [r["status"] for r in recs] == ["ok", "ok"], recs
+    engines = _device_and_numpy_runs(cases, tmp_path)
     sim = engines[True].simulations[0]
     assert sim.frames_in_launches and not engines[False].simulations[0].frames_in_launches
     assert len(sim.probe.bodies) == sim.n_blocks and sim.probe.frames
     n_frames = []
     for name, _ in cases:
         a, b = (tmp_path / str(dev) / name for dev in (True, False))
-        for f in ("frames.npz", "instruments.npz"):
-            fa, fb = _arrays(a / f), _arrays(b / f)
-            assert fa.keys() == fb.keys()
-            for k in fa:
-                assert np.array_equal(fa[k], fb[k]), (name, f, k)
+        _same_recordings(a, b, name)
         n_frames.append(len(_arrays(a / "frames.npz")["t"]))
     assert min(n_frames) == 21  # t = 0, 0.005, ..., 0.1
     # the device's chunks: its chunk length's and one more a request of FRAMES_A_REQUEST
