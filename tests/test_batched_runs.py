@@ -409,6 +409,20 @@ def test_a_batch_with_device_arrays_on_the_cpu_records_what_the_numpy_path_recor
         assert (sa["n_pairs"], sa["n_contact_points"]) == (sb["n_pairs"], sb["n_contact_points"])
 
 
+def _perfect_small_boxes(**run) -> list:
+    """Two perfect (unsettled) small boxes shaken at 5 and 7 Hz, a frame and an instrument
+    sample every 5 ms (on the same steps), ``run`` fields changed: (name, Case) pairs."""
+    cases = []
+    for k, frequency in enumerate((5.0, 7.0)):
+        data = json.loads(json.dumps(SMALL_BOX))
+        data["name"], data["loading"]["frequency"] = f"point{k}", frequency
+        data["run"]["instrument_interval"] = data["run"]["output_interval"]
+        data["run"].update(run)
+        data.pop("imperfections")
+        cases.append((data["name"], Case.model_validate(data)))
+    return cases
+
+
 def test_a_device_takes_the_frames_inside_its_launches(tmp_path):
     """On a device a frame does not end the chunk of every scene: the run loop asks for
     FRAMES_A_REQUEST frames at a time and the engine copies the frames between into its probe
@@ -417,14 +431,7 @@ def test_a_device_takes_the_frames_inside_its_launches(tmp_path):
     sample every 1 ms would fill the probe's slots first): frames.npz and instruments.npz are
     those of the host's numpy path, which ends its advance at every frame, bit for bit; and the
     device's engine ran its chunk length's chunks and one a request, fewer than one a frame."""
-    cases = []
-    for k, frequency in enumerate((5.0, 7.0)):
-        data = json.loads(json.dumps(SMALL_BOX))
-        data["name"], data["loading"]["frequency"] = f"point{k}", frequency
-        data["run"]["instrument_interval"] = data["run"]["output_interval"]
-        data["run"]["duration"] = 0.1  # two requests of FRAMES_A_REQUEST frames
-        data.pop("imperfections")
-        cases.append((data["name"], Case.model_validate(data)))
+    cases = _perfect_small_boxes(duration=0.1)  # two requests of FRAMES_A_REQUEST frames
     engines = _device_and_numpy_runs(cases, tmp_path)
     sim = engines[True].simulations[0]
     assert sim.frames_in_launches and not engines[False].simulations[0].frames_in_launches
@@ -441,3 +448,23 @@ def test_a_device_takes_the_frames_inside_its_launches(tmp_path):
     requests = -(-(min(n_frames) - 1) // FRAMES_A_REQUEST)
     assert engines[True].transfer_stats()["chunks"] <= -(-steps // DEVICE_CHUNK) + requests
     assert engines[False].launcher.n_chunks >= min(n_frames) - 1  # the host: one a frame
+
+
+def test_a_step_limit_on_a_frame_taken_inside_a_launch_records_it_once(tmp_path):
+    """--max-steps may end a request at a frame the engine took inside its launch: the run's
+    last frame is then that one, not a second copy of it (the numpy path, which stops at every
+    frame, records it once)."""
+    cases = _perfect_small_boxes()
+    probe = tmp_path / "probe"
+    run_cases_in_one_engine(cases, [probe / n for n, _ in cases], max_steps=1200,
+                            resume=False, device_arrays=False)
+    frames = _arrays(probe / "point0" / "frames.npz")["t"]
+    dt = json.loads((probe / "point0" / "summary.json").read_text())["batch"]["dt_s"]
+    limit = int(round(frames[2] / dt))  # the third frame's step: inside the first request
+    assert 0 < limit < 1200 and FRAMES_A_REQUEST > 3
+    _device_and_numpy_runs(cases, tmp_path, max_steps=limit)
+    for name, _ in cases:
+        a, b = (tmp_path / str(dev) / name for dev in (True, False))
+        _same_recordings(a, b, name)
+        t = _arrays(a / "frames.npz")["t"]
+        assert len(t) == 3 and len(np.unique(t)) == 3
