@@ -70,7 +70,7 @@ Stages (a stage is the time of these calls, less the wrapped calls inside them):
   step launch      the stepping kernel's launches (dem.engine.launch.CachedLaunch), their Python
   kernel NAME      the other kernels the host launches, their Python, each apart (AUX_KERNELS:
                    unpack_chunk, pack_diagnostics, install_pairs, gather_scene_rows,
-                   patches_over_caps, probe_contacts, elastic_energy)
+                   patches_over_caps, gather_probe_rows, probe_contacts, elastic_energy)
 
 Per (phase, K) the medians over ``--repeats`` runs (each a fresh engine; its construction left
 out): the host's ms per chunk and per step, each stage's, and the implied host share of a step
@@ -109,7 +109,8 @@ TARGET_SHARE = 0.10
 ONE_OFF = ("run start", "run end")
 # the kernels the host launches beside the stepping kernel (dem.engine.device, dem.engine.step)
 AUX_KERNELS = ("unpack_chunk", "pack_diagnostics", "install_pairs", "gather_scene_rows",
-               "patches_over_caps", "probe_contacts", "elastic_energy")
+               "patches_over_caps", "gather_probe_rows", "probe_contacts", "elastic_energy")
+DEVICE_KERNELS = 6  # the first of AUX_KERNELS are dem.engine.device's, the rest dem.engine.step's
 # the warm-up run of each phase (not timed): every kernel of a run loaded, rebuilds included
 WARM_K, WARM_STEPS = 4, 600
 STAGE_ORDER = ("step launch", "loads", "clocks", "launch", "chunk loop", "probes plan", "probes take",
@@ -276,9 +277,9 @@ def instrument(clock: StageClock) -> Patches:
     for owner, name, stage in methods:
         p.set(owner, name, clock.timed(getattr(owner, name), stage))
     p.set(simulation, "candidate_pairs", clock.timed(simulation.candidate_pairs, "broad phase"))
-    for name in AUX_KERNELS[:5]:
+    for name in AUX_KERNELS[:DEVICE_KERNELS]:
         p.set(device, name, clock.timed(getattr(device, name), f"kernel {name}"))
-    for name in AUX_KERNELS[5:]:
+    for name in AUX_KERNELS[DEVICE_KERNELS:]:
         p.set(stepk, name, clock.timed(getattr(stepk, name), f"kernel {name}"))
     p.set(loop, "settle_steps", clock.timed_steps(loop.settle_steps, "settling looks"))
     drive_together = batched.drive_together
