@@ -12,8 +12,11 @@ Taichi's kernel profiler on K = PROFILE_KS, each task's GPU time, printed to log
      of scenes 0 and K-1 against each alone on the CPU, the 100 x 50-cycle extrapolation
      (gpu.jsonl), run while part 1's CPU processes run (stated in the output);
   3. the CPU baseline of the same machine: 16 single-threaded processes of one scene
-     (cpu_lone.jsonl), after part 1's CPU runs end.
-``PARTS`` (default "0,2,1") picks the parts to run (3 runs where time is left, LONE_BEFORE_S);
+     (cpu_lone.jsonl), after part 1's CPU runs end;
+  4. this host's Python of one stepping launch (benchmarks/host_share.py --launch, K = 64:
+     host_launch.jsonl), against the project VM's 75 us (170 us with cold caches), by which
+     the VM's estimate of a GPU run's host time (results/batched-engine/README.md) scales.
+``PARTS`` (default "0,2,1,4") picks the parts to run (3 runs where time is left, LONE_BEFORE_S);
 ``CPU_PROCS`` (default R) the processes of part 1's CPU side; each point's record carries its
 run's size and speed (steps, dt, wall seconds, neighbour rebuilds: SUMMARY_KEYS).
 
@@ -127,14 +130,20 @@ def plan() -> list[tuple[str, list[str], float, str]]:
     profile = [sys.executable, str(ROOT / "benchmarks/batch_speed.py"), ARCH, "--ks",
                os.environ.get("PROFILE_KS", "16,64"), "--steps", "300", "--repeats", "1",
                "--profile", "--json", str(OUT / "gpu_profile.jsonl")]
+    # part 4: the Python of one stepping launch on this machine's host (the CPU proxy's
+    # engine, the C++ launch stubbed): what the estimate of a GPU run's host time scales by
+    host = [sys.executable, str(ROOT / "benchmarks/host_share.py"), "--launch", "--ks", "64",
+            "--json", str(OUT / "host_launch.jsonl")]
     out = [("0 (each kernel task's time)", profile, float(os.environ.get("PROFILE_S", "150")),
             "gpu_profile.jsonl, the profile in log.txt"),
            ("2 (throughput)", cmd, float(os.environ.get("THROUGHPUT_S", "240")),
             "gpu.jsonl (step time against K, error against lone runs), states_K*.npz"),
            ("1 GPU (realisations)", [sys.executable, __file__, "gpu-points"],
             float(os.environ.get("GPU_POINTS_S", "200")),
-            f"points_gpu{TAG}.json (ds amplification and lag of each seed)")]
-    parts = os.environ.get("PARTS", "0,2,1")  # which of parts 0, 2, 1 (in that order) run
+            f"points_gpu{TAG}.json (ds amplification and lag of each seed)"),
+           ("4 (the host's Python of a launch)", host, float(os.environ.get("HOST_S", "120")),
+            "host_launch.jsonl (this host's Python of one stepping launch, K = 64)")]
+    parts = os.environ.get("PARTS", "0,2,1,4")  # which of parts 0, 2, 1, 4 (in that order) run
     return [p for p in out if p[0][0] in parts.split(",")]
 
 
