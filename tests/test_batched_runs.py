@@ -217,6 +217,47 @@ def test_a_sigterm_stops_every_point_and_a_rerun_resumes_each_from_its_own(tmp_p
         assert not (d / RESTART_FILE).exists()
 
 
+def test_a_sigterm_between_requests_of_a_device_batch_and_its_rerun(tmp_path, monkeypatch):
+    """A SIGTERM on device arrays, where the run loop asks for FRAMES_A_REQUEST frames at a
+    time and its checkpoints come between requests (dem.run.record.LaunchProbe): a SIGTERM
+    after the first request of both points ends them 'interrupted' with that request's frames
+    and the state where they stopped; the rerun resumes both from their restart points and they
+    equal the device batch never stopped, frames (taken inside the launches) and summary."""
+    from dem.signals import stop_on_signals
+
+    # perfect (no settling, no warped faces: the device kernel's variant the warm-up compiles),
+    # 0.6 cycles at 10 Hz in 0.07 s, a frame every 5 ms; two points at two peak accelerations
+    data = json.loads(json.dumps({k: v for k, v in STACK.items() if k != "imperfections"}))
+    data["loading"]["frequency"] = 10.0
+    data["run"].update(duration=0.07, output_interval=0.005)
+    cases = []
+    for k, peak in enumerate((6.0, 7.0)):
+        case = json.loads(json.dumps(data))
+        case["name"], case["loading"]["peak_acceleration"] = f"peak{k}", peak
+        cases.append((case["name"], Case.model_validate(case)))
+    names = [n for n, _ in cases]
+    whole = run_cases_in_one_engine(cases, [tmp_path / "whole" / n for n in names],
+                                    device_arrays=True)
+    assert [r["status"] for r in whole] == ["ok", "ok"]
+    cut = [tmp_path / "cut" / n for n in names]
+    with monkeypatch.context() as m:
+        _sigterm_after_checkpoints(m, 2)
+        with stop_on_signals(), pytest.raises(KeyboardInterrupt):
+            run_cases_in_one_engine(cases, cut, device_arrays=True)
+    for d, n in zip(cut, names):
+        summ = json.loads((d / "summary.json").read_text())
+        assert summ["status"] == "interrupted"
+        t = _arrays(d / "frames.npz")["t"]  # the first request's frames, then where it stopped
+        whole_t = _arrays(tmp_path / "whole" / n / "frames.npz")["t"]
+        assert np.array_equal(t[:FRAMES_A_REQUEST + 1], whole_t[:FRAMES_A_REQUEST + 1])
+        assert t[-1] == summ["sim_time"] < whole_t[-1]
+    again = run_cases_in_one_engine(cases, cut, device_arrays=True)
+    assert [r["status"] for r in again] == ["ok", "ok"]
+    for d, n, rec in zip(cut, names, again):
+        assert len(rec["summary"]["resumed"]) == 1
+        assert_same_run(tmp_path / "whole" / n, d)
+
+
 def test_a_batch_is_k_to_an_engine_on_a_gpu_and_one_on_the_cpu():
     """engine_groups: on a GPU the runs in order, K to an engine, the last smaller; on the CPU
     one run to an engine whatever K (an engine of K on one core is slower per scene-step than
