@@ -2,7 +2,7 @@
 by side (dem.engine.containers: scene g's bodies are rows model.scene_bodies[g] of every body
 array, its pair slots the g-th block of the Contacts' slots).
 
-    box = assemble(scenes, joints, gravity, options, chunk_steps, probe_slots)
+    box = assemble(scenes, joints, gravity, options, chunk_steps, probe_slots, probe_bodies)
     box.model, box.state, box.contacts, box.control      # the engine's containers
     box.models[g]                                        # scene g's own Model
 """
@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dem.engine.containers import PROBES_PER_SCENE, Contacts, Control, Model, State
+from dem.engine.containers import Contacts, Control, Model, State
 from dem.engine.errors import InputError
 from dem.engine.options import StepOptions
 from dem.scene import Scene
@@ -40,12 +40,12 @@ class Assembly:
 
 
 def assemble(scenes: list[Scene], joints, gravity, options: StepOptions, chunk_steps: int,
-             probe_slots: int, probe_bodies=None) -> Assembly:
+             probe_slots: int, probe_bodies) -> Assembly:
     """The containers of ``scenes`` (in order) with ``joints`` (one JointLaw per scene, or one
     for all), ``gravity`` (per scene, or one 3-vector for all; None: -9.81 m/s^2 along z) and
     the StepOptions ``options``; the control holds the loads of ``chunk_steps`` steps and
     ``probe_slots`` probed steps a scene and ``probe_bodies(largest scene's bodies)`` probed
-    bodies a scene (the residency's: dem.engine.residency; None: PROBES_PER_SCENE)."""
+    bodies a scene (the residency's: dem.engine.residency)."""
     scenes = list(scenes)
     G = len(scenes)
     if G == 0:
@@ -69,6 +69,5 @@ def assemble(scenes: list[Scene], joints, gravity, options: StepOptions, chunk_s
     skin = float(options.skin) if options.skin is not None else 0.1 * hmin
     largest = max(m.n_bodies for m in models)
     control = Control(skin, options.max_speed, options.local_damping, options.patch_reuse, G,
-                      chunk_steps, probe_slots,
-                      PROBES_PER_SCENE if probe_bodies is None else probe_bodies(largest))
+                      chunk_steps, probe_slots, probe_bodies(largest))
     return Assembly(scenes, joints, gravity, models, model, state, contacts, control, skin)
