@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from dem.engine.containers import PROBES_PER_SCENE, State
-from dem.engine.device import DIAGNOSTIC_COLUMNS
+from dem.engine.device import DIAGNOSTIC_COLUMNS, LOAD_COLUMNS, first_unsent_row
 from dem.engine.residency import DEVICE_CHUNK, DeviceResidency
 from dem.engine.simulation import Engine
 from tests.engine_helpers import ROUND_OFF_POS_M, ROUND_OFF_QUAT
@@ -263,8 +263,9 @@ def test_host_scenes_names_many_scenes_by_a_list_on_the_device():
 
 def test_the_probes_pull_brings_back_only_the_slots_and_rows_asked_for():
     """The probe buffer holds every body of the largest scene on a device (a frame is probed
-    there, dem.run.record.LaunchProbe), so a chunk's pull copies back only its first slots and
-    rows (DeviceResidency.pull_probes): exactly those, and no byte more."""
+    there, dem.run.record.LaunchProbe), so a chunk's pull copies back only its first slots,
+    each with the rows asked for (DeviceResidency.pull_probes: a frame's slot every row, a
+    sample's few): exactly those, and no byte more."""
     e = Engine([wall(), wall()], JOINTS, options(), device_arrays=True)
     sim = e.simulations[0]
     ctl = e.control
@@ -277,10 +278,63 @@ def test_the_probes_pull_brings_back_only_the_slots_and_rows_asked_for():
     e.residency.dev["control"].push(["probe_buf"])
     ctl.probe_buf[...] = 0.0
     before = _copies(e)
-    e.residency.pull_probes(2, 3)
+    e.residency.pull_probes([3, 3])
     after = _copies(e)
     assert np.array_equal(ctl.probe_buf[:2, :, :3], values[:2, :, :3])
     assert not ctl.probe_buf[2:].any() and not ctl.probe_buf[:, :, 3:].any()
     assert (after[0] - before[0], after[1] - before[1]) == (1, 2 * G * 3 * W * 8)
-    e.residency.pull_probes(Q, J)  # the whole buffer: one copy of the field
+    # a frame in slot 1 between two samples: every slot's 2 rows, then slot 1's every row
+    ctl.probe_buf[...] = 0.0
+    e.residency.pull_probes([2, J, 2])
+    again = _copies(e)
+    want = np.zeros_like(values)
+    want[:3, :, :2] = values[:3, :, :2]
+    want[1] = values[1]
+    assert np.array_equal(ctl.probe_buf, want)
+    assert (again[0] - after[0], again[1] - after[1]) == (2, (3 * 2 + J) * G * W * 8)
+    e.residency.pull_probes([J] * Q)  # the whole buffer: one copy of the field
     assert np.array_equal(ctl.probe_buf, values)
+
+
+def _first_unsent_every_row(ring, held, loads, ring_rows, active) -> int:
+    """The definition first_unsent_row implements, row by row."""
+    for i, r in enumerate(ring_rows):
+        if not held[r] or ring[r][active].tobytes() != loads[i][active].tobytes():
+            return i
+    return len(loads)
+
+
+def test_the_first_unsent_row_is_the_one_a_comparison_of_every_row_finds():
+    """ChunkCopies.push_chunk sends a chunk's loads from the first row the ring does not hold
+    (or holds with other bytes, for a scene that steps); first_unsent_row compares in growing
+    blocks and must find that row wherever it is: in the first row, inside or at the edges of
+    a block (1, 9, 73, ...), in no row, by a row not held, by a sign of zero, by a frozen
+    scene's loads only (not a difference)."""
+    rng = np.random.default_rng(7)
+    W, G, k = 512, 5, 200
+    cases = 0
+    for where in [0, 1, 2, 8, 9, 10, 72, 73, 74, 150, k - 1, None]:
+        for how in ("value", "not held", "negative zero", "frozen scene"):
+            ring = rng.normal(size=(W, G, LOAD_COLUMNS))
+            ring[:, :, 0] = 0.0
+            held = np.ones(W, dtype=bool)
+            first = int(rng.integers(W))
+            ring_rows = (first + np.arange(k)) % W  # wraps around the ring's end
+            loads = ring[ring_rows].copy()
+            active = np.ones(G, dtype=bool)
+            active[3] = False
+            if where is not None:
+                if how == "value":
+                    loads[where, 1, 2] += 1e-12
+                elif how == "not held":
+                    held[ring_rows[where]] = False
+                elif how == "negative zero":
+                    loads[where, 4, 0] = -0.0
+                else:  # only the frozen scene's loads differ: not a row to send
+                    loads[where, 3, 1] += 1.0
+            want = _first_unsent_every_row(ring, held, loads, ring_rows, active)
+            expected = k if where is None or how == "frozen scene" else where
+            assert want == expected  # the reference reads the cases as meant
+            assert first_unsent_row(ring, held, loads, ring_rows, active) == want
+            cases += 1
+    assert cases == 48

@@ -325,7 +325,10 @@ class Launcher:
                     taken.append((g, slot, step, n))
         if not taken:
             return
-        e.residency.pull_probes(max(t[1] for t in taken) + 1, max(t[3] for t in taken))
+        rows = [0] * (max(t[1] for t in taken) + 1)  # of each slot: the most a scene needs
+        for _, slot, _, n in taken:
+            rows[slot] = max(rows[slot], n)
+        e.residency.pull_probes(rows)
         buf = e.control.probe_buf
         for g, slot, step, n in taken:
             sim = e.simulations[g]

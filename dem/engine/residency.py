@@ -117,7 +117,7 @@ class HostResidency:
         """No rebuilds but the host's (:meth:`DeviceResidency.rebuilds`)."""
         return None
 
-    def pull_probes(self, slots: int, rows: int) -> None:
+    def pull_probes(self, rows: list[int]) -> None:
         """The probes' buffer is the host's already."""
 
     def patches_over_caps(self, n_slots: int, area_cap: np.ndarray, batched: bool) -> bool:
@@ -356,28 +356,44 @@ class DeviceResidency:
         for f in names:
             self._sent[f] = getattr(self.control, f).copy()
 
-    def pull_probes(self, slots: int, rows: int) -> None:
-        """The probes' samples of the last launch to the host: control.probe_buf's first
-        ``slots`` slots and, of each scene, its first ``rows`` rows (the whole buffer is Q x G x
-        J x 13 reals, J every body of the largest scene: a chunk's samples need a few of its
-        slots and, but for a frame, the instruments' few rows), gathered on the device into an
-        array of that shape (dem.engine.device.gather_probe_rows; one a shape, kept)."""
-        from dem.engine.device import gather_probe_rows
-
+    def pull_probes(self, rows: list[int]) -> None:
+        """The probes' samples of the last launch to the host: of control.probe_buf's first
+        ``len(rows)`` slots, slot s's first ``rows[s]`` rows of each scene (the whole buffer is
+        Q x G x J x 13 reals, J every body of the largest scene: a chunk's samples need a few
+        of its slots and the instruments' few rows, a frame its slot's every row).  One gather
+        on the device of every slot's fewest rows (dem.engine.device.gather_probe_rows, into an
+        array of that shape: one a shape, kept), then one of each slot that needs more (a
+        frame's): a chunk with a frame among six samples brings back one slot of every body,
+        not six (8.7 MB for 64 Model II scenes)."""
         dev = self.dev["control"]
         buf = self.control.probe_buf
-        if (slots, rows) == buf.shape[0:1] + buf.shape[2:3]:
+        if not rows:
+            return
+        if len(rows) == buf.shape[0] and min(rows) == buf.shape[2]:
             dev.pull(["probe_buf"])
             return
+        fewest = min(rows)
+        self._gather_probes(0, len(rows), fewest)
+        for s, n in enumerate(rows):
+            if n > fewest:
+                self._gather_probes(s, 1, n)
+
+    def _gather_probes(self, first: int, slots: int, rows: int) -> None:
+        """control.probe_buf's slots first ... first + slots - 1, their first ``rows`` rows of
+        each scene, from the device."""
+        from dem.engine.device import gather_probe_rows
+
         t0 = time.perf_counter()
+        dev = self.dev["control"]
+        buf = self.control.probe_buf
         key = (slots, rows)
         if key not in self._probe_rows:
             self._probe_rows[key] = ti.ndarray(dev.dev["probe_buf"].dtype,
                                                shape=(slots, buf.shape[1], rows, buf.shape[3]))
         out = self._probe_rows[key]
-        gather_probe_rows(dev.dev["probe_buf"], out)
+        gather_probe_rows(dev.dev["probe_buf"], out, first)
         a = out.to_numpy()
-        buf[:slots, :, :rows] = a
+        buf[first:first + slots, :, :rows] = a
         dev.count("pull", "probe_buf", a.nbytes)
         dev.counts["pull"]["seconds"] += time.perf_counter() - t0
 
