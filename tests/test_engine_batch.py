@@ -207,3 +207,48 @@ def test_a_restored_scene_keeps_its_saved_clock_alone_or_among_others():
         assert [sim.clock.time(lone.step_count + k) for k in (0, 7, 1000)] == \
             [lone.clock.time(lone.step_count + k) for k in (0, 7, 1000)]
     assert engine.simulations[0].t == t_other  # re-anchored at its own t: the same value
+
+
+def test_loads_written_ahead_serve_the_next_chunk_only_where_they_are_still_its_loads():
+    """Where an advance goes on past a chunk, the launcher writes the next chunk's loads while
+    the chunk's launches run (Launcher.write_loads, ``ahead``); the next chunk takes a scene's
+    rows as written only where its step count, clock and load function are the ones they were
+    written for and they cover its steps, and computes them otherwise: the rows are always the
+    scene's loads at its steps' times, bit for bit."""
+    e = Engine([wall(), wall(), wall()], JOINTS, options())
+    calls = []
+
+    def counted(fn, g):
+        def loads(t):
+            calls.append(g)
+            return fn(t)
+        return loads
+
+    fns = [shake(4.0, 7.0), shake(6.0, 8.0, axis=1), shake(5.0, 2.0)]
+    loads = [counted(f, g) for g, f in enumerate(fns)]
+    ctl, L = e.control, e.launcher
+    k, ahead = 40, 25
+    L.write_loads(k, loads, ahead=ahead)  # the next chunk's, written while this one runs
+    assert calls == [0, 1, 2]
+    for sim in e.simulations:  # the chunk did its steps
+        sim.count_steps(ahead, -1, sim.dt)
+    clock = e.simulations[1].clock  # scene 1's dt changes at the chunk's end
+    clock.anchor(clock.time(e.simulations[1].step_count), e.simulations[1].step_count)
+    clock.dt *= 0.5
+    mine = counted(fns[2], 2)  # scene 2 gets another load function object
+    calls.clear()
+    L.write_loads(k, [loads[0], loads[1], mine])
+    assert calls == [1, 2]  # scene 0's rows as written ahead; 1 and 2 computed again
+    for g, sim in enumerate(e.simulations):
+        grav, acc = fns[g](sim.clock.times(sim.step_count, k))
+        assert np.array_equal(ctl.loads[:k, g, 0], grav)
+        assert np.array_equal(ctl.loads[:k, g, 1], acc)
+    calls.clear()
+    L.write_loads(k, loads)  # what was written ahead served once
+    assert calls == [0, 1, 2]
+    L.write_loads(k, loads, ahead=ahead)
+    for sim in e.simulations:
+        sim.count_steps(ahead, -1, sim.dt)
+    calls.clear()
+    L.write_loads(k + 1, loads)  # a longer chunk than was written ahead
+    assert calls == [0, 1, 2]

@@ -100,3 +100,27 @@ def test_a_loading_turned_between_advances_is_shared_only_while_equal():
     assert out[0] is a and out[1] is b
     t = clocks[1].times(steps[1], 16)
     assert not np.array_equal(out[1](t)[0], a(t)[0])
+
+
+def test_the_next_chunks_times_are_shared_in_one_call_too():
+    """The launcher asks for the next chunk's loads while a chunk runs (its steps' times
+    ``ahead`` steps on, dem.engine.launcher.Launcher.write_loads): the first scene's call
+    computes every scene's at that offset in one call of the loading, and each scene gets its
+    own rows, bit for bit."""
+    clocks, steps = _clocks(5, seed=4)
+    loading = LOADINGS[0]
+    lengths = []
+
+    def counted(t):
+        lengths.append(len(t))
+        return loading(t)
+
+    shared = SharedLoads(_engine(clocks, steps, [1] * 5), list(range(5)), counted)
+    k = 64
+    for ahead in (0, 37, 37 + 64):
+        lengths.clear()
+        for g in range(5):
+            t = clocks[g].times(steps[g] + ahead, k)
+            for a, b in zip(shared.of(g)(t), loading(t)):
+                assert np.asarray(a).tobytes() == np.asarray(b).tobytes()
+        assert lengths == [5 * k]  # one call for the five scenes

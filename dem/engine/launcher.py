@@ -11,7 +11,11 @@ stepping kernel runs several steps a launch (dem.engine.step_device), each follo
 rebuild of the lists that asked for one (dem.engine.broadphase_device): a rebuild ends the
 chunk only where the new list does not fit.  Between chunks the host rebuilds the neighbour
 lists asked for, freezes failed scenes, checks the hyperbolic closures and the area caps
-(dem.engine.stepsize).
+(dem.engine.stepsize).  Where an advance goes on past a chunk, the next chunk's loads are
+written once the chunk's launches are queued, before its end is read back
+(:meth:`Launcher.write_loads`): on a device the GPU still runs the chunk meanwhile, and a
+GPU waits for the host only from a chunk's end to the next chunk's first launch
+(benchmarks/host_share.py).
 
 The kernels' compile-time variants are one value, :class:`KernelVariants`, chosen in one place
 (:meth:`KernelVariants.of`); docs/engine.md lists the reachable ones.
@@ -137,6 +141,9 @@ class Launcher:
         # the device's stepping kernel and broad phase (dem.engine.step_device.DeviceStepper);
         # None: the host's broad phase between chunks (dem.engine.residency)
         self.stepper = None
+        # the loads written into control.loads ahead, while the last chunk's launches ran:
+        # scene -> (its clock's key at the chunk they are for, their rows, the load function)
+        self.ahead: dict = {}
 
     # ------------------------------------------------------------------------------------
     def warm_up(self) -> None:
@@ -186,9 +193,10 @@ class Launcher:
         e = self.engine
         ctl = e.control
         done_total = 0
+        self.ahead = {}  # rows written ahead belong to one advance (its load functions)
         while done_total < n_steps and ctl.active.any():
             k = min(n_steps - done_total, ctl.loads.shape[0])
-            done = self.launch(k, loads)
+            done = self.launch(k, loads, n_steps - done_total)
             done_total += done
             status = ctl.status.copy()
             for g in np.flatnonzero(status & STOP):
@@ -225,18 +233,47 @@ class Launcher:
         used = [g * P + int(n) for g, n in enumerate(sp) if n > 0]
         return max(used, default=0)
 
-    def launch(self, k: int, loads: list) -> int:
-        """One chunk of up to k steps; returns the steps done."""
-        # step n's time counted from the last change of dt, as sim.t: the same loads for a
-        # step however the run is cut into launches (frames, the parallel kernel)
+    @staticmethod
+    def _clock_key(sim, ahead: int = 0) -> tuple:
+        """What the times of a chunk's steps depend on (dem.engine.timestep.Clock.times): the
+        step count ``ahead`` steps on, the clock's anchor and dt."""
+        c = sim.clock
+        return (sim.step_count + ahead, c.t_anchor, c.step_anchor, c.dt)
+
+    def write_loads(self, k: int, loads: list, ahead: int = 0) -> None:
+        """Each active scene's loads of the k steps from its step count + ``ahead`` into
+        control.loads (step n's time counted from the last change of dt, as sim.t: the same
+        loads for a step however the run is cut into launches).  ``ahead`` > 0: the next
+        chunk's, written while this chunk's launches run (:meth:`launch`), kept in
+        :attr:`ahead` with the clock's key they assume; a chunk whose scene's key and load
+        function are those finds its rows written (a load function is a function of time
+        alone, dem.run.steps)."""
         e = self.engine
         ctl = e.control
         for g, sim in enumerate(e.simulations):
             if not ctl.active[g]:
                 continue
-            grav, a = loads[g](sim.clock.times(sim.step_count, k))
+            if not ahead:
+                got = self.ahead.get(g)
+                if got is not None and got[0] == self._clock_key(sim) and got[1] >= k \
+                        and got[2] is loads[g]:
+                    continue
+            grav, a = loads[g](sim.clock.times(sim.step_count + ahead, k))
             ctl.loads[:k, g, 0] = grav
             ctl.loads[:k, g, 1] = a
+            if ahead:
+                self.ahead[g] = (self._clock_key(sim, ahead), k, loads[g])
+        if not ahead:
+            self.ahead = {}
+
+    def launch(self, k: int, loads: list, left: int | None = None) -> int:
+        """One chunk of up to k steps; returns the steps done.  ``left``: the steps of the
+        advance left before this chunk (Launcher.advance); where more are left than it does,
+        the next chunk's loads are written while its launches run (:meth:`write_loads`: on a
+        device, the host's part of a chunk's end that the GPU does not wait for)."""
+        e = self.engine
+        ctl = e.control
+        self.write_loads(k, loads)
         k, probes = self.plan_probes(k)
         ctl.status[...] = 0
         ctl.bad_body[...] = 0
@@ -266,6 +303,8 @@ class Launcher:
             for s in range(k):  # no read-back between steps: a stopped chunk's launches idle
                 self.kernel(s, n_slots, dt)
             self.n_launches += k
+        if left is not None and left > k:  # the next chunk's loads while these steps run
+            self.write_loads(min(left - k, ctl.loads.shape[0]), loads, ahead=k)
         e.residency.from_device()
         done = int(ctl.steps_done[0])
         if probes:

@@ -294,10 +294,11 @@ class SharedLoads:
     scenes: the host's time between two launches of a device's chunk).
 
     ``of(g)`` is scene g's load function.  The engine asks for scene g's loads at its steps'
-    times (Launcher.launch: ``sim.clock.times(sim.step_count, k)``); the first such call of a
-    chunk computes every active scene's times the same way (Clock.times_of) and ``fn`` of them
-    all, in one array; each scene's call whose times are those, byte for byte, gets its rows,
-    any other call ``fn`` of its own times.  A load function is a function of each time alone
+    times (Launcher.write_loads: ``sim.clock.times(sim.step_count + ahead, k)``, ``ahead`` > 0
+    for the next chunk's, written while a chunk runs); the first such call of a chunk computes
+    every active scene's times the same way, at the same ``ahead`` (read from the call's first
+    time; Clock.times_of) and ``fn`` of them all, in one array; each scene's call whose times
+    are those, byte for byte, gets its rows, any other call ``fn`` of its own times.  A load function is a function of each time alone
     (the engine relies on it: a step's loads are the same however the run is cut into
     launches, dem.engine.launcher.Launcher.launch), so the rows are what ``fn`` gives for the
     scene alone, bit for bit (tests/test_shared_loads.py)."""
@@ -312,13 +313,22 @@ class SharedLoads:
     def loads(self, g: int, t):
         row = self.rows.get(g)
         if row is None or not _same_times(row[0], t):
-            self._fill(len(t))
+            self._fill(len(t), self._ahead(g, t))
             row = self.rows.get(g)
             if row is None or not _same_times(row[0], t):
                 return self.fn(t)
         return row[1], row[2]
 
-    def _fill(self, k: int) -> None:
+    def _ahead(self, g: int, t) -> int:
+        """The steps from scene g's step count to the first of the times ``t`` it asks for (0:
+        this chunk's; a wrong guess only costs the fallback above)."""
+        sim = self.engine.simulations[g]
+        dt = sim.clock.dt
+        if len(t) == 0 or not dt > 0.0:
+            return 0
+        return int(round((float(t[0]) - sim.clock.time(sim.step_count)) / dt))
+
+    def _fill(self, k: int, ahead: int = 0) -> None:
         from dem.engine.timestep import Clock
 
         sims = self.engine.simulations
@@ -326,7 +336,8 @@ class SharedLoads:
         self.rows = {}
         if not live or k <= 0:
             return
-        t = Clock.times_of([sims[g].clock for g in live], [sims[g].step_count for g in live], k)
+        t = Clock.times_of([sims[g].clock for g in live],
+                           [sims[g].step_count + ahead for g in live], k)
         grav, acc = self.fn(t.reshape(-1))
         grav = np.asarray(grav).reshape(len(live), k, -1)
         acc = np.asarray(acc).reshape(len(live), k, -1)
