@@ -37,7 +37,7 @@ RUNS = [
     (["cpu_batch.py", "--engine", "--ks", "2", "--steps", "50", "--repeats", "1"],
      '"batch_over_lone"'),
     (["host_share.py", "--ks", "2", "--steps", "300", "--repeats", "1", "--phases", "shaking"],
-     '"between_launches_ms_per_step"'),
+     '"window_ms_per_step"'),
     (["host_share.py", "--launch", "--ks", "2"], '"python_per_launch_after_64MB_sweep_us"'),
     (["graph_launch.py", "--args", "4", "--dispatches", "2"], '"graph_per_dispatch_us"'),
 ]
