@@ -298,10 +298,11 @@ class SharedLoads:
     for the next chunk's, written while a chunk runs); the first such call of a chunk computes
     every active scene's times the same way, at the same ``ahead`` (read from the call's first
     time; Clock.times_of) and ``fn`` of them all, in one array; each scene's call whose times
-    are those, byte for byte, gets its rows, any other call ``fn`` of its own times.  A load function is a function of each time alone
-    (the engine relies on it: a step's loads are the same however the run is cut into
-    launches, dem.engine.launcher.Launcher.launch), so the rows are what ``fn`` gives for the
-    scene alone, bit for bit (tests/test_shared_loads.py)."""
+    are those, byte for byte, gets its rows, any other call ``fn`` of its own times.  A load
+    function is a function of each time alone (the engine relies on it: a step's loads are the
+    same however the run is cut into launches, dem.engine.launcher.Launcher.write_loads), so
+    the rows are what ``fn`` gives for the scene alone, bit for bit
+    (tests/test_shared_loads.py)."""
 
     def __init__(self, engine, scenes: list[int], fn):
         self.engine, self.scenes, self.fn = engine, scenes, fn
