@@ -64,7 +64,10 @@ Stages (a stage is the time of these calls, less the wrapped calls inside them):
                    variants' check, the pair slots, the steps counted
   chunk loop       Launcher.advance: the status read, failures, rebuild and closure loops
   probes plan      Launcher.plan_probes (LaunchProbe.plan: the samples and frames in launches)
-  probes take      Launcher.take_probes (LaunchProbe.take: the samples and frames in launches)
+  probes take      Launcher.take_probes (LaunchProbe.take: the samples' and frames' rows
+                   copied, the next ones booked)
+  probes record    Launcher.flush_probes (LaunchProbe.flush: the last chunk's samples and
+                   frames recorded, once the next chunk's launches are queued)
   to_device        DeviceResidency.to_device (ChunkCopies.push_chunk, changed Control fields,
                    dirty State / Contacts fields)
   from_device      DeviceResidency.from_device (ChunkCopies.pull_diagnostics), pull_probes
@@ -133,10 +136,10 @@ AUX_KERNELS = ("unpack_chunk", "pack_diagnostics", "install_pairs", "gather_scen
 DEVICE_KERNELS = 6  # the first of AUX_KERNELS are dem.engine.device's, the rest dem.engine.step's
 # the warm-up run of each phase (not timed): every kernel of a run loaded, rebuilds included
 WARM_K, WARM_STEPS = 4, 600
-STAGE_ORDER = ("step launch", "loads", "clocks", "launch", "chunk loop", "probes plan", "probes take",
-               "to_device", "from_device", "rebuild poses", "broad phase", "install", "rebuild",
-               "caps check", "host reads", "frames", "settling looks", "run loop",
-               "run_case_steps") + tuple(f"kernel {k}" for k in AUX_KERNELS)
+STAGE_ORDER = ("step launch", "loads", "clocks", "launch", "chunk loop", "probes plan",
+               "probes take", "probes record", "to_device", "from_device", "rebuild poses",
+               "broad phase", "install", "rebuild", "caps check", "host reads", "frames",
+               "settling looks", "run loop", "run_case_steps") + tuple(f"kernel {k}" for k in AUX_KERNELS)
 
 
 # the clocks a StageClock reads: the wall (what a GPU waits for), or the CPU time of the
@@ -304,6 +307,7 @@ def instrument(clock: StageClock) -> Patches:
     methods = [
         (Launcher, "advance", "chunk loop"), (Launcher, "launch", "launch"),
         (Launcher, "plan_probes", "probes plan"), (Launcher, "take_probes", "probes take"),
+        (Launcher, "flush_probes", "probes record"),
         (DeviceResidency, "to_device", "to_device"),
         (DeviceResidency, "from_device", "from_device"),
         (DeviceResidency, "pull_probes", "from_device"),

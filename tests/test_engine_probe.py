@@ -93,6 +93,64 @@ def test_a_failing_scene_gives_no_row_of_its_failing_step_and_its_mate_goes_on()
     assert [s for s, _, _ in every[1].taken] == list(range(1, 1501))
 
 
+class KeepingProbe(StepProbe):
+    """A StepProbe that keeps what it takes until its ``flush()`` (as
+    dem.run.record.LaunchProbe does), noting the engine's stepping launches at each."""
+
+    def __init__(self, engine, bodies, steps):
+        super().__init__(bodies, steps)
+        self.launcher = engine.launcher
+        self.kept: list[tuple[int, int]] = []  # (step, launches when taken)
+        self.flushed: list[tuple[int, int, int]] = []  # (step, ... taken, ... flushed)
+
+    def take(self, step, t, rows):
+        super().take(step, t, rows)
+        self.kept.append((step, self.launcher.n_launches))
+
+    def flush(self):
+        n = self.launcher.n_launches
+        self.flushed += [(step, taken, n) for step, taken in self.kept]
+        self.kept = []
+
+
+def _until(load, t_max):
+    """``load`` that raises for a time past t_max (s)."""
+    def loads(t):
+        if t[-1] > t_max:
+            raise RuntimeError("past t_max")
+        return load(t)
+    return loads
+
+
+@pytest.mark.parametrize("mode,device", [("serial", False), ("parallel", True)])
+def test_a_probe_records_a_chunk_while_the_next_runs_and_all_before_an_advance_returns(
+        mode, device):
+    """A probe's flush (Launcher.flush_probes) comes once the next chunk's launches are
+    queued, so that on a device the recording's Python runs while the GPU steps; the last
+    chunk's at the advance's end, so that its caller finds every probed step recorded, and
+    also where the advance stops on an error (a load function's, raised while the second
+    chunk's launches run: the first chunk's steps are recorded, none taken after)."""
+    engine = Engine([wall()], JOINTS, options(mode=mode), device_arrays=device)
+    chunk = engine.control.loads.shape[0]
+    steps = [5, chunk + 5, 2 * chunk + 5, 3 * chunk]  # one in each of the three chunks
+    probe = KeepingProbe(engine, BODIES, steps)
+    engine.simulations[0].set_probe(probe)
+    engine.advance(3 * chunk, [shake(4.0, 1.0)])
+    assert engine.launcher.n_chunks == 3 and probe.kept == []
+    assert [s for s, _, _ in probe.flushed] == steps
+    for step, taken, flushed in probe.flushed:
+        if step <= 2 * chunk:  # during the next chunk, its launches queued
+            assert flushed > taken, step
+        else:  # at the advance's end
+            assert flushed == taken, step
+    stopped = Engine([wall()], JOINTS, options(mode=mode), device_arrays=device)
+    probe = KeepingProbe(stopped, BODIES, steps)
+    stopped.simulations[0].set_probe(probe)
+    with pytest.raises(RuntimeError, match="past t_max"):  # the third chunk's loads
+        stopped.advance(3 * chunk, [_until(shake(4.0, 1.0), (2 * chunk + 0.5) * stopped.dt)])
+    assert probe.kept == [] and [s for s, _, _ in probe.flushed] == steps[:1]
+
+
 def test_set_probe_refuses_bodies_it_cannot_take_and_none_removes_it():
     engine = Engine([wall(), wall()], JOINTS, options())
     sim = engine.simulations[1]

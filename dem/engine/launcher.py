@@ -13,8 +13,9 @@ chunk only where the new list does not fit.  Between chunks the host rebuilds th
 lists asked for, freezes failed scenes, checks the hyperbolic closures and the area caps
 (dem.engine.stepsize).  Where an advance goes on past a chunk, the next chunk's loads are
 written once the chunk's launches are queued, before its end is read back
-(:meth:`Launcher.write_loads`): on a device the GPU still runs the chunk meanwhile, and a
-GPU waits for the host only from a chunk's end to the next chunk's first launch
+(:meth:`Launcher.write_loads`), and so are the last chunk's probed samples and frames
+recorded (:meth:`Launcher.flush_probes`): on a device the GPU still runs the chunk meanwhile,
+and a GPU waits for the host only from a chunk's end to the next chunk's first launch
 (benchmarks/host_share.py).
 
 The kernels' compile-time variants are one value, :class:`KernelVariants`, chosen in one place
@@ -190,10 +191,17 @@ class Launcher:
         """Advance every active scene by n_steps steps, scene g with ``loads[g]`` (a LoadFn;
         ignored for a frozen scene), chunk by chunk (module docstring); a scene's failure goes to
         ``engine.fail``."""
+        self.ahead = {}  # rows written ahead belong to one advance (its load functions)
+        try:
+            self._chunks(n_steps, loads, on_chunk)
+        finally:  # the last chunk's probes (and a stopped advance's) before the caller looks
+            self.flush_probes()
+
+    def _chunks(self, n_steps: int, loads: list, on_chunk) -> None:
+        """:meth:`advance`'s chunks, each followed by what the host checks at a chunk's end."""
         e = self.engine
         ctl = e.control
         done_total = 0
-        self.ahead = {}  # rows written ahead belong to one advance (its load functions)
         while done_total < n_steps and ctl.active.any():
             k = min(n_steps - done_total, ctl.loads.shape[0])
             done = self.launch(k, loads, n_steps - done_total)
@@ -305,6 +313,7 @@ class Launcher:
             self.n_launches += k
         if left is not None and left > k:  # the next chunk's loads while these steps run
             self.write_loads(min(left - k, ctl.loads.shape[0]), loads, ahead=k)
+        self.flush_probes()  # the last chunk's samples and frames, while these steps run
         e.residency.from_device()
         done = int(ctl.steps_done[0])
         if probes:
@@ -349,7 +358,9 @@ class Launcher:
         the first n probed bodies, as Simulation.set_probe listed them: all of them, or the
         ``probe.rows(step)`` first where the probe says a step needs fewer).  A scene that
         failed in the launch gets none of its last step (the failing one: its state is not a
-        result).  Only the slots and rows handed over come back from a device."""
+        result).  Only the slots and rows handed over come back from a device.  The rows are
+        copies and t is the step's time now (a later change of dt moves the clock's anchor),
+        so a probe may keep them and record them at its ``flush()`` (:meth:`flush_probes`)."""
         e = self.engine
         status = e.control.status
         taken = []  # (scene, slot, step, rows)
@@ -372,3 +383,15 @@ class Launcher:
         for g, slot, step, n in taken:
             sim = e.simulations[g]
             sim.probe.take(step, sim.clock.time(step), buf[slot, g, :n].copy())
+
+    def flush_probes(self) -> None:
+        """Each probe's ``flush()``, where it has one: what it took at the last chunk's end
+        and kept (a LaunchProbe's samples and frames, dem.run.record).  Called once the next
+        chunk's launches are queued (:meth:`launch`: on a device the recording's Python then
+        runs while the GPU steps, not in the time the GPU waits for the host) and at an
+        advance's end, stopped or not, so a caller of :meth:`advance` finds every probed step
+        recorded."""
+        for sim in self.engine.simulations:
+            flush = getattr(sim.probe, "flush", None)
+            if flush is not None:
+                flush()

@@ -129,6 +129,10 @@ class LaunchProbe:
       the frame at the request's end
       is the run loop's (:meth:`Recording.after_advance`), as ever.  A frame is a copy of the
       state at a step, so frames.npz is the same bit for bit however it was taken.
+
+    :meth:`take` books the schedule at once (the next launch's :meth:`plan` starts from it)
+    and keeps the rows; :meth:`flush` records them (the engine calls it while its next chunk
+    runs, and before an advance returns: dem.engine.launcher.Launcher.flush_probes).
     """
 
     def __init__(self, recording: "Recording", frames: bool):
@@ -152,6 +156,8 @@ class LaunchProbe:
         # the steps of the last plan, by kind (take tells a sample from a frame)
         self.sample_steps: set[int] = set()
         self.frame_steps: set[int] = set()
+        # taken and booked, not recorded yet: (t, rows, a sample, a frame) in step order
+        self.kept: list[tuple[float, np.ndarray, bool, bool]] = []
 
     def plan(self, clock, step: int, k: int) -> list[int]:
         """The step counts in step + 1 ... step + k at which a sample or a frame falls
@@ -174,20 +180,34 @@ class LaunchProbe:
 
     def take(self, step: int, t: float, rows: np.ndarray) -> None:
         """The state of step count ``step`` (time t, s): rows [bodies, 13] of pos, quat, vel,
-        omega of :attr:`bodies`; a sample, a frame or both."""
+        omega of :attr:`bodies` (kept, not copied), a sample, a frame or both: the next sample
+        and frame booked, the rows kept for :meth:`flush`."""
         rec = self.recording
-        with deferred():  # one sample and frame, whole (see Recording.frame)
-            if step in self.sample_steps:
-                r = rows[self.sample_rows]
-                # the table's motion at the samples' times, computed with their rows, for the
-                # samples of many launches at once (dem.instruments.InstrumentRecorder)
-                rec.instruments.sample_blocks(t, r[:, 0:3], r[:, 3:7], r[:, 7:10], r[:, 10:13],
-                                              rec.loading.base_disp, rec.loading.base_vel)
-                rec.next_sample = next_multiple(t, rec.run.instrument_interval)
-            if step in self.frame_steps:
-                f = rows[self.frame_rows]  # in block order
-                rec.frame_of(t, f[:, 0:3], f[:, 3:7], f[:, 7:10], f[:, 10:13])
-                self.from_step = step
+        sample, frame = step in self.sample_steps, step in self.frame_steps
+        if sample:
+            rec.next_sample = next_multiple(t, rec.run.instrument_interval)
+        if frame:
+            rec.next_frame = next_multiple(t, rec.run.output_interval)
+            self.from_step = step
+        self.kept.append((t, rows, sample, frame))
+
+    def flush(self) -> None:
+        """Record what :meth:`take` kept, in step order: the samples to the instruments, the
+        frames to the recording."""
+        rec = self.recording
+        kept, self.kept = self.kept, []
+        for t, rows, sample, frame in kept:
+            with deferred():  # one sample and frame, whole (see Recording.frame)
+                if sample:
+                    r = rows[self.sample_rows]
+                    # the table's motion at the samples' times, computed with their rows, for
+                    # the samples of many launches at once (dem.instruments.InstrumentRecorder)
+                    rec.instruments.sample_blocks(t, r[:, 0:3], r[:, 3:7], r[:, 7:10],
+                                                  r[:, 10:13], rec.loading.base_disp,
+                                                  rec.loading.base_vel)
+                if frame:
+                    f = rows[self.frame_rows]  # in block order
+                    rec.frame_of(t, f[:, 0:3], f[:, 3:7], f[:, 7:10], f[:, 10:13])
 
 
 def _schedule(clock, c: int, t_c: float, t_next: float, interval: float, before: int):
@@ -247,10 +267,9 @@ class Recording:
 
     def frame_of(self, t: float, pos, quat, vel, omega) -> None:
         """Record the frame of time t (s) from the scene's blocks' rows (a frame taken inside a
-        launch: :class:`LaunchProbe`, which holds back a stop signal meanwhile) and schedule the
-        next one."""
+        launch: :class:`LaunchProbe`, which holds back a stop signal meanwhile and books the
+        next frame when it takes the rows)."""
         self._record(t, pos, quat, vel, omega)
-        self.next_frame = next_multiple(t, self.run.output_interval)
 
     def _record(self, t: float, pos, quat, vel, omega) -> None:
         loading = self.loading
