@@ -3,7 +3,7 @@ frames.npz whole, and restart.npz where it can resume, dem.run.resume), at the s
 the end of the prediction's longest run, set against the time between checkpoints.
 
     python benchmarks/checkpoint_cost.py [--case cases/shake/model-ii/group-3-y-1.53.yaml]
-                                         [--duration 29.8] [--repeats 5]
+                                         [--duration 29.8] [--repeats 5] [--batch 1,16,64]
 
 The case's scene is built (dem.run.build.build) and its recording filled as a run of
 ``--duration`` s would leave it (frames every run.output_interval, instrument samples every
@@ -16,7 +16,10 @@ before 2026-11-26) and plain (np.savez, now), and the restart point built and wr
 clock through dem.output.atomic: fsync and rename; median and largest).  Prints sizes, times and
 each one's share of the run's wall time at one checkpoint per CHECKPOINT_SECONDS.  The run
 itself is not timed: the shares are what a checkpoint takes from the stepping, which stops
-while it writes.
+while it writes.  Then, for batches of K such runs in one engine (``--batch``: the engine stops
+while each point writes its own files), a round's time (K x the plain frames' and the restart
+point's medians) and its share of the wall time, every CHECKPOINT_SECONDS and at the interval
+dem.run.write.CheckpointPace sets (at most CHECKPOINT_SHARE).
 """
 
 from __future__ import annotations
@@ -40,6 +43,7 @@ def main(argv=None) -> int:
     ap.add_argument("--case", default=str(ROOT / "cases/shake/model-ii/group-3-y-1.53.yaml"))
     ap.add_argument("--duration", type=float, default=29.8)
     ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--batch", default="1,16,64", help="the batch sizes K of the last table")
     args = ap.parse_args(argv)
 
     from dem.case import load_case
@@ -47,7 +51,7 @@ def main(argv=None) -> int:
     from dem.run.build import build
     from dem.run.record import Recording
     from dem.run.resume import RESTART_FILE, restart_arrays, write_restart
-    from dem.run.write import CHECKPOINT_SECONDS, initial_summary
+    from dem.run.write import CHECKPOINT_SECONDS, CheckpointPace, initial_summary
 
     case = load_case(args.case)
     built = build(case)
@@ -92,6 +96,18 @@ def main(argv=None) -> int:
         med = statistics.median(ts)
         print(f"| {name} | {sizes[name] / 1e6:.1f} | {med * 1e3:.0f} | {max(ts) * 1e3:.0f} | "
               f"{100 * med / CHECKPOINT_SECONDS:.2f} % |")
+    point = statistics.median(times["frames.npz plain (now)"]) + \
+        statistics.median(times["restart.npz (build + write)"])
+    print(f"\n| points K | a round (s) | share every {CHECKPOINT_SECONDS:g} s | paced interval (s) "
+          f"| paced share |")
+    print("|---|---|---|---|---|")
+    for k in (int(x) for x in args.batch.split(",")):
+        pace = CheckpointPace()
+        for g in range(k):
+            pace.record(g, point)
+        every = pace.interval()
+        print(f"| {k} | {k * point:.2f} | {100 * k * point / CHECKPOINT_SECONDS:.1f} % | "
+              f"{every:.0f} | {100 * k * point / every:.1f} % |")
     return 0
 
 

@@ -10,7 +10,8 @@ cases are handed to the cluster no faster than it has threads, and once the chec
 further case starts: the runs in flight finish and are kept, then :class:`Drained` names the cases
 that never started.  It ends a long study at a chosen moment without losing the runs in flight.
 A signal (SIGTERM: stop now) loses what they did since their last checkpoint (at most
-dem.run.write.CHECKPOINT_SECONDS): the next batch into the same directories resumes them from it
+dem.run.write.CHECKPOINT_SECONDS, or a batch's paced interval: dem.run.write.CheckpointPace):
+the next batch into the same directories resumes them from it
 (dem.run.resume), or starts them over where they cannot resume.
 
 Each case writes its own output directory (summary.json, frames.npz, ...) under ``out_root``.

@@ -17,6 +17,7 @@ points differ in frequency; g dt^2 / A ~ 4e-9 m / 1e-3 m ~ 4e-6 relative).
 from __future__ import annotations
 
 import json
+import math
 import os
 import signal
 
@@ -169,6 +170,7 @@ def _sigterm_after_checkpoints(monkeypatch, n: int) -> None:
     """A checkpoint at every frame; after the n-th (of all points together) the process gets a
     SIGTERM, as from ``timeout`` or a batch scheduler."""
     monkeypatch.setattr(dem.run.write, "CHECKPOINT_SECONDS", -1.0)
+    monkeypatch.setattr(dem.run.write, "CHECKPOINT_SHARE", math.inf)  # never paced apart
     calls = [0]
     original = RunWriter.checkpoint
 

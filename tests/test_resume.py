@@ -6,6 +6,7 @@ not fit is refused with the reason and the run starts over; a finished run leave
 from __future__ import annotations
 
 import json
+import math
 
 import numpy as np
 import pytest
@@ -56,6 +57,7 @@ def _stop_after_checkpoints(monkeypatch, n: int) -> None:
     """A checkpoint at every frame; the run is stopped (as by Ctrl-C) one frame after the n-th,
     so that the frames after the last restart point must be dropped and made again."""
     monkeypatch.setattr(dem.run.write, "CHECKPOINT_SECONDS", -1.0)
+    monkeypatch.setattr(dem.run.write, "CHECKPOINT_SHARE", math.inf)  # never paced apart
     calls = [0]
     original = RunWriter.checkpoint
 
@@ -153,6 +155,7 @@ def test_runs_that_cannot_resume_say_why_and_write_no_restart_point(tmp_path, mo
     data = json.loads(json.dumps(STACK))
     data["run"]["vtk"] = True
     monkeypatch.setattr(dem.run.write, "CHECKPOINT_SECONDS", -1.0)
+    monkeypatch.setattr(dem.run.write, "CHECKPOINT_SHARE", math.inf)  # never paced apart
     res = run_case(_case(data), tmp_path / "vtk")
     assert res.summary["resume"] == {"restart_points": False, "refused": None,
                                      "why_not": "run.vtk (the VTK series is not saved)"}

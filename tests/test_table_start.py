@@ -20,6 +20,8 @@ thresholds moves with the table (its give on the contact is 0.08 um; below 1 um)
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
@@ -174,6 +176,7 @@ def test_a_resumed_lab_start_run_does_not_take_the_impulse_again(tmp_path, monke
     case = _case({"amplitude": A, "cycles": 2, "start": "lab"}, 0.03, 0.002)
     whole = run_case(case, tmp_path / "whole")
     monkeypatch.setattr(dem.run.write, "CHECKPOINT_SECONDS", -1.0)   # one at every frame
+    monkeypatch.setattr(dem.run.write, "CHECKPOINT_SHARE", math.inf)
     calls, original = [0], RunWriter.checkpoint
 
     def checkpoint(self, *args):

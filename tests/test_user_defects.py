@@ -103,6 +103,7 @@ def test_resume_drops_the_stopped_runs_analysis_and_says_where_it_goes_on(tmp_pa
     out = tmp_path / "cut"
     with monkeypatch.context() as m:  # a checkpoint at every frame, stopped after the 3rd
         m.setattr(dem.run.write, "CHECKPOINT_SECONDS", -1.0)
+        m.setattr(dem.run.write, "CHECKPOINT_SHARE", math.inf)  # never paced apart
         calls, original = [0], RunWriter.checkpoint
 
         def checkpoint(self, *args):

@@ -467,6 +467,7 @@ def _run_members(cases, out_dirs, members, scenes, joints, gravity, options, rec
     """The engine of the points ``members`` (indices into cases) and their runs."""
     from dem.engine.simulation import Engine
     from dem.run.loop import run_case_steps
+    from dem.run.write import CheckpointPace
 
     t1 = time.perf_counter()
     try:
@@ -515,6 +516,8 @@ def _run_members(cases, out_dirs, members, scenes, joints, gravity, options, rec
         except OSError:
             pass  # the run's own write errors are in summary.json already
 
+    pace = CheckpointPace()  # the engine stops for every point's checkpoint: one pace
+
     def body(i: int):
         """Point i's run, steppable (dem.run.steps); returns its record."""
         g = members[i]
@@ -527,7 +530,8 @@ def _run_members(cases, out_dirs, members, scenes, joints, gravity, options, rec
         try:
             res = yield from run_case_steps(case, out_dirs[g], progress=False,
                                             max_steps=max_steps, scene=scenes[i],
-                                            analyses=analyses, resume=resume, sim=sims[i])
+                                            analyses=analyses, resume=resume, sim=sims[i],
+                                            pace=pace)
             stamp(i, res.summary, before)
             record = {"name": name, "status": "ok", "out_dir": out_dirs[g],
                       "summary": res.summary}

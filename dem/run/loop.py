@@ -34,8 +34,8 @@ from dem.run.steps import Advance, Steps, drive
 from dem.run.stop import StopRule
 from dem.run.table_start import apply_table_start
 from dem.rundir import clear
-from dem.run.write import (OutputError, RunWriter, engine_results, imperfection_record,
-                           initial_summary, write_case)
+from dem.run.write import (CheckpointPace, OutputError, RunWriter, engine_results,
+                           imperfection_record, initial_summary, write_case)
 from dem.scene import Scene
 from dem.signals import raise_if_stopped
 
@@ -85,7 +85,8 @@ def run_case(case: Case, out_dir: str | Path | None = None, progress: bool = Fal
 
 def run_case_steps(case: Case, out_dir: str | Path | None = None, progress: bool = False,
                    max_steps: int | None = None, scene: Scene | None = None,
-                   analyses: Sequence[Analysis] = (), resume: bool = False, sim=None) -> Steps:
+                   analyses: Sequence[Analysis] = (), resume: bool = False, sim=None,
+                   pace: CheckpointPace | None = None) -> Steps:
     """Run a validated case, steppable (dem.run.steps): yields each advance of its scene
     (``Advance``), returns the :class:`RunResult`.  Writes the output directory
     (dem.run.write) if ``out_dir`` given.
@@ -101,7 +102,8 @@ def run_case_steps(case: Case, out_dir: str | Path | None = None, progress: bool
     the first the frames recorded so far are written first (where the disk allows).
     ``scene``: the scene of the case, already built and checked (dem.validate), else built here.
     ``sim``: the case's engine already made (one scene of a batch: dem.run.batched), else made
-    here (dem.run.build.build).
+    here (dem.run.build.build).  ``pace``: when it checkpoints, shared with the other points of
+    a batch (dem.run.write.CheckpointPace; its own where None).
     """
     from dem.engine import SimulationError
 
@@ -121,7 +123,7 @@ def run_case_steps(case: Case, out_dir: str | Path | None = None, progress: bool
         write_case(out, case)
     recording = Recording(case, scene, loading, sim, out)             # record
     recording.listeners.append(stop.listen)
-    writer = RunWriter(out, case, scene, recording)                   # write
+    writer = RunWriter(out, case, scene, recording, pace)             # write
     summary = None
     if restart is not None:
         summary, refused = resume_mod.apply_restart(restart, sim, recording)

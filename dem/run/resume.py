@@ -2,7 +2,8 @@
 
 A run whose loading goes on in time (shake, record, constant-rate tilt without the collapse
 detector) and writes no VTK series can resume: at every checkpoint (dem.run.write, every
-``CHECKPOINT_SECONDS`` of wall-clock time, always between two frames) it writes OUT/restart.npz,
+``CHECKPOINT_SECONDS`` of wall-clock time or, for the points of a large batch, as paced by
+``CheckpointPace``; always between two frames) it writes OUT/restart.npz,
 after frames.npz and before summary.json:
 
 * ``sim.*``, ``state.*``, ``contacts.*``, ``control.*``: the engine's evolving arrays and clock

@@ -11,8 +11,10 @@
 
 Nothing is lost on failure: frames.npz and summary.json are written (atomically, through
 dem.output.atomic: temp file in the same directory, fsync, rename) when the run ends for any
-reason, and every ``CHECKPOINT_SECONDS`` of wall-clock time.  Ends and what they leave
-(docs/failures.md):
+reason, and at checkpoints, every ``CHECKPOINT_SECONDS`` of wall-clock time, or less often where
+the checkpoints of the runs that share a process would take more than ``CHECKPOINT_SHARE`` of
+its time (:class:`CheckpointPace`: the K runs of a batch each rewrite their files).  Ends and
+what they leave (docs/failures.md):
 
 * ok / failed (SimulationError) / interrupted (SIGINT, SIGTERM, SIGHUP: dem.signals): every file
   written, summary.json says which, with the error;
@@ -42,6 +44,10 @@ from dem.scene import Scene
 from dem.units import INSTRUMENTS_UNITS, npz_units, summary_units
 
 CHECKPOINT_SECONDS = 30.0
+# the most of a process's wall time its runs' checkpoints may take together (CheckpointPace): a
+# lone run's take 0.3-0.7 % at the end of a 50-cycle Model II run (frames.npz and restart.npz,
+# 90-210 ms every 30 s: benchmarks/checkpoint_cost.py), K runs of a batch K times that
+CHECKPOINT_SHARE = 0.02
 
 
 from dem.output.atomic import OutputError  # noqa: E402,F401 - one class for every command
@@ -143,17 +149,47 @@ def _snapshot(path: Path, scene: Scene, frames, case: Case) -> None:
                  title=title, tilt=tilt)
 
 
+class CheckpointPace:
+    """When the runs of one process checkpoint.  A run (its :class:`RunWriter`) checkpoints
+    CHECKPOINT_SECONDS after its last checkpoint, and no sooner than the last checkpoint of
+    every run of the pace took together, divided by CHECKPOINT_SHARE: the stepping stops while a
+    run writes, and in a batch (dem.run.batched: one engine, one pace) it stops for every
+    point's.  At 64 Model II points near a 50-cycle run's end a round takes ~6 s (0.09 s a
+    point, benchmarks/checkpoint_cost.py), 18 % of 30 s, so the points checkpoint every ~5
+    minutes instead; a lone run's round takes under 2 % of 30 s, so it keeps its 30 s.  The
+    price: a batch killed (SIGKILL) loses up to that interval.  ``clock``: the wall clock (s),
+    a parameter for the tests."""
+
+    def __init__(self, clock: Callable[[], float] = time.perf_counter):
+        self.clock = clock
+        self.took: dict[int, float] = {}  # id(writer) -> its last checkpoint's seconds
+
+    def interval(self) -> float:
+        """The wall seconds a run waits from its last checkpoint to its next."""
+        return max(CHECKPOINT_SECONDS, sum(self.took.values()) / CHECKPOINT_SHARE)
+
+    def record(self, writer, seconds: float) -> None:
+        self.took[id(writer)] = seconds
+
+    def leave(self, writer) -> None:
+        """A run that ended checkpoints no more."""
+        self.took.pop(id(writer), None)
+
+
 class RunWriter:
     """Writes the output directory (or nothing when ``out`` is None) and keeps the list of
-    writes that failed."""
+    writes that failed.  ``pace``: when it checkpoints, shared by the runs of a batch (its own
+    where None)."""
 
-    def __init__(self, out: Path | None, case: Case, scene: Scene, recording: Recording):
+    def __init__(self, out: Path | None, case: Case, scene: Scene, recording: Recording,
+                 pace: CheckpointPace | None = None):
         self.out = out
+        self.pace = pace if pace is not None else CheckpointPace()
         self.case = case
         self.scene = scene
         self.recording = recording
         self.write_errors: dict[str, str] = {}
-        self.last_flush = time.perf_counter()
+        self.last_flush = self.pace.clock()
         # () -> restart.npz's arrays, for a run that can resume (set by dem.run.loop.run_case)
         self.restart: Callable[[], dict] | None = None
         self.cpu0 = time.process_time()  # summary.json cpu_seconds: see cpu_seconds()
@@ -180,10 +216,10 @@ class RunWriter:
 
     def checkpoint(self, summary: dict, sim, wall_seconds: float) -> None:
         """frames.npz, restart.npz (a run that can resume: ``restart`` set, dem.run.resume) and
-        summary.json, in that order, every CHECKPOINT_SECONDS of wall-clock time; called between
-        frames only."""
-        now = time.perf_counter()
-        if self.out is None or now - self.last_flush <= CHECKPOINT_SECONDS:
+        summary.json, in that order, once the pace's interval has passed since the last
+        (:class:`CheckpointPace`); called between frames only."""
+        now = self.pace.clock()
+        if self.out is None or now - self.last_flush <= self.pace.interval():
             return
         summary["steps"], summary["sim_time"] = sim.step_count, sim.t
         summary["wall_seconds"] = wall_seconds
@@ -192,12 +228,14 @@ class RunWriter:
         if self.restart is not None:
             write_restart(self.out, self.restart())
         atomic.write_json(self.out / "summary.json", summary)
-        self.last_flush = now
+        self.last_flush = self.pace.clock()
+        self.pace.record(self, self.last_flush - now)
 
     def finish(self, summary: dict, status: str, error: str | None) -> None:
         """Every output file at the end of a run; raises OutputError if one could not be
         written (after writing all the others)."""
         out, rec, case = self.out, self.recording, self.case
+        self.pace.leave(self)
         summary["cpu_seconds"] = self.cpu_seconds(summary)
         if rec.instruments is not None:
             summary["instruments"] = {"file": "instruments.npz",
