@@ -139,7 +139,8 @@ WARM_K, WARM_STEPS = 4, 600
 STAGE_ORDER = ("step launch", "loads", "clocks", "launch", "chunk loop", "probes plan",
                "probes take", "probes record", "to_device", "from_device", "rebuild poses",
                "broad phase", "install", "rebuild", "caps check", "host reads", "frames",
-               "settling looks", "run loop", "run_case_steps") + tuple(f"kernel {k}" for k in AUX_KERNELS)
+               "settling looks", "run loop", "run_case_steps") + \
+    tuple(f"kernel {k}" for k in AUX_KERNELS)
 
 
 # the clocks a StageClock reads: the wall (what a GPU waits for), or the CPU time of the
