@@ -228,8 +228,8 @@ class RunWriter:
         if self.restart is not None:
             write_restart(self.out, self.restart())
         atomic.write_json(self.out / "summary.json", summary)
-        self.last_flush = self.pace.clock()
-        self.pace.record(self, self.last_flush - now)
+        self.pace.record(self, self.pace.clock() - now)
+        self.last_flush = now
 
     def finish(self, summary: dict, status: str, error: str | None) -> None:
         """Every output file at the end of a run; raises OutputError if one could not be
