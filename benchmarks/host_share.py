@@ -51,7 +51,7 @@ between the chunks' launches (``between_launches_ms_per_step``: the loads, the c
 probes, the run loop) is what the GPU waits for where it falls in the *window* from a chunk's
 end (``from_device``: the diagnostics' copy waits for the device) to the next chunk's first
 stepping launch (``window_ms_per_step``: the host's stages in that window, the clock's cost
-out); the host's work after a chunk's launches and before its end (the next chunk's loads,
+out; ``window_stage_ms_per_chunk``: by stage); the host's work after a chunk's launches and before its end (the next chunk's loads,
 dem.engine.launcher.Launcher.write_loads) runs while the GPU still has that chunk's kernels
 queued.  ``waited_share`` is the window's time against the H100's kernels, an estimate as the
 other.
@@ -162,11 +162,13 @@ class StageClock:
         self.window_open = False
         self.window_s = 0.0
         self.window_calls = 0
+        self.window_by_stage: dict[str, float] = defaultdict(float)  # the window's, by stage
 
     def _charge(self, stage: str, seconds: float) -> None:
         self.seconds[stage] += seconds
         if self.window_open and stage not in ONE_OFF and stage != "device work":
             self.window_s += seconds
+            self.window_by_stage[stage] += seconds
 
     def enter(self, stage: str) -> None:
         t = self.now()
@@ -220,7 +222,8 @@ class StageClock:
             mark = None
             if ends and not first:  # the stages' times and the window's, as they were
                 mark = dict(self.seconds)
-                mark[_WINDOW_MARK] = (self.window_s, self.window_calls)
+                mark[_WINDOW_MARK] = (self.window_s, self.window_calls,
+                                      dict(self.window_by_stage))
             self.enter("run start" if ends and first else stage)
             try:
                 req = it.send(None) if err is None else it.throw(err)
@@ -248,7 +251,8 @@ class StageClock:
                 extra = self.seconds[name] - mark.get(name, 0.0)
                 self.seconds[name] -= extra
                 self.seconds["run end"] += extra
-        self.window_s, self.window_calls = mark[_WINDOW_MARK]
+        self.window_s, self.window_calls, by_stage = mark[_WINDOW_MARK]
+        self.window_by_stage = defaultdict(float, by_stage)
 
     def overhead_s(self, n: int = 20000) -> float:
         """The clock's own cost of one wrapped call (s), measured on an empty function."""
@@ -460,6 +464,7 @@ def one_run(k: int, steps: int, phase: str, out_root: Path, clock_name: str = "w
         clock.seconds.clear()
         clock.calls.clear()
         clock.window_open, clock.window_s, clock.window_calls = False, 0.0, 0
+        clock.window_by_stage.clear()
         held["t"] = clock.now()
 
     patches = instrument(clock)
@@ -487,6 +492,7 @@ def one_run(k: int, steps: int, phase: str, out_root: Path, clock_name: str = "w
             "device_s": kernel, "device_launches": kernel_calls, "wrapped_calls": wrapped,
             "stage_s": seconds, "stage_calls": calls,
             "window_s": clock.window_s, "window_calls": clock.window_calls,
+            "window_stage_s": dict(clock.window_by_stage),
             "rebuilds": sum(s.n_rebuilds for s in engine.simulations),
             "steps_per_launch": engine.launcher.variants.device_steps,
             "stepping_launches": engine.launcher.n_launches - held["launches0"],
@@ -543,6 +549,11 @@ def summarise(runs: list[dict], clock_cost_s: float) -> dict:
     window_s = med([r.get("window_s", 0.0) - r.get("window_calls", 0) * clock_cost_s
                     for r in runs])
     rec["window_ms_per_step"] = 1e3 * window_s / steps
+    # the window's time by stage, ms a chunk (the clock's cost not taken out: a few calls each)
+    in_window = set().union(*(r.get("window_stage_s", {}) for r in runs))
+    rec["window_stage_ms_per_chunk"] = {
+        st: 1e3 * med([r.get("window_stage_s", {}).get(st, 0.0) for r in runs]) / chunks
+        for st in sorted(in_window)}
     if k == 64:
         host_step = step_ms
         window = rec["window_ms_per_step"]
@@ -587,6 +598,10 @@ def print_table(rec: dict) -> None:
               f"{h['window_ms_per_step']:.4f} ms/step of it from a chunk's end to the next "
               f"chunk's first launch: what a GPU waits for, "
               f"{100 * h['waited_share_of_gpu_step']:.0f} % of its step")
+    if rec.get("window_stage_ms_per_chunk"):
+        print("  the window by stage, ms a chunk: " + ", ".join(
+            f"{st} {v:.2f}" for st, v in sorted(rec["window_stage_ms_per_chunk"].items(),
+                                                 key=lambda sv: -sv[1]) if v >= 0.005))
     print(f"  digests: {rec['digests']} (equal across repeats: "
           f"{rec['digests_equal_across_repeats']})", flush=True)
 
