@@ -61,7 +61,7 @@ def test_the_points_of_a_batch_checkpoint_no_more_often_than_their_share(tmp_pat
     clock = FakeClock()
     pace = CheckpointPace(clock)
     writers = [_writer(tmp_path, f"p{g}", pace, clock, 0.2) for g in range(64)]
-    for w in writers:  # the first round: CHECKPOINT_SECONDS after the start
+    for w in writers:  # the first round, each asking later than the pace's interval then
         assert _checkpointed(w, clock, clock.now + CHECKPOINT_SECONDS + 1.0)
     interval = 64 * 0.2 / CHECKPOINT_SHARE
     assert interval > CHECKPOINT_SECONDS and pace.interval() == pytest.approx(interval)
