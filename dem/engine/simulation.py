@@ -339,7 +339,9 @@ class Simulation:
         launch may stop early) and ``take(step, t, rows)`` (called after the launch for each
         planned step it reached, in order; rows [bodies, 13]: pos, quat, vel, omega, as the
         state at that step count); optionally ``rows(step)``, the number of its first bodies
-        that a planned step needs (take then gets those rows only)."""
+        that a planned step needs (take then gets those rows only), and ``flush()``, called
+        once the next chunk's launches are queued and at an advance's end (take may keep its
+        rows, copies, until then: Launcher.flush_probes)."""
         ctl = self.engine.control
         ctl.probe_body[self.scene_index] = -1
         self.probe = None
